@@ -1,0 +1,208 @@
+"""The effective potential of the Main Equation for the Tippe Top (METT), z = cos θ.
+
+METT (Rutstam 2012 §3; Rauch-Wojciechowski & Rutstam 2014 §2; theory.md §4):
+
+    Ẽ = g(z) θ̇² + V(z, D, λ),
+
+    d(z) = γ + σ(α − z)² + σγ(1 − z²),
+    g(z) = ½ I3 [γ + σ(1 + α² − 2αz)] = ½ (I1 + m|a|²),
+    V(z, D, λ) = m g R(1 − αz) + I3 N(z)² / (2 I1² R² (1 − z²)) + D²/(2 I1) − m λ²/(2 I1 I3),
+    N(z) = λ √d(z) + R D (α − z)   (= R I1 φ̇ (1 − z²) √d(z)).
+
+Under the rational condition σ = (1 − γ)/(γ + α² − 1) (theory.md §5), √d(z) = β(α − (1 − γ)z) and
+N(z) = c1 − c2 z with c1 = α(λβ + RD), c2 = λβ(1 − γ) + RD.
+
+At the poles z = ±1 the kinetic term is N²/(1 − z²): V is +inf there unless N(±1) = 0 (the spinning
+solutions D = D0, D1 of theory.md §6), in which case V takes its finite limit. All functions broadcast
+over z, D and λ.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _validate
+
+if TYPE_CHECKING:
+    from .top import TippeTop
+
+__all__ = [
+    "N",
+    "V",
+    "V_rational",
+    "d",
+    "d2V_dz2",
+    "dN_dz",
+    "dV_dz",
+    "dd_dz",
+    "g",
+]
+
+# |N| below this fraction of its scale (|λ√d| + |R D (α − z)|) counts as zero at a pole.
+_POLE_RTOL = 1e-11
+
+
+def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
+    """d(z) = γ + σ(α − z)² + σγ(1 − z²) (theory.md §1); D = I3 ω3 √d(z)."""
+    z = _validate.cos_theta(z)
+    gam, sig, a = top.gamma, top.sigma, top.alpha
+    return gam + sig * (a - z) ** 2 + sig * gam * (1.0 - z * z)
+
+
+def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:
+    """d'(z) = −2σ(α − z + γ z)."""
+    z = _validate.cos_theta(z)
+    return -2.0 * top.sigma * (top.alpha - z + top.gamma * z)
+
+
+def g(top: TippeTop, z: ArrayLike) -> np.ndarray:
+    """g(z) = ½ I3 [γ + σ(1 + α² − 2αz)], the coefficient of θ̇² in the METT (theory.md §4)."""
+    z = _validate.cos_theta(z)
+    return 0.5 * top.I3 * (top.gamma + top.sigma * (1.0 + top.alpha**2 - 2.0 * top.alpha * z))
+
+
+def _inputs(z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, ...]:
+    return (
+        _validate.cos_theta(z),
+        _validate.as_finite_array("D", D),
+        _validate.as_finite_array("lam", lam),
+    )
+
+
+def N(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """N(z) = λ√d(z) + R D(α − z) = R I1 φ̇ (1 − z²) √d(z) (theory.md §4)."""
+    z, D, lam = _inputs(z, D, lam)
+    return lam * np.sqrt(d(top, z)) + top.R * D * (top.alpha - z)
+
+
+def dN_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """N'(z) = λ d'(z)/(2√d(z)) − R D."""
+    z, D, lam = _inputs(z, D, lam)
+    return lam * dd_dz(top, z) / (2.0 * np.sqrt(d(top, z))) - top.R * D
+
+
+def _kinetic_coefficient(top: TippeTop) -> float:
+    """C = I3/(2 I1² R²): the kinetic part of V is C N²/(1 − z²)."""
+    return top.I3 / (2.0 * top.I1**2 * top.R**2)
+
+
+def _constant(top: TippeTop, D: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """D²/(2 I1) − m λ²/(2 I1 I3)."""
+    return D**2 / (2.0 * top.I1) - top.m * lam**2 / (2.0 * top.I1 * top.I3)
+
+
+def _pole_safe_ratio(
+    num: np.ndarray, w: np.ndarray, n: np.ndarray, scale: np.ndarray
+) -> np.ndarray:
+    """num / w where w = 1 − z²; at a pole (w = 0) the limit is 0 if N vanishes there, else +inf."""
+    num, w, n, scale = np.broadcast_arrays(num, w, n, scale)
+    out = np.empty(num.shape)
+    pole = w == 0.0
+    np.divide(num, w, out=out, where=~pole)
+    vanish = np.abs(n) <= _POLE_RTOL * scale
+    out[pole & vanish] = 0.0
+    out[pole & ~vanish] = np.inf
+    return out
+
+
+def V(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """Effective potential V(z, D, λ) of the METT, algebraic form (theory.md §4; RR14 §2).
+
+    Parameters
+    ----------
+    top : TippeTop
+    z : array_like
+        cos θ in [−1, 1].
+    D, lam : array_like
+        Routh integral D (kg m²/s) and Jellett integral λ (kg m³/s), broadcast against z.
+
+    Returns
+    -------
+    ndarray
+        V in joules. At z = ±1 it is +inf unless N(±1) = 0, where it is the finite limit.
+
+    Raises
+    ------
+    ValueError
+        If |z| > 1 or an input is not finite.
+    """
+    z, D, lam = _inputs(z, D, lam)
+    sqd = np.sqrt(d(top, z))
+    n = lam * sqd + top.R * D * (top.alpha - z)
+    scale = np.abs(lam * sqd) + np.abs(top.R * D * (top.alpha - z))
+    kinetic = _kinetic_coefficient(top) * _pole_safe_ratio(n * n, 1.0 - z * z, n, scale)
+    gravity = top.m * top.g * top.R * (1.0 - top.alpha * z)
+    return gravity + kinetic + _constant(top, D, lam)
+
+
+def V_rational(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """Rational form of V for a top with σ = (1 − γ)/(γ + α² − 1) (theory.md §5; R13, RR14).
+
+    V = m g R(1 − αz) + (c1 − c2 z)²/(2 I3 γ² R² (1 − z²)) + D²/(2 I3 γ) − m λ²/(2 I3² γ),
+    c1 = α(λβ + R D), c2 = λβ(1 − γ) + R D, β = √(σ/(1 − γ)).
+
+    Raises
+    ------
+    ValueError
+        If the top is not rational (see :attr:`TippeTop.is_rational`), or on bad input.
+    """
+    beta = top.beta  # raises ValueError for a non-rational top
+    z, D, lam = _inputs(z, D, lam)
+    gam, R, I3 = top.gamma, top.R, top.I3
+    c1 = top.alpha * (lam * beta + R * D)
+    c2 = lam * beta * (1.0 - gam) + R * D
+    n = c1 - c2 * z
+    scale = np.abs(c1) + np.abs(c2 * z)
+    kinetic = _pole_safe_ratio(n * n, 1.0 - z * z, n, scale) / (2.0 * I3 * gam**2 * R**2)
+    gravity = top.m * top.g * R * (1.0 - top.alpha * z)
+    return gravity + kinetic + D**2 / (2.0 * I3 * gam) - top.m * lam**2 / (2.0 * I3**2 * gam)
+
+
+def dV_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """∂V/∂z (analytic).
+
+    ∂V/∂z = −m g R α + 2C N [N'(1 − z²) + z N]/(1 − z²)², C = I3/(2 I1² R²).
+    Infinite at a pole unless N vanishes there.
+    """
+    z, D, lam = _inputs(z, D, lam)
+    sqd = np.sqrt(d(top, z))
+    n = lam * sqd + top.R * D * (top.alpha - z)
+    dn = lam * dd_dz(top, z) / (2.0 * sqd) - top.R * D
+    w = 1.0 - z * z
+    scale = np.abs(lam * sqd) + np.abs(top.R * D * (top.alpha - z))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = 2.0 * n * (dn * w + z * n) / (w * w)
+    ratio = np.where(w == 0.0, _pole_derivative(n, dn, z, scale), ratio)
+    return -top.m * top.g * top.R * top.alpha + _kinetic_coefficient(top) * ratio
+
+
+def _pole_derivative(n, dn, z, scale):
+    # With N(±1) = 0, N²/(1 − z²) ≈ N'² (1 ∓ z)/(1 ± z) near the pole: its z-derivative tends to
+    # ∓N'(±1)²/2. Otherwise the derivative diverges (sign: the potential wall rises towards the pole).
+    vanish = np.abs(n) <= _POLE_RTOL * scale
+    return np.where(vanish, -np.sign(z) * dn * dn / 2.0, np.sign(z) * np.inf)
+
+
+def d2V_dz2(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """∂²V/∂z² (analytic), for z in the open interval (−1, 1).
+
+    With w = 1 − z² and K = C N²/w:  K'' = C[2(N'² + N N'')/w + 8 z N N'/w² + 2N²/w² + 8 z² N²/w³],
+    N'' = λ(d''/(2√d) − d'²/(4 d^{3/2})), d'' = 2σ(1 − γ).
+    """
+    z, D, lam = _inputs(z, D, lam)
+    if np.any(np.abs(z) == 1.0):
+        raise ValueError("d2V_dz2 needs z in the open interval (-1, 1); got a pole")
+    dz = d(top, z)
+    sqd = np.sqrt(dz)
+    dd = dd_dz(top, z)
+    d2d = 2.0 * top.sigma * (1.0 - top.gamma)
+    n = lam * sqd + top.R * D * (top.alpha - z)
+    dn = lam * dd / (2.0 * sqd) - top.R * D
+    d2n = lam * (d2d / (2.0 * sqd) - dd * dd / (4.0 * dz * sqd))
+    w = 1.0 - z * z
+    k2 = 2.0 * (dn * dn + n * d2n) / w + (8.0 * z * n * dn + 2.0 * n * n) / w**2
+    k2 = k2 + 8.0 * z * z * n * n / w**3
+    return _kinetic_coefficient(top) * k2

@@ -1,0 +1,404 @@
+"""The separation equation of the METT: ż² = f(z), turning points, exact nutation periods.
+
+With z = cos θ and ż = −sin θ θ̇, the METT Ẽ = g(z) θ̇² + V(z, D, λ) becomes (theory.md §4)
+
+    ż² = f(z) = (1 − z²)(Ẽ − V(z, D, λ)) / g(z) = P(z) / g(z),
+    P(z) = (1 − z²)(E' − m g R(1 − αz)) − C N(z)²,   C = I3/(2 I1² R²),
+    E' = Ẽ − D²/(2 I1) + m λ²/(2 I1 I3).
+
+P is regular on [−1, 1] (no pole), so all work is done with P. For a rolling top (Ẽ = E, D and λ
+constant) z oscillates between the two roots z_a < z_b of P that bracket the well of V, with period
+
+    T = 2 ∫_{z_a}^{z_b} √g(z) / √P(z) dz
+      = 2 ∫_{−π/2}^{π/2} h cos u √(g(z)/P(z)) du,   z = c + h sin u,
+
+where c, h are the centre and half-width of the band; the substitution removes the inverse square
+root singularities at the turning points, and Gauss–Legendre quadrature in u converges exponentially.
+
+Precision. At high spin the band is narrow (width ~ ω3⁻²) and Ẽ − V is a tiny difference of numbers
+of size ½ I3 ω3²: in double precision it keeps few digits. The constant D²/(2 I1) − mλ²/(2 I1 I3) that
+carries that size is therefore subtracted from Ẽ exactly (mpmath, 50 digits) before anything else is
+done; what remains, E' − m g R(1 − αz) and C N², are of the size of the well itself.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import mpmath
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import optimize
+
+from . import _validate
+from .potential import _kinetic_coefficient, d, d2V_dz2, dd_dz, dV_dz, g
+
+if TYPE_CHECKING:
+    from .top import TippeTop
+
+__all__ = [
+    "Band",
+    "band",
+    "classify_motion",
+    "f",
+    "mean_precession",
+    "nutation_period",
+    "turning_points",
+]
+
+_EPS = np.finfo(float).eps
+_N_GRID = 401  # samples of the critical-point numerator when locating the wells of V
+_N_QUAD = 96  # Gauss–Legendre nodes in u for periods and means
+_U_NODES, _U_WEIGHTS = np.polynomial.legendre.leggauss(_N_QUAD)
+_U_NODES = 0.5 * np.pi * _U_NODES
+_U_WEIGHTS = 0.5 * np.pi * _U_WEIGHTS
+
+
+def _shifted_energy(top: TippeTop, E: float, D: float, lam: float) -> float:
+    """E' = E − D²/(2 I1) + m λ²/(2 I1 I3), with the large terms cancelled exactly (mpmath)."""
+    with mpmath.workdps(50):
+        mp = mpmath.mpf
+        val = (
+            mp(E)
+            - mp(D) ** 2 / (2 * mp(top.I1))
+            + mp(top.m) * mp(lam) ** 2 / (2 * mp(top.I1) * mp(top.I3))
+        )
+        return float(val)
+
+
+class _Well:
+    """P(z) and friends for one (E, D, λ), all in double after the exact energy shift."""
+
+    def __init__(self, top: TippeTop, E: float, D: float, lam: float) -> None:
+        self.top, self.E, self.D, self.lam = top, E, D, lam
+        self.Es = _shifted_energy(top, E, D, lam)
+        self.C = _kinetic_coefficient(top)
+        self.mgR = top.m * top.g * top.R
+
+    def N(self, z):
+        return self.lam * np.sqrt(d(self.top, z)) + self.top.R * self.D * (self.top.alpha - z)
+
+    def gravity(self, z):
+        return self.mgR * (1.0 - self.top.alpha * z)
+
+    def P(self, z):
+        n = self.N(z)
+        return (1.0 - z * z) * (self.Es - self.gravity(z)) - self.C * n * n
+
+    def scale(self, z):
+        """Size of the terms of P at z, for rounding-error tolerances."""
+        n = self.N(z)
+        return (1.0 - z * z) * (abs(self.Es) + self.gravity(z)) + self.C * n * n
+
+    def critical(self, z):
+        """(1 − z²)² ∂V/∂z: regular on [−1, 1]; its sign changes − → + are the minima of V."""
+        top = self.top
+        sqd = np.sqrt(d(top, z))
+        n = self.lam * sqd + top.R * self.D * (top.alpha - z)
+        dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
+        w = 1.0 - z * z
+        return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
+
+    def excess(self, z):
+        """Ẽ − V(z) (finite limit at a pole where N vanishes)."""
+        w = 1.0 - z * z
+        if w == 0.0:
+            return self.Es - self.gravity(z) if abs(self.N(z)) <= 1e-11 * abs(self.lam) else -np.inf
+        n = self.N(z)
+        return self.Es - self.gravity(z) - self.C * n * n / w
+
+
+class Band(NamedTuple):
+    """The θ-motion of a rolling top with integrals (Ẽ, D, λ), in z = cos θ."""
+
+    kind: str
+    """"nutation" (z oscillates in [z_low, z_high]), "steady" (Ẽ at the bottom of the well: steady
+    precession, z_low = z_high = z_min) or "none" (Ẽ below the well: no motion has these integrals)."""
+    z_low: float
+    z_high: float
+    z_min: float
+    """Position of the minimum of V in the band."""
+    depth: float
+    """Ẽ − V(z_min) (J); negative for kind "none"."""
+
+
+def _wells(w: _Well) -> list[float]:
+    """Positions of the local minima of V on [−1, 1]."""
+    zs = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
+    zs[0], zs[-1] = -1.0, 1.0
+    cr = w.critical(zs)
+    mins = []
+    for i in range(len(zs) - 1):
+        if cr[i] < 0.0 <= cr[i + 1] or (cr[i] < 0.0 and cr[i + 1] > 0.0):
+            if cr[i + 1] == 0.0:
+                mins.append(float(zs[i + 1]))
+            else:
+                mins.append(
+                    optimize.brentq(w.critical, zs[i], zs[i + 1], xtol=1e-300, rtol=4 * _EPS)
+                )
+    # A pole where N vanishes and V decreases towards it is a minimum too (a stable spin).
+    if cr[-1] <= 0.0 and cr[-2] < 0.0:
+        mins.append(1.0)
+    if cr[0] >= 0.0 and cr[1] > 0.0 and not mins[:1] == [-1.0]:
+        mins.insert(0, -1.0)
+    return sorted(set(mins))
+
+
+def _root(w: _Well, lo: float, hi: float) -> float:
+    """The root of P between lo (P ≤ 0) and hi (P > 0), or the pole lo itself if P(lo) ≥ 0."""
+    p_lo = w.P(lo)
+    if p_lo >= 0.0:
+        return lo
+    return optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+
+
+def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
+    w = _Well(top, E, D, lam)
+    mins = _wells(w)
+    candidates = []
+    for zm in mins:
+        depth = w.excess(zm)
+        tol = 64 * _EPS * max(w.scale(zm) / max(1.0 - zm * zm, 1e-300), abs(w.Es), w.mgR)
+        if depth < -tol:
+            candidates.append(Band("none", math.nan, math.nan, zm, depth))
+        elif depth <= tol:
+            candidates.append(Band("steady", zm, zm, zm, max(depth, 0.0)))
+        else:
+            z_low = _root(w, -1.0, zm) if zm > -1.0 else -1.0
+            z_high = -_root_reflected(w, zm) if zm < 1.0 else 1.0
+            candidates.append(Band("nutation", z_low, z_high, zm, depth))
+    live = [b for b in candidates if b.kind != "none"]
+    if z0 is not None:
+        for b in live:
+            slack = 1e-9 * max(b.z_high - b.z_low, 1e-300) + 8 * _EPS
+            if b.z_low - slack <= z0 <= b.z_high + slack:
+                return b
+        raise ValueError(
+            f"no admissible motion through z0 = {z0!r} for (E, D, lam) = ({E!r}, {D!r}, {lam!r}): "
+            "E is below V(z0)"
+        )
+    if len(live) > 1:
+        # Several disjoint wells: the one the motion is in depends on the start.
+        bands = ", ".join(f"[{b.z_low:.6g}, {b.z_high:.6g}]" for b in live)
+        raise ValueError(f"V has several admissible bands {bands}; pass z0 to choose one")
+    if live:
+        return live[0]
+    best = max(candidates, key=lambda b: b.depth)
+    return best
+
+
+def _root_reflected(w: _Well, zm: float) -> float:
+    # Root of P in [zm, 1], returned negated so that _root's "lo has P <= 0" convention applies.
+    p_hi = w.P(1.0)
+    if p_hi >= 0.0:
+        return -1.0
+    return -optimize.brentq(w.P, zm, 1.0, xtol=1e-300, rtol=4 * _EPS)
+
+
+def _broadcast(E, D, lam, z0=None):
+    E = _validate.as_finite_array("E", E)
+    D = _validate.as_finite_array("D", D)
+    lam = _validate.as_finite_array("lam", lam)
+    if z0 is None:
+        return [*np.broadcast_arrays(E, D, lam), None]
+    z0 = _validate.cos_theta(z0, "z0")
+    return np.broadcast_arrays(E, D, lam, z0)
+
+
+def band(
+    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
+) -> Band:
+    """Classify the rolling θ-motion with integrals (Ẽ, D, λ) and find its band.
+
+    Parameters
+    ----------
+    top : TippeTop
+    E, D, lam : array_like
+        Modified energy Ẽ (= E when rolling), Routh and Jellett integrals; broadcast together.
+    z0 : array_like, optional
+        A value of cos θ the motion passes through (e.g. the start), to pick the band when V has
+        several wells. Without it, several admissible wells raise ``ValueError``.
+
+    Returns
+    -------
+    Band
+        Fields are arrays of the broadcast shape (floats for scalar input).
+    """
+    E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    out = [
+        _band_scalar(top, float(e), float(dd), float(la), None if z0 is None else float(zz))
+        for e, dd, la, zz in zip(
+            E.ravel(),
+            D.ravel(),
+            lam.ravel(),
+            [None] * E.size if z0 is None else z0.ravel(),
+            strict=True,
+        )
+    ]
+    if E.ndim == 0:
+        return out[0]
+    fields = list(zip(*out, strict=True))
+    return Band(
+        np.array(fields[0], dtype=object).reshape(E.shape),
+        *(np.array(col, dtype=float).reshape(E.shape) for col in fields[1:]),
+    )
+
+
+def classify_motion(top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray | str:
+    """ "nutation", "steady" (bottom of the well) or "none" (no admissible motion); see :func:`band`."""
+    return band(top, E, D, lam).kind
+
+
+def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """Right-hand side of ż² = f(z) = (1 − z²)(Ẽ − V(z, D, λ))/g(z) (theory.md §4).
+
+    Evaluated as P(z)/g(z) with the exact energy shift (module docstring), so it is finite at the
+    poles and accurate where Ẽ − V is a small difference of large numbers.
+    """
+    z = _validate.cos_theta(z)
+    E, D, lam, _ = _broadcast(E, D, lam)
+    z, E, D, lam = np.broadcast_arrays(z, E, D, lam)
+    out = np.empty(z.shape)
+    for idx in np.ndindex(z.shape):
+        w = _Well(top, float(E[idx]), float(D[idx]), float(lam[idx]))
+        out[idx] = w.P(float(z[idx]))
+    return out / g(top, z)
+
+
+def _admissible(top: TippeTop, E, D, lam, z0) -> tuple[Band, _Well]:
+    b = _band_scalar(top, E, D, lam, z0)
+    if b.kind == "none":
+        raise ValueError(
+            f"(E, D, lam) = ({E!r}, {D!r}, {lam!r}) admits no motion: E lies "
+            f"{-b.depth:.3g} J below the minimum of V (at z = {b.z_min:.6g}); need E >= min V"
+        )
+    return b, _Well(top, E, D, lam)
+
+
+def _map(fn, E, D, lam, z0):
+    E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    zz = [None] * E.size if z0 is None else z0.ravel()
+    res = [
+        fn(float(e), float(dd), float(la), None if z is None else float(z))
+        for e, dd, la, z in zip(E.ravel(), D.ravel(), lam.ravel(), zz, strict=True)
+    ]
+    arr = np.array(res, dtype=float)
+    if E.ndim == 0:
+        return float(arr[0]) if arr.ndim == 1 else arr[0]
+    return arr.reshape(E.shape + arr.shape[1:])
+
+
+def turning_points(
+    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
+) -> np.ndarray:
+    """Turning points (z_low, z_high) of the rolling θ-motion: the roots of Ẽ = V(z, D, λ).
+
+    Returns
+    -------
+    ndarray
+        Shape ``broadcast_shape + (2,)``: ``[..., 0] = z_low <= [..., 1] = z_high``. For steady
+        precession both equal the minimum of V. A pole is returned when the band reaches it (only
+        possible when N vanishes there, i.e. D = D0 or D1).
+
+    Raises
+    ------
+    ValueError
+        If (E, D, λ) admits no motion (E below the minimum of V), or on bad input.
+
+    Examples
+    --------
+    >>> import mett
+    >>> top = mett.presets.get("rutstam2013")
+    >>> s = mett.State(theta=1.0, omega3=100.0, phidot=5.0)
+    >>> E, D, lam = mett.energy(top, s), mett.routh(top, s), mett.jellett(top, s)
+    >>> mett.turning_points(top, E, D, lam).round(6)
+    array([0.540302, 0.613785])
+    """
+
+    def one(E, D, lam, z0):
+        b, _ = _admissible(top, E, D, lam, z0)
+        return (b.z_low, b.z_high)
+
+    return _map(one, E, D, lam, z0)
+
+
+def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
+    """(T, ∮ weight dt) over one period, by Gauss–Legendre in u after z = c + h sin u."""
+    c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
+    z = c + h * np.sin(_U_NODES)
+    integrand = h * np.cos(_U_NODES) * np.sqrt(g(top, z) / w.P(z))
+    T = 2.0 * float(np.dot(_U_WEIGHTS, integrand))
+    if weight_fn is None:
+        return T, math.nan
+    return T, 2.0 * float(np.dot(_U_WEIGHTS, integrand * weight_fn(z)))
+
+
+def _small_oscillation_omega(top: TippeTop, b: Band, w: _Well) -> float:
+    zm = b.z_min
+    if abs(zm) == 1.0:
+        # At a spinning pole z oscillates as ü = (ε − 2|V'| u)/g in u = 1 ∓ z: ω² = 2|V'(±1)|/g.
+        slope = abs(float(dV_dz(top, zm, w.D, w.lam)))
+        return math.sqrt(2.0 * slope / float(g(top, zm)))
+    curv = float(d2V_dz2(top, zm, w.D, w.lam))
+    return math.sqrt((1.0 - zm * zm) * curv / (2.0 * float(g(top, zm))))
+
+
+def nutation_period(
+    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
+) -> np.ndarray:
+    """Exact period (s) of the θ-oscillation of the rolling top, T = 2∫ √(g/P) dz over the band.
+
+    For steady precession (Ẽ at the bottom of the well) the small-oscillation limit
+    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (theory.md §8).
+
+    Raises
+    ------
+    ValueError
+        If (E, D, λ) admits no motion, or on bad input.
+
+    Examples
+    --------
+    The thesis body rolling from θ0 = 1 rad, ω3 = 100 rad/s, φ̇0 = 5 rad/s (theory.md §5):
+
+    >>> import mett
+    >>> top = mett.presets.get("rutstam2013")
+    >>> s = mett.State(theta=1.0, omega3=100.0, phidot=5.0)
+    >>> T = mett.nutation_period(top, mett.energy(top, s), mett.routh(top, s), mett.jellett(top, s))
+    >>> round(float(T), 6)
+    0.055014
+    """
+
+    def one(E, D, lam, z0):
+        b, w = _admissible(top, E, D, lam, z0)
+        if b.kind == "steady":
+            return 2.0 * math.pi / _small_oscillation_omega(top, b, w)
+        return _quadrature(top, b, w)[0]
+
+    return _map(one, E, D, lam, z0)
+
+
+def _phidot(top: TippeTop, w: _Well, z):
+    """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (theory.md §4)."""
+    return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(d(top, z)))
+
+
+def mean_precession(
+    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
+) -> np.ndarray:
+    """Mean precession rate ⟨φ̇⟩ (rad/s) over one nutation period of the rolling top.
+
+    ⟨φ̇⟩ = (2/T) ∫ φ̇(z) √(g/P) dz with φ̇(z) = N(z)/(R I1 (1 − z²)√d(z)); for steady precession
+    the rate φ̇(z_min) itself.
+    """
+
+    def one(E, D, lam, z0):
+        b, w = _admissible(top, E, D, lam, z0)
+        if b.kind == "steady":
+            if abs(b.z_min) == 1.0:
+                return math.nan  # the precession angle of a vertical axis is undefined
+            return float(_phidot(top, w, b.z_min))
+        T, integral = _quadrature(top, b, w, lambda z: _phidot(top, w, z))
+        return integral / T
+
+    return _map(one, E, D, lam, z0)

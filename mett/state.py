@@ -1,0 +1,103 @@
+"""The reduced state of the tippe top: (θ, θ̇, φ̇, ω3, ν_x, ν_y) (thesis eqs (10)–(15)).
+
+θ is the angle between the vertical ẑ and the symmetry axis 3̂ (θ = 0: peg up, not inverted); φ̇ the
+precession rate; ω3 = ψ̇ + φ̇ cos θ the spin about 3̂; (ν_x, ν_y) the gliding velocity of the contact
+point in the horizontal frame x̂ = ŷ × ẑ, ŷ = ẑ × 3̂ / sin θ (theory.md §1). The horizontal position and
+the angles φ, ψ are cyclic and not part of the state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _validate
+
+if TYPE_CHECKING:
+    from .top import TippeTop
+
+__all__ = ["State"]
+
+_FIELDS = ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
+
+
+@dataclass(frozen=True)
+class State:
+    """Instantaneous state of the top. Fields may be arrays of one shape (a batch of states).
+
+    Parameters
+    ----------
+    theta : float or array
+        Inclination θ in [0, π] (rad).
+    thetadot, phidot, omega3 : float or array, default 0
+        θ̇, φ̇ and the spin ω3 = ψ̇ + φ̇ cos θ (rad/s).
+    nu_x, nu_y : float or array, default 0
+        Gliding velocity of the contact point (m/s). The default ν = 0 (contact point at rest) is
+        the thesis start; :meth:`with_cm_at_rest` gives the other common start.
+    """
+
+    theta: ArrayLike
+    thetadot: ArrayLike = 0.0
+    phidot: ArrayLike = 0.0
+    omega3: ArrayLike = 0.0
+    nu_x: ArrayLike = 0.0
+    nu_y: ArrayLike = 0.0
+
+    def __post_init__(self) -> None:
+        values = {name: getattr(self, name) for name in _FIELDS}
+        values["theta"] = _validate.theta(values["theta"])
+        for name in _FIELDS[1:]:
+            values[name] = _validate.as_finite_array(name, values[name])
+        try:
+            shape = np.broadcast_shapes(*(np.shape(v) for v in values.values()))
+        except ValueError:
+            shapes = {k: np.shape(v) for k, v in values.items()}
+            raise ValueError(f"State fields must broadcast to one shape; got {shapes}") from None
+        for name, v in values.items():
+            arr = np.broadcast_to(v, shape)
+            object.__setattr__(self, name, float(arr) if arr.ndim == 0 else arr)
+
+    @property
+    def psidot(self) -> np.ndarray | float:
+        """ψ̇ = ω3 − φ̇ cos θ."""
+        return self.omega3 - self.phidot * np.cos(self.theta)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return np.shape(self.theta)
+
+    def as_array(self) -> np.ndarray:
+        """``[theta, thetadot, phidot, omega3, nu_x, nu_y]`` stacked on the first axis."""
+        return np.array([getattr(self, name) for name in _FIELDS], dtype=float)
+
+    @classmethod
+    def from_array(cls, y: ArrayLike) -> State:
+        """Inverse of :meth:`as_array`."""
+        y = np.asarray(y, dtype=float)
+        if y.shape[:1] != (6,):
+            raise ValueError(f"state array must have leading dimension 6; got shape {y.shape}")
+        return cls(*y)
+
+    @classmethod
+    def with_cm_at_rest(
+        cls,
+        top: TippeTop,
+        theta: ArrayLike,
+        omega3: ArrayLike,
+        thetadot: ArrayLike = 0.0,
+        phidot: ArrayLike = 0.0,
+    ) -> State:
+        """A state whose centre of mass has zero horizontal velocity.
+
+        Then the contact point glides with ``v_A = ω × a`` (horizontal part), i.e.
+        ``ν_x = −R θ̇ (1 − α cos θ)`` and ``ν_y = R sin θ (ω3 + φ̇ (α − cos θ))`` (theory.md §1).
+        With ``thetadot = 0`` the centre of mass is at rest.
+        """
+        th = _validate.theta(theta)
+        c, s = np.cos(th), np.sin(th)
+        nu_x = -top.R * np.asarray(thetadot, dtype=float) * (1.0 - top.alpha * c)
+        nu_y = top.R * s * (np.asarray(omega3, dtype=float) + np.asarray(phidot) * (top.alpha - c))
+        return cls(theta=th, thetadot=thetadot, phidot=phidot, omega3=omega3, nu_x=nu_x, nu_y=nu_y)

@@ -1,0 +1,176 @@
+"""The tippe top's parameters: an eccentric sphere rolling and gliding on a plane.
+
+Model and notation of Rutstam (2012, SIGMA 8, 019, §2) and the thesis (Rutstam 2013): a sphere of
+radius ``R`` whose centre of mass lies ``alpha * R`` below the geometric centre on the symmetry axis,
+principal moments ``I1 = I2`` and ``I3`` about the centre of mass, viscous-type gliding friction
+``F = g_n z - mu g_n v_A`` (``mu`` in s/m). See theory.md §1.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from dataclasses import dataclass
+
+from . import _validate
+
+__all__ = ["TippeTop"]
+
+# Relative tolerance of the rational condition sigma = (1-gamma)/(gamma+alpha^2-1): inertias typed
+# as decimals (e.g. 131/350 m R^2 rounded) should still count as rational.
+_RATIONAL_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class TippeTop:
+    """Parameters of a tippe top, in SI units.
+
+    Parameters
+    ----------
+    m : float
+        Mass (kg), > 0.
+    R : float
+        Radius of the spherical part (m), > 0.
+    alpha : float
+        Eccentricity: the centre of mass sits ``alpha * R`` from the geometric centre, 0 < alpha < 1.
+    I1 : float
+        Moment of inertia about a horizontal principal axis through the centre of mass (kg m²).
+    I3 : float
+        Moment of inertia about the symmetry axis (kg m²); ``0 < I3 <= 2 I1`` (triangle inequality).
+    mu : float, default 0.3
+        Coefficient of the viscous-type friction law ``F_f = -mu g_n v_A`` (s/m), >= 0.
+    g : float, default 9.82
+        Gravitational acceleration (m/s²), > 0.
+
+    Notes
+    -----
+    Derived dimensionless parameters (theory.md §1): ``gamma = I1/I3`` and ``sigma = m R²/I3``.
+
+    Examples
+    --------
+    >>> top = TippeTop(m=0.02, R=0.02, alpha=0.3, I1=131/350 * 0.02 * 0.02**2,
+    ...                I3=0.4 * 0.02 * 0.02**2)
+    >>> round(top.gamma, 6), top.group, top.is_rational
+    (0.935714, 'II', True)
+    """
+
+    m: float
+    R: float
+    alpha: float
+    I1: float
+    I3: float
+    mu: float = 0.3
+    g: float = 9.82
+
+    def __post_init__(self) -> None:
+        for name in ("m", "R", "I1", "I3", "g"):
+            object.__setattr__(self, name, _validate.positive_scalar(name, getattr(self, name)))
+        alpha = _validate.finite_scalar("alpha", self.alpha)
+        if not 0.0 < alpha < 1.0:
+            raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")
+        object.__setattr__(self, "alpha", alpha)
+        object.__setattr__(self, "mu", _validate.positive_scalar("mu", self.mu, allow_zero=True))
+        if self.I3 > 2.0 * self.I1:
+            raise ValueError(
+                f"I3 must lie in (0, 2*I1] = (0, {2.0 * self.I1!r}] for a rigid body; got {self.I3!r}"
+            )
+        if self.I3 > self.m * self.R**2:
+            warnings.warn(
+                f"I3 = {self.I3:g} kg m^2 exceeds m R^2 = {self.m * self.R**2:g} kg m^2: no "
+                "axisymmetric body inside the sphere of radius R has that much spin inertia",
+                _validate.PhysicalityWarning,
+                stacklevel=3,
+            )
+
+    # --- derived dimensionless parameters -------------------------------------------------
+    @property
+    def gamma(self) -> float:
+        """γ = I1/I3."""
+        return self.I1 / self.I3
+
+    @property
+    def sigma(self) -> float:
+        """σ = m R²/I3."""
+        return self.m * self.R**2 / self.I3
+
+    @property
+    def is_admissible(self) -> bool:
+        """True if 1 − α < γ < 1 + α: the tumbling family spans [0, π], so the top can invert."""
+        return 1.0 - self.alpha < self.gamma < 1.0 + self.alpha
+
+    @property
+    def is_rational(self) -> bool:
+        """True if σ = (1 − γ)/(γ + α² − 1), so that √d(z) is linear and V rational in z (theory.md §5)."""
+        gam, a = self.gamma, self.alpha
+        if not 1.0 - a * a < gam < 1.0:
+            return False
+        return math.isclose(self.sigma, (1.0 - gam) / (gam + a * a - 1.0), rel_tol=_RATIONAL_RTOL)
+
+    @property
+    def group(self) -> str:
+        """Ueda–Sasaki–Watanabe group: "I" (γ ≤ 1 − α, never flips), "II" (inverts), "III" (γ ≥ 1 + α)."""
+        if self.gamma <= 1.0 - self.alpha:
+            return "I"
+        if self.gamma >= 1.0 + self.alpha:
+            return "III"
+        return "II"
+
+    @property
+    def lambda_thres(self) -> float:
+        """Jellett threshold above which the inverted spin is asymptotically stable (theory.md §7)."""
+        from .thresholds import lambda_thres
+
+        return lambda_thres(self)
+
+    @property
+    def lambda_0(self) -> float:
+        """Jellett value above which the non-inverted spin is unstable (theory.md §7)."""
+        from .thresholds import lambda_0
+
+        return lambda_0(self)
+
+    @property
+    def beta(self) -> float:
+        """β = √(σ/(1 − γ)) of the rational METT, √d(z) = β(α − (1 − γ)z); only for rational tops."""
+        if not self.is_rational:
+            raise ValueError(
+                "beta is defined only for a rational top: sigma must equal "
+                f"(1-gamma)/(gamma+alpha^2-1) = {self._sigma_rational():g}; got sigma = {self.sigma:g}"
+            )
+        return math.sqrt(self.sigma / (1.0 - self.gamma))
+
+    def _sigma_rational(self) -> float:
+        gam, a = self.gamma, self.alpha
+        den = gam + a * a - 1.0
+        return (1.0 - gam) / den if den != 0 else math.inf
+
+    # --- constructors -------------------------------------------------------------------
+    def replace(self, **fields: float) -> TippeTop:
+        """Return a copy with some fields changed (validated again)."""
+        unknown = set(fields) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            known = ", ".join(f.name for f in dataclasses.fields(self))
+            raise ValueError(f"unknown TippeTop field(s) {sorted(unknown)}; known fields: {known}")
+        return dataclasses.replace(self, **fields)
+
+    @classmethod
+    def rational(
+        cls, m: float, R: float, alpha: float, I3: float, mu: float = 0.3, g: float = 9.82
+    ) -> TippeTop:
+        """A top whose I1 makes V rational: γ = 1 − σα²/(1 + σ), σ = m R²/I3 (theory.md §5).
+
+        Raises
+        ------
+        ValueError
+            If the resulting I1 violates I3 <= 2 I1 (γ < 1/2), or any input is nonphysical.
+        """
+        m = _validate.positive_scalar("m", m)
+        R = _validate.positive_scalar("R", R)
+        I3 = _validate.positive_scalar("I3", I3)
+        alpha = _validate.finite_scalar("alpha", alpha)
+        if not 0.0 < alpha < 1.0:
+            raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")
+        sigma = m * R**2 / I3
+        gamma = 1.0 - sigma * alpha**2 / (1.0 + sigma)
+        return cls(m=m, R=R, alpha=alpha, I1=gamma * I3, I3=I3, mu=mu, g=g)
