@@ -65,7 +65,7 @@ def as_finite_array(name: str, value: Any) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be real numbers; got {value!r}") from None
     if not np.all(np.isfinite(arr)):
-        bad = arr[~np.isfinite(arr)].ravel()[0]
+        bad = arr[~np.isfinite(arr)].ravel()[0].item()
         raise ValueError(f"{name} must be finite; got {bad!r}")
     return arr
 
@@ -74,7 +74,7 @@ def cos_theta(value: Any, name: str = "z") -> np.ndarray:
     """z = cos θ: finite and within [-1, 1]."""
     z = as_finite_array(name, value)
     if np.any(np.abs(z) > 1.0):
-        bad = z[np.abs(z) > 1.0].ravel()[0]
+        bad = z[np.abs(z) > 1.0].ravel()[0].item()
         raise ValueError(f"{name} = cos(theta) must lie in [-1, 1]; got {bad!r}")
     return z
 
@@ -83,6 +83,6 @@ def theta(value: Any, name: str = "theta") -> np.ndarray:
     """Inclination angle θ: finite and within [0, π]."""
     th = as_finite_array(name, value)
     if np.any((th < 0.0) | (th > np.pi)):
-        bad = th[(th < 0.0) | (th > np.pi)].ravel()[0]
+        bad = th[(th < 0.0) | (th > np.pi)].ravel()[0].item()
         raise ValueError(f"{name} must lie in [0, pi]; got {bad!r}")
     return th

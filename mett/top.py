@@ -173,4 +173,10 @@ class TippeTop:
             raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")
         sigma = m * R**2 / I3
         gamma = 1.0 - sigma * alpha**2 / (1.0 + sigma)
+        if gamma < 0.5:
+            raise ValueError(
+                f"no rational top with I3 <= 2*I1 for alpha = {alpha!r}, sigma = m R^2/I3 = {sigma:g}: "
+                f"gamma = 1 - sigma*alpha^2/(1+sigma) = {gamma:g} must lie in [0.5, 1); "
+                "lower alpha or raise I3"
+            )
         return cls(m=m, R=R, alpha=alpha, I1=gamma * I3, I3=I3, mu=mu, g=g)
