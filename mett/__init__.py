@@ -6,6 +6,8 @@ numpy, scipy and mpmath.
 
 from . import presets
 from ._validate import MettWarning, PhysicalityWarning
+from .asymptotics import HighSpin, high_spin
+from .estimates import period_estimates, potential_minimum
 from .integrals import energy, jellett, modified_energy, routh
 from .potential import V, V_rational, d, d2V_dz2, dV_dz, g
 from .separation import (
@@ -18,19 +20,30 @@ from .separation import (
     turning_points,
 )
 from .state import State
-from .thresholds import boundary_values
+from .thresholds import (
+    AsymptoticState,
+    TumblingState,
+    asymptotic_state,
+    boundary_values,
+    min_spin_for_inversion,
+    tumbling_state,
+)
 from .top import TippeTop
 
 __version__ = "0.1.0.dev0"
 
 __all__ = [
+    "AsymptoticState",
     "Band",
+    "HighSpin",
     "MettWarning",
     "PhysicalityWarning",
     "State",
     "TippeTop",
+    "TumblingState",
     "V",
     "V_rational",
+    "asymptotic_state",
     "band",
     "boundary_values",
     "classify_motion",
@@ -40,11 +53,16 @@ __all__ = [
     "energy",
     "f",
     "g",
+    "high_spin",
     "jellett",
     "mean_precession",
+    "min_spin_for_inversion",
     "modified_energy",
     "nutation_period",
+    "period_estimates",
+    "potential_minimum",
     "presets",
     "routh",
+    "tumbling_state",
     "turning_points",
 ]

@@ -17,6 +17,7 @@ __all__ = [
     "as_finite_array",
     "cos_theta",
     "finite_scalar",
+    "positive_jellett",
     "positive_scalar",
     "theta",
 ]
@@ -55,6 +56,17 @@ def positive_scalar(name: str, value: Any, *, allow_zero: bool = False) -> float
     if x < 0 or (x == 0 and not allow_zero):
         rng = "[0, inf)" if allow_zero else "(0, inf)"
         raise ValueError(f"{name} must lie in {rng}; got {x!r}")
+    return x
+
+
+def positive_jellett(value: Any, name: str = "lam") -> float:
+    """A Jellett integral λ that must be positive (top spun with ω3 > 0 near θ = 0)."""
+    x = finite_scalar(name, value)
+    if x <= 0.0:
+        raise ValueError(
+            f"{name} must lie in (0, inf) (a positive Jellett integral; flip the sign of the spin "
+            f"for the mirror-image top); got {x!r}"
+        )
     return x
 
 

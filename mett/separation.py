@@ -68,13 +68,20 @@ def _shifted_energy(top: TippeTop, E: float, D: float, lam: float) -> float:
 
 
 class _Well:
-    """P(z) and friends for one (E, D, λ), all in double after the exact energy shift."""
+    """P(z) and friends for one (E, D, λ), all in double after the exact energy shift.
+
+    Once a band is known, :meth:`set_reference` switches P to the form P(z) = w(z)(depth − ΔV(z))
+    around the bottom z_r of the well, where depth = Ẽ − V(z_r) is computed once and
+    ΔV(z) = V(z) − V(z_r) is assembled from exact differences (U is linear, d quadratic): near the
+    bottom of the well, where Ẽ − V is tiny, no large terms cancel any more.
+    """
 
     def __init__(self, top: TippeTop, E: float, D: float, lam: float) -> None:
         self.top, self.E, self.D, self.lam = top, E, D, lam
         self.Es = _shifted_energy(top, E, D, lam)
         self.C = _kinetic_coefficient(top)
         self.mgR = top.m * top.g * top.R
+        self.zr: float | None = None
 
     def N(self, z):
         return self.lam * np.sqrt(d(self.top, z)) + self.top.R * self.D * (self.top.alpha - z)
@@ -82,9 +89,47 @@ class _Well:
     def gravity(self, z):
         return self.mgR * (1.0 - self.top.alpha * z)
 
-    def P(self, z):
+    def P_direct(self, z):
         n = self.N(z)
         return (1.0 - z * z) * (self.Es - self.gravity(z)) - self.C * n * n
+
+    def set_reference(self, zr: float) -> None:
+        """Expand P about an interior point z_r (the bottom of the band's well)."""
+        if abs(zr) >= 1.0:
+            self.zr = None
+            return
+        self.zr = zr
+        self.w_r = 1.0 - zr * zr
+        self.sqd_r = float(np.sqrt(d(self.top, zr)))
+        self.dd_r = float(dd_dz(self.top, zr))
+        self.N_r = float(self.N(zr))
+        self.depth_r = self.Es - float(self.gravity(zr)) - self.C * self.N_r**2 / self.w_r
+
+    def delta_V(self, z):
+        """V(z) − V(z_r) without cancellation of the large terms (needs set_reference)."""
+        top = self.top
+        delta = z - self.zr
+        # d is quadratic: d(z) − d(z_r) = d'(z_r) δ + σ(1 − γ) δ² exactly.
+        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
+        dn = self.lam * dd / (np.sqrt(d(top, z)) + self.sqd_r) - top.R * self.D * delta
+        n = self.N_r + dn
+        w = 1.0 - z * z
+        # N²/w − N_r²/w_r = [ΔN (N + N_r) w_r + N_r² (w_r − w)] / (w w_r), w_r − w = 2 z_r δ + δ².
+        kin = (dn * (n + self.N_r) * self.w_r + self.N_r**2 * (2.0 * self.zr + delta) * delta) / (
+            w * self.w_r
+        )
+        return -self.mgR * top.alpha * delta + self.C * kin
+
+    def P(self, z):
+        if self.zr is None:
+            return self.P_direct(z)
+        z = np.asarray(z, dtype=float)
+        pole = np.abs(z) == 1.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = (1.0 - z * z) * (self.depth_r - self.delta_V(z))
+        if np.any(pole):
+            out = np.where(pole, self.P_direct(z), out)
+        return out if out.ndim else float(out)
 
     def scale(self, z):
         """Size of the terms of P at z, for rounding-error tolerances."""
@@ -165,6 +210,7 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
         elif depth <= tol:
             candidates.append(Band("steady", zm, zm, zm, max(depth, 0.0)))
         else:
+            w.set_reference(zm)
             z_low = _root(w, -1.0, zm) if zm > -1.0 else -1.0
             z_high = -_root_reflected(w, zm) if zm < 1.0 else 1.0
             candidates.append(Band("nutation", z_low, z_high, zm, depth))
@@ -273,7 +319,9 @@ def _admissible(top: TippeTop, E, D, lam, z0) -> tuple[Band, _Well]:
             f"(E, D, lam) = ({E!r}, {D!r}, {lam!r}) admits no motion: E lies "
             f"{-b.depth:.3g} J below the minimum of V (at z = {b.z_min:.6g}); need E >= min V"
         )
-    return b, _Well(top, E, D, lam)
+    w = _Well(top, E, D, lam)
+    w.set_reference(b.z_min)
+    return b, w
 
 
 def _map(fn, E, D, lam, z0):

@@ -19,12 +19,18 @@ if TYPE_CHECKING:
     from .top import TippeTop
 
 __all__ = [
+    "AsymptoticState",
     "BoundaryValues",
+    "TumblingState",
+    "asymptotic_state",
     "boundary_values",
     "lambda_0",
     "lambda_E",
     "lambda_roll",
     "lambda_thres",
+    "min_spin_for_inversion",
+    "tumbling_lambda",
+    "tumbling_state",
 ]
 
 
@@ -105,3 +111,147 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     E0 = lam**2 / (2.0 * I3 * R**2 * (1.0 - a) ** 2) + mgR * (1.0 - a)
     E1 = lam**2 / (2.0 * I3 * R**2 * (1.0 + a) ** 2) + mgR * (1.0 + a)
     return BoundaryValues(D0, E0, D1, E1, lam / (R * I3 * (1.0 - a)), -lam / (R * I3 * (1.0 + a)))
+
+
+# --- tumbling family and end states ----------------------------------------------------------
+
+
+class TumblingState(NamedTuple):
+    """A tumbling solution of the gliding model: ν = 0, θ̇ = 0, θ = θ_t (theory.md §7)."""
+
+    theta: float
+    """Tumbling angle θ_t (rad)."""
+    phidot: float
+    """Precession rate φ̇ (rad/s), φ̇² = m g R α/(I3(α − (1 − γ) cos θ_t))."""
+    omega3: float
+    """Spin ω3 = φ̇ (cos θ_t − α) (so ψ̇ = −α φ̇ and ω ∥ a)."""
+
+
+def tumbling_lambda(top: TippeTop, theta: ArrayLike) -> np.ndarray:
+    """λ along the tumbling family, λ(θ_t) = R φ̇ [I1 sin²θ_t + I3 (cos θ_t − α)²] (theory.md §7).
+
+    NaN where the family does not exist (α − (1 − γ) cos θ_t <= 0: beyond θ_f for groups I, III).
+    """
+    th = _validate.theta(theta)
+    c, s = np.cos(th), np.sin(th)
+    den = top.alpha - (1.0 - top.gamma) * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phidot = np.sqrt(top.m * top.g * top.R * top.alpha / (top.I3 * den))
+    lam = top.R * phidot * (top.I1 * s * s + top.I3 * (c - top.alpha) ** 2)
+    return np.where(den > 0.0, lam, np.nan)
+
+
+def _tumbling_domain(top: TippeTop) -> tuple[float, float]:
+    """Interval of θ_t on which the family exists: where α − (1 − γ) cos θ > 0."""
+    a, gam = top.alpha, top.gamma
+    if gam == 1.0 or abs(a / (1.0 - gam)) >= 1.0:
+        return 0.0, math.pi
+    theta_f = math.acos(a / (1.0 - gam))
+    return (theta_f, math.pi) if gam < 1.0 else (0.0, theta_f)
+
+
+def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
+    """The tumbling solution with Jellett integral ``lam`` (theory.md §7), or ``None`` if none exists.
+
+    Solves λ(θ_t) = lam on the family's domain. For an admissible top (1 − α < γ < 1 + α) the
+    family joins λ_0 (θ_t → 0) to λ_thres (θ_t → π); for group III it runs from λ_0 to ∞ as θ_t
+    approaches θ_f = arccos(α/(1 − γ)). Where several θ_t share the same λ, the one closest to the
+    upright end (reached first by a top started near θ = 0) is returned.
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is not a positive finite number.
+    """
+    from scipy import optimize
+
+    lam = _validate.positive_jellett(lam)
+    lo, hi = _tumbling_domain(top)
+    # Stay a hair inside the domain: λ is infinite at θ_f and the family's ends are limits.
+    pad = 1e-12 * (hi - lo)
+    grid = np.linspace(lo + pad, hi - pad, 2001)
+    resid = tumbling_lambda(top, grid) - lam
+    for i in range(len(grid) - 1):
+        r0, r1 = resid[i], resid[i + 1]
+        if np.isfinite(r0) and np.isfinite(r1) and r0 * r1 <= 0.0:
+            if r0 == 0.0:
+                th = grid[i]
+            else:
+                th = optimize.brentq(
+                    lambda t: float(tumbling_lambda(top, t)) - lam, grid[i], grid[i + 1], xtol=1e-15
+                )
+            phidot = math.sqrt(
+                top.m
+                * top.g
+                * top.R
+                * top.alpha
+                / (top.I3 * (top.alpha - (1 - top.gamma) * math.cos(th)))
+            )
+            return TumblingState(float(th), phidot, phidot * (math.cos(th) - top.alpha))
+    return None
+
+
+class AsymptoticState(NamedTuple):
+    """Predicted end state of a gliding top started near θ = 0 (theory.md §7)."""
+
+    kind: str
+    """"upright", "tumbling" or "inverted"."""
+    theta: float
+    """θ∞ (rad): 0, θ_t(λ) or π."""
+    omega3: float
+    """ω3∞ (rad/s) from the Jellett integral: λ/(R I3 (1 − α)), the tumbling ω3, or −λ/(R I3 (1 + α))."""
+
+
+def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
+    """End state of a top started near the upright position with Jellett integral ``lam`` > 0.
+
+    The rule (theory.md §7; groups of Ueda–Sasaki–Watanabe): the upright spin is stable for
+    λ <= λ_0 and the top stays there; otherwise it leaves it, and it ends inverted if the inverted
+    spin is stable (λ > λ_thres), else on the tumbling family at θ_t(λ). Group I (λ_0 = ∞) always
+    stays upright; group III (λ_thres = ∞) ends tumbling for λ > λ_0.
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is not a positive finite number.
+    """
+    lam = _validate.positive_jellett(lam)
+    R, I3, a = top.R, top.I3, top.alpha
+    if lam <= top.lambda_0:
+        return AsymptoticState("upright", 0.0, lam / (R * I3 * (1.0 - a)))
+    if lam > top.lambda_thres:
+        return AsymptoticState("inverted", math.pi, -lam / (R * I3 * (1.0 + a)))
+    tum = tumbling_state(top, lam)
+    if tum is None:  # pragma: no cover - the family spans (λ_0, λ_thres) whenever this branch runs
+        raise RuntimeError(f"no tumbling state for lam = {lam!r} between lambda_0 and lambda_thres")
+    return AsymptoticState("tumbling", tum.theta, tum.omega3)
+
+
+def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -> float:
+    """Smallest initial spin ω3 (rad/s) for complete inversion from θ0 with θ̇ = 0, precession φ̇0.
+
+    Complete inversion needs λ > max(λ_0, λ_thres) (theory.md §7); with λ = R I1 φ̇0 sin²θ0 +
+    R I3 ω3 (cos θ0 − α) this is ω3 > (max(λ_0, λ_thres) − R I1 φ̇0 sin²θ0)/(R I3 (cos θ0 − α)),
+    about 77.3 rad/s for the thesis body at θ0 = 0.1 (USW05's critical spin n_c, theory.md §11).
+    Returns ``inf`` for tops that never invert (groups I and III).
+
+    Raises
+    ------
+    ValueError
+        If θ0 is outside [0, arccos α) (there the spin must point the other way, or λ does not
+        depend on it), or on bad input.
+    """
+    th = float(_validate.theta(theta0, "theta0"))
+    phidot0 = _validate.finite_scalar("phidot0", phidot0)
+    c = math.cos(th)
+    if c <= top.alpha:
+        raise ValueError(
+            f"theta0 must lie in [0, arccos(alpha)) = [0, {math.acos(top.alpha):.6g}) for a positive "
+            f"spin to give a positive Jellett integral; got {th!r}"
+        )
+    needed = max(top.lambda_0, top.lambda_thres)
+    if math.isinf(needed):
+        return math.inf
+    return (needed - top.R * top.I1 * phidot0 * math.sin(th) ** 2) / (
+        top.R * top.I3 * (c - top.alpha)
+    )

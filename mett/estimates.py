@@ -1,0 +1,126 @@
+"""Estimates of the inverting top's METT (Rauch-Wojciechowski & Rutstam 2014, §3–4; theory.md §8).
+
+While the top inverts, D(t) travels from near D0 to near D1 (theory.md §6) and the minimum of
+V(z, D, λ) travels with it from z ≈ 1 to z ≈ −1. The small-oscillation period about that minimum,
+with D and Ẽ frozen, is bounded by its values at the two ends:
+
+    T(D0) = 2π d(1) / (ω3,0 (1 + σ(1 − α))),    ω3,0 = λ/(R I3 (1 − α)),
+    T(D1) = 2π d(−1) / (|ω3,1| (1 + σ(1 + α))), ω3,1 = −λ/(R I3 (1 + α)),
+
+the high-spin nutation frequencies at the poles (theory.md §9). For a rational top they reduce to
+RR14's T(D0) = 2π R I3 (1 − α)(α + γ − 1)/(α λ) and T(D1) = 2π R I3 (1 + α)(1 + α − γ)/(α λ).
+Caveat (theory.md §8): the *gliding* top oscillates faster than these rolling estimates.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+from . import _validate
+from .potential import d, d2V_dz2, g
+from .separation import _Well, _wells
+
+if TYPE_CHECKING:
+    from .top import TippeTop
+
+__all__ = [
+    "Convexity",
+    "PeriodEstimates",
+    "convexity",
+    "oscillation_ratio",
+    "period_estimates",
+    "potential_minimum",
+    "small_oscillation_period",
+]
+
+
+def _minima(top: TippeTop, D: float, lam: float) -> list[float]:
+    # Energy is irrelevant to where V has its minima; 0 keeps _Well's shift finite.
+    return _wells(_Well(top, 0.0, D, lam))
+
+
+def potential_minimum(top: TippeTop, D: float, lam: float) -> float:
+    """z = cos θ of the global minimum of V(·, D, λ) on [−1, 1].
+
+    Found from the sign changes of the regular numerator (1 − z²)² ∂V/∂z, so a pole is returned
+    when V decreases towards it (possible only when N vanishes there, D = D0 or D1).
+    """
+    D = _validate.finite_scalar("D", D)
+    lam = _validate.finite_scalar("lam", lam)
+    w = _Well(top, 0.0, D, lam)
+    mins = _wells(w)
+    return max(mins, key=w.excess)  # the deepest well: largest 0 − V
+
+
+class Convexity(NamedTuple):
+    """Shape of V(·, D, λ) on (−1, 1) (RR14's convexity theorem; theory.md §8)."""
+
+    convex: bool
+    """V'' > 0 at every sample of (−1, 1)."""
+    n_minima: int
+    """Number of local minima of V on [−1, 1]."""
+    min_curvature: float
+    """Smallest sampled V'' (J)."""
+
+
+def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Convexity:
+    """Check that V(·, D, λ) is convex on (−1, 1) with a single minimum (RR14 §3; theory.md §8).
+
+    V'' is sampled at ``samples`` Chebyshev points inside (−1, 1), denser towards the poles.
+    """
+    D = _validate.finite_scalar("D", D)
+    lam = _validate.finite_scalar("lam", lam)
+    z = np.cos(np.pi * (np.arange(samples) + 0.5) / samples)
+    curv = d2V_dz2(top, z, D, lam)
+    return Convexity(bool(np.all(curv > 0.0)), len(_minima(top, D, lam)), float(curv.min()))
+
+
+def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:
+    """Period 2π/ω_θ of small θ-oscillations about the minimum of V (gravity included, theory.md §8).
+
+    ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)) with z_m = :func:`potential_minimum`; at a spinning pole
+    (z_m = ±1) ω_θ² = 2|V'(±1)|/g(±1).
+    """
+    from .potential import dV_dz
+
+    zm = potential_minimum(top, D, lam)
+    if abs(zm) == 1.0:
+        omega2 = 2.0 * abs(float(dV_dz(top, zm, D, lam))) / float(g(top, zm))
+    else:
+        omega2 = (1 - zm * zm) * float(d2V_dz2(top, zm, D, lam)) / (2.0 * float(g(top, zm)))
+    return 2.0 * math.pi / math.sqrt(omega2)
+
+
+class PeriodEstimates(NamedTuple):
+    """Rolling-METT oscillation periods at the two ends of the inversion (theory.md §8)."""
+
+    T_D0: float
+    """Period near the start (D = D0, minimum at z = 1), s."""
+    T_D1: float
+    """Period near the end (D = D1, minimum at z = −1), s: the largest, T_max."""
+
+
+def period_estimates(top: TippeTop, lam: float) -> PeriodEstimates:
+    """(T(D0), T(D1)) of RR14 for the Jellett integral ``lam`` > 0 (module docstring).
+
+    For the thesis run (λ = 6.8944e-6) T(D0) = 0.03208 s and T(D1) = 0.09207 s.
+    """
+    lam = _validate.positive_jellett(lam)
+    R, I3, a, sig = top.R, top.I3, top.alpha, top.sigma
+    w0 = lam / (R * I3 * (1.0 - a))
+    w1 = lam / (R * I3 * (1.0 + a))
+    T0 = 2.0 * math.pi * float(d(top, 1.0)) / (w0 * (1.0 + sig * (1.0 - a)))
+    T1 = 2.0 * math.pi * float(d(top, -1.0)) / (w1 * (1.0 + sig * (1.0 + a)))
+    return PeriodEstimates(T0, T1)
+
+
+def oscillation_ratio(top: TippeTop, lam: float, t_inversion: float) -> float:
+    """Inversion time over the largest estimated period, t_inv / max(T(D0), T(D1)).
+
+    RR14's oscillation criterion: θ(t) oscillates during the inversion when this ratio is ≫ 1.
+    """
+    t_inversion = _validate.positive_scalar("t_inversion", t_inversion)
+    return t_inversion / max(period_estimates(top, lam))
