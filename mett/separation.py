@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from scipy import optimize
 
 from . import _validate
-from .potential import _kinetic_coefficient, d, d2V_dz2, dd_dz, dV_dz, g
+from .potential import _POLE_RTOL, _kinetic_coefficient, d, d2V_dz2, dd_dz, dV_dz, g
 
 if TYPE_CHECKING:
     from .top import TippeTop
@@ -145,11 +145,17 @@ class _Well:
         w = 1.0 - z * z
         return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
 
+    def n_vanishes(self, z: float) -> bool:
+        """Whether N(z) is zero to rounding (at a pole: the spinning solutions D = D0, D1)."""
+        top = self.top
+        scale = abs(self.lam) * float(np.sqrt(d(top, z))) + abs(top.R * self.D * (top.alpha - z))
+        return abs(float(self.N(z))) <= _POLE_RTOL * scale
+
     def excess(self, z):
         """Ẽ − V(z) (finite limit at a pole where N vanishes)."""
         w = 1.0 - z * z
         if w == 0.0:
-            return self.Es - self.gravity(z) if abs(self.N(z)) <= 1e-11 * abs(self.lam) else -np.inf
+            return self.Es - self.gravity(z) if self.n_vanishes(z) else -np.inf
         n = self.N(z)
         return self.Es - self.gravity(z) - self.C * n * n / w
 
@@ -187,15 +193,40 @@ def _wells(w: _Well) -> list[float]:
         mins.append(1.0)
     if cr[0] >= 0.0 and cr[1] > 0.0 and not mins[:1] == [-1.0]:
         mins.insert(0, -1.0)
+    # A root found at a pole where N does not vanish is really a hair inside (V = +inf at the pole).
+    mins = [z if abs(z) < 1.0 or w.n_vanishes(z) else float(np.nextafter(z, 0.0)) for z in mins]
     return sorted(set(mins))
 
 
-def _root(w: _Well, lo: float, hi: float) -> float:
-    """The root of P between lo (P ≤ 0) and hi (P > 0), or the pole lo itself if P(lo) ≥ 0."""
-    p_lo = w.P(lo)
-    if p_lo >= 0.0:
-        return lo
+def _turning_point(w: _Well, pole: float, zm: float) -> float:
+    """The root of P between the bottom z_m of the well (P > 0) and the pole ``pole`` (±1).
+
+    P(±1) = −C N(±1)² < 0 unless N vanishes at the pole. Then P(pole) = 0 through its factor
+    1 − z², and the pole is a turning point only if Ẽ ≥ V(pole) (the axis passes through the
+    vertical); otherwise the root lies inside and is bracketed from the first float off the pole.
+    """
+    if abs(zm) == 1.0:  # a well at the other pole: P vanishes there too, step inside
+        zm = float(np.nextafter(zm, pole))
+    p_pole = w.P(pole)
+    if p_pole >= 0.0:
+        if w.excess(pole) >= 0.0:
+            return pole
+        pole = float(np.nextafter(pole, zm))
+        if pole == zm or w.P(pole) >= 0.0:
+            return pole  # the wall (N ≈ 0, a vanishing spin) is within one ulp of the pole
+    lo, hi = (pole, zm) if pole < zm else (zm, pole)
     return optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+
+
+def _conditioning(top: TippeTop, E: float, D: float, lam: float, depth: float) -> float:
+    """Relative uncertainty of a band's width caused by rounding (E, D, λ) to doubles.
+
+    The depth Ẽ − V_min is a difference of terms of size S = |Ẽ| + D²/(2 I1) + m λ²/(2 I1 I3);
+    rounding each input by ε changes it by ~4εS, and the turning points move by about that fraction
+    of the depth times the width.
+    """
+    S = abs(E) + D * D / (2.0 * top.I1) + top.m * lam * lam / (2.0 * top.I1 * top.I3)
+    return 64.0 * _EPS * S / max(depth, 1e-300)
 
 
 def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
@@ -211,13 +242,15 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
             candidates.append(Band("steady", zm, zm, zm, max(depth, 0.0)))
         else:
             w.set_reference(zm)
-            z_low = _root(w, -1.0, zm) if zm > -1.0 else -1.0
-            z_high = -_root_reflected(w, zm) if zm < 1.0 else 1.0
+            z_low = _turning_point(w, -1.0, zm) if zm > -1.0 else -1.0
+            z_high = _turning_point(w, 1.0, zm) if zm < 1.0 else 1.0
             candidates.append(Band("nutation", z_low, z_high, zm, depth))
     live = [b for b in candidates if b.kind != "none"]
     if z0 is not None:
         for b in live:
-            slack = 1e-9 * max(b.z_high - b.z_low, 1e-300) + 8 * _EPS
+            # Only selects the well: allow for the rounding of (E, D, λ) themselves, which moves
+            # the turning points by ~ (rounding of the energy terms / depth) of the band width.
+            slack = (b.z_high - b.z_low) * (1e-6 + _conditioning(top, E, D, lam, b.depth)) + 1e-12
             if b.z_low - slack <= z0 <= b.z_high + slack:
                 return b
         raise ValueError(
@@ -232,14 +265,6 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
         return live[0]
     best = max(candidates, key=lambda b: b.depth)
     return best
-
-
-def _root_reflected(w: _Well, zm: float) -> float:
-    # Root of P in [zm, 1], returned negated so that _root's "lo has P <= 0" convention applies.
-    p_hi = w.P(1.0)
-    if p_hi >= 0.0:
-        return -1.0
-    return -optimize.brentq(w.P, zm, 1.0, xtol=1e-300, rtol=4 * _EPS)
 
 
 def _broadcast(E, D, lam, z0=None):
