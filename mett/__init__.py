@@ -7,6 +7,7 @@ numpy, scipy and mpmath.
 from . import presets
 from ._validate import MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
+from .dynamics import Trajectory, simulate
 from .estimates import period_estimates, potential_minimum
 from .integrals import energy, jellett, modified_energy, routh
 from .potential import V, V_rational, d, d2V_dz2, dV_dz, g
@@ -40,6 +41,7 @@ __all__ = [
     "PhysicalityWarning",
     "State",
     "TippeTop",
+    "Trajectory",
     "TumblingState",
     "V",
     "V_rational",
@@ -63,6 +65,7 @@ __all__ = [
     "potential_minimum",
     "presets",
     "routh",
+    "simulate",
     "tumbling_state",
     "turning_points",
 ]

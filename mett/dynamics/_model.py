@@ -1,0 +1,226 @@
+"""Shared machinery of the dynamical models: the model record and frame conversions.
+
+Every model of :mod:`mett.dynamics` is described by a :class:`Model`: a pure right-hand side
+``rhs(t, y, p)`` on a flat float array ``y`` and a parameter tuple ``p``, plus the conversions
+between the library's reduced :class:`~mett.State` (θ, θ̇, φ̇, ω3, ν_x, ν_y) and the model's own
+state vector. The conversions and derived series are vectorised numpy, evaluated once after a
+run (never per step in Python).
+
+Frames (theory.md §1): with 3̂ = (sinθ sinφ, −sinθ cosφ, cosθ) the horizontal frame is
+x̂ = (sinφ, −cosφ, 0), ŷ = ẑ × 3̂ / sinθ = (cosφ, sinφ, 0), the Resal frame 2̂ = ŷ, 1̂ = 2̂ × 3̂, and
+ω = −φ̇ sinθ 1̂ + θ̇ 2̂ + ω3 3̂. The vector models use the contact vector a = l 3̂ − R ẑ with
+l = Rα (the tippe top), which also covers the gliding heavy symmetric top (R = 0, theory.md §10).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Model"]
+
+Params = tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Model:
+    """A dynamical model: right-hand side, normal force and conversions to/from :class:`State`.
+
+    Attributes
+    ----------
+    name : str
+        Registry name (``simulate(..., model=name)``).
+    summary : str
+        One line: what the model is and where its equations come from.
+    rhs : callable
+        ``rhs(t, y, p) -> dy``: pure function of a flat float array and a parameter tuple.
+    normal_force : callable
+        ``normal_force(y, p) -> g_n``; ``y`` may be one state or an array of shape (n, k).
+    params : callable
+        ``params(top, options) -> p``: the parameter tuple of the right-hand side.
+    initial : callable
+        ``initial(state, p) -> y0``: the model state of a scalar :class:`State`.
+    derive : callable
+        ``derive(Y, p) -> dict`` of the Trajectory series for states ``Y`` of shape (n, k).
+    theta : callable
+        ``theta(Y, p) -> θ``, cheap, for crossings.
+    scales : callable
+        ``scales(y0, p) -> array``: a typical magnitude per component; ``atol = rtol * scales``.
+    guards : tuple
+        Extra terminal events ``(fn(t, y, p), direction, message)`` that end a run as "failed"
+        (e.g. the Euler form reaching its pole singularity).
+    """
+
+    name: str
+    summary: str
+    rhs: Callable[[float, np.ndarray, Params], np.ndarray]
+    normal_force: Callable[[np.ndarray, Params], Any]
+    params: Callable[[Any, dict], Params]
+    initial: Callable[[Any, Params], np.ndarray]
+    derive: Callable[[np.ndarray, Params], dict[str, np.ndarray]]
+    theta: Callable[[np.ndarray, Params], np.ndarray]
+    scales: Callable[[np.ndarray, Params], np.ndarray]
+    guards: tuple[tuple[Callable, float, str], ...] = field(default=())
+
+
+def tippe_params(top: Any, options: dict) -> Params:
+    """(m, R, l, I1, I3, mu, g) with l = Rα: the parameter tuple of the vector models."""
+    return (top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.mu, top.g)
+
+
+def euler_params(top: Any, options: dict) -> Params:
+    """(m, R, alpha, I1, I3, mu, g): the parameter tuple of the Euler-angle forms."""
+    return (top.m, top.R, top.alpha, top.I1, top.I3, top.mu, top.g)
+
+
+# --- State -> lab-frame vectors --------------------------------------------------------------
+
+
+def unit_axis(Y: np.ndarray, start: int) -> np.ndarray:
+    """The normalised axis 3̂/|3̂| stored at rows ``start:start+3`` of vector states ``Y``.
+
+    No integrator keeps |3̂| = 1 exactly; derived quantities use the normalised axis (design.md).
+    """
+    e = np.asarray(Y[start : start + 3], dtype=float)
+    return e / np.sqrt(np.sum(e * e, axis=0))
+
+
+def axis_theta(Y: np.ndarray, start: int) -> np.ndarray:
+    """θ from the axis rows of vector states, via atan2 (accurate at the poles, unlike arccos)."""
+    e = unit_axis(Y, start)
+    return np.arctan2(np.hypot(e[0], e[1]), e[2])
+
+
+def lab_vectors(state: Any, R: float, l: float) -> dict[str, np.ndarray]:
+    """Lab-frame 3̂, ω, ν and CM velocity of a scalar State, with φ = 0 and the CM over the origin.
+
+    With φ = 0: 3̂ = (0, −sinθ, cosθ), ŷ = 2̂ = (1, 0, 0), x̂ = (0, −1, 0), 1̂ = 2̂ × 3̂ = (0, −cosθ, −sinθ).
+    The CM velocity is ṙ = ν − ω × a (a = l 3̂ − R ẑ); its vertical part is then automatically the
+    rate of change of the CM height R − l cosθ.
+    """
+    th = float(state.theta)
+    # exact poles: sin(pi) is 1.2e-16 in floating point, which would tilt the axis by that much
+    s = 0.0 if th in (0.0, np.pi) else np.sin(th)
+    c = np.cos(th)
+    e3 = np.array([0.0, -s, c])
+    e2 = np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(e2, e3)
+    xh = np.array([0.0, -1.0, 0.0])
+    omega = -state.phidot * s * e1 + state.thetadot * e2 + state.omega3 * e3
+    nu = state.nu_x * xh + state.nu_y * e2
+    a = l * e3 - np.array([0.0, 0.0, R])
+    v = nu - np.cross(omega, a)
+    return {"e3": e3, "omega": omega, "nu": nu, "v": v}
+
+
+# --- lab-frame vectors -> reduced (Euler) variables, vectorised -------------------------------
+
+
+def euler_from_vectors(e: np.ndarray, omega: np.ndarray, nu: np.ndarray) -> dict[str, np.ndarray]:
+    """θ, φ, θ̇, φ̇, ω3, ψ̇, ν_x, ν_y from the unit axis 3̂, ω and the slip ν (arrays of shape (3, k)).
+
+    θ = atan2(|3̂ × ẑ|, 3̂·ẑ) (accurate near both poles, unlike arccos), φ from the horizontal
+    projection of 3̂, ω3 = ω·3̂, θ̇ = ω·ŷ, φ̇ = −ω·1̂ / sinθ, ψ̇ = ω3 − φ̇ cosθ, ν_x = ν·x̂, ν_y = ν·ŷ.
+
+    At exactly sinθ = 0 the angles φ, ψ and the split of ν into (ν_x, ν_y) are undefined. We then take
+    φ = 0 (x̂ = (0, −1, 0), ŷ = (1, 0, 0)), φ̇ = 0 (all rotation about the axis is spin, ψ̇ = ω3) and
+    θ̇ = ±|3̂̇| (+ at θ = 0, − at θ = π: a polar angle can only leave its pole). Everything stays finite.
+    """
+    ex, ey, ez = e
+    s = np.hypot(ex, ey)
+    pole = s == 0.0
+    safe = np.where(pole, 1.0, s)
+    theta = np.arctan2(s, ez)
+    cth = ez
+    xhx = np.where(pole, 0.0, ex / safe)
+    xhy = np.where(pole, -1.0, ey / safe)
+    # ŷ = ẑ × x̂ = (−x̂_y, x̂_x, 0)
+    yhx, yhy = -xhy, xhx
+    phi = np.arctan2(xhx, -xhy)
+    wx, wy, wz = omega
+    omega3 = wx * ex + wy * ey + wz * ez
+    thetadot = wx * yhx + wy * yhy
+    # 1̂ = ŷ × 3̂ = (ŷ_y e_z, −ŷ_x e_z, ŷ_x e_y − ŷ_y e_x)
+    w1 = wx * (yhy * ez) - wy * (yhx * ez) + wz * (yhx * ey - yhy * ex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phidot = np.where(pole, 0.0, -w1 / safe)
+    edot = np.cross(omega, e, axis=0)
+    speed = np.sqrt(np.sum(edot * edot, axis=0))
+    thetadot = np.where(pole, np.where(ez > 0, speed, -speed), thetadot)
+    nu_x = nu[0] * xhx + nu[1] * xhy
+    nu_y = nu[0] * yhx + nu[1] * yhy
+    return {
+        "theta": theta,
+        "phi": phi,
+        "thetadot": thetadot,
+        "phidot": phidot,
+        "omega3": omega3,
+        "psidot": omega3 - phidot * cth,
+        "nu_x": nu_x,
+        "nu_y": nu_y,
+    }
+
+
+def routh_d(z: Any, m: float, R: float, l: float, I1: float, I3: float) -> Any:
+    """d(z) with a = l 3̂ − R ẑ: I3² d = I1 I3 + m I3 (l − R z)² + m I1 R² (1 − z²) (theory.md §1).
+
+    For l = Rα this is γ + σ(α − z)² + σγ(1 − z²); for R = 0 (heavy top) it is γ + m l²/I3.
+    """
+    return (I1 * I3 + m * I3 * (l - R * z) ** 2 + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
+
+
+# --- integrals from the reduced variables (Euler-angle models) --------------------------------
+
+
+def integrals_from_euler(
+    theta: Any,
+    thetadot: Any,
+    phidot: Any,
+    omega3: Any,
+    nu_x: Any,
+    nu_y: Any,
+    m: float,
+    R: float,
+    l: float,
+    I1: float,
+    I3: float,
+    g: float,
+) -> dict[str, Any]:
+    """E, Ẽ, D, λ of reduced states with a = l 3̂ − R ẑ (theory.md §1, §3).
+
+    In the horizontal frame (x̂, ŷ, ẑ): ω × a = (θ̇(l c − R), s(R ω3 + φ̇(l − R c)), −l s θ̇), the CM
+    velocity is ṙ = ν − ω × a, and Ẽ = ½ m |ω × a|² + ½ ω·L + m g (R − l c).
+    """
+    s, c = np.sin(theta), np.cos(theta)
+    wa_x = thetadot * (l * c - R)
+    wa_y = s * (R * omega3 + phidot * (l - R * c))
+    wa_z = -l * s * thetadot
+    rot = 0.5 * (I1 * (phidot**2 * s**2 + thetadot**2) + I3 * omega3**2)
+    pot = m * g * (R - l * c)
+    E_mod = 0.5 * m * (wa_x**2 + wa_y**2 + wa_z**2) + rot + pot
+    E = 0.5 * m * ((nu_x - wa_x) ** 2 + (nu_y - wa_y) ** 2 + wa_z**2) + rot + pot
+    lam = R * I1 * phidot * s**2 - I3 * omega3 * (l - R * c)
+    D = I3 * omega3 * np.sqrt(routh_d(c, m, R, l, I1, I3))
+    return {"E": E, "E_mod": E_mod, "D": D, "lam": lam}
+
+
+def scales_from_state(
+    omega: np.ndarray, v: np.ndarray, R: float, l: float, I1: float, I3: float, g: float
+) -> dict[str, float]:
+    """Typical magnitudes (length, velocity, angular velocity, angular momentum) for atol.
+
+    The angular-momentum scale is 1 % of I|ω|: the horizontal components of L are small and the
+    Jellett integral λ = −L·a depends on them. With I|ω| itself, λ drifted by 1.7e-9 (relative)
+    over the thesis run at rtol = 1e-10; with 1 % it drifts by 2e-10 for 10 % more work.
+    """
+    length = max(R, abs(l))
+    w = max(float(np.linalg.norm(omega)), np.sqrt(g / length))
+    return {
+        "length": length,
+        "velocity": length * w + float(np.linalg.norm(v)),
+        "omega": w,
+        "momentum": 0.01 * max(I1, I3) * w,
+    }
