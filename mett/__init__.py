@@ -20,6 +20,7 @@ from .separation import (
     nutation_period,
     turning_points,
 )
+from .stability import escape_time, spin_eigenvalues
 from .state import State
 from .thresholds import (
     AsymptoticState,
@@ -53,6 +54,7 @@ __all__ = [
     "d2V_dz2",
     "dV_dz",
     "energy",
+    "escape_time",
     "f",
     "g",
     "high_spin",
@@ -66,6 +68,7 @@ __all__ = [
     "presets",
     "routh",
     "simulate",
+    "spin_eigenvalues",
     "tumbling_state",
     "turning_points",
 ]
