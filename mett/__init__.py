@@ -4,7 +4,7 @@ The numeric core (this package minus :mod:`mett.symbolic` and :mod:`mett.plottin
 numpy, scipy and mpmath.
 """
 
-from . import presets
+from . import analysis, presets
 from ._validate import MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
 from .dynamics import Trajectory, simulate
@@ -46,6 +46,7 @@ __all__ = [
     "TumblingState",
     "V",
     "V_rational",
+    "analysis",
     "asymptotic_state",
     "band",
     "boundary_values",

@@ -38,3 +38,10 @@ def random_state(rng: np.random.Generator, n: int, *, gliding: bool = True) -> m
         nu_x=rng.normal(0, 0.3, n) if gliding else 0.0,
         nu_y=rng.normal(0, 0.3, n) if gliding else 0.0,
     )
+
+
+@pytest.fixture(scope="session")
+def thesis_trajectory():
+    """The thesis run (rutstam2013, θ0 = 0.1, ω3 = 155 rad/s, ν(0) = 0) over 8 s, computed once."""
+    top = mett.presets.get("rutstam2013")
+    return mett.simulate(top, mett.State(theta=0.1, omega3=155.0), t_end=8.0)

@@ -1,0 +1,189 @@
+"""The deforming potential: the METT along a simulated (gliding) trajectory (theory.md §3–§4, §8).
+
+While the top glides, the METT Ẽ(t) = g(cos θ) θ̇² + V(cos θ, D(t), λ) still holds at every instant,
+but D(t) and Ẽ(t) drift: θ moves in a potential that deforms as the top inverts (RR14 §3). This
+module evaluates that picture on a :class:`~mett.Trajectory`: the residual of the METT, the potential
+V(z, D(t), λ) and its minimum z_min(t), the turning points of θ(t), and the observed θ-oscillation
+periods set against the rolling-METT periods with D and Ẽ frozen. Caveat (theory.md §8): the gliding
+top oscillates faster than the rolling estimate, because the contact point glides on the time scale
+of one nutation; :func:`period_comparison` quantifies it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import estimates, potential, separation
+
+if TYPE_CHECKING:
+    from .dynamics import Trajectory
+
+__all__ = [
+    "PeriodComparison",
+    "TurningPoints",
+    "deforming_potential",
+    "mett_residual",
+    "minimum_track",
+    "period_comparison",
+    "turning_points",
+]
+
+
+def mett_residual(traj: Trajectory, *, relative: bool = True) -> np.ndarray:
+    """Ẽ(t) − [g(z) θ̇² + V(z, D(t), λ(t))] at the trajectory's samples.
+
+    Relative to Ẽ(t) by default. ~1e-13 for the thesis run; feeding E instead of Ẽ would give up to
+    ~1e-1 (theory.md §12, trap 3).
+    """
+    z = np.cos(traj.theta)
+    rhs = potential.g(traj.top, z) * traj.thetadot**2 + potential.V(traj.top, z, traj.D, traj.lam)
+    res = traj.E_mod - rhs
+    return res / np.abs(traj.E_mod) if relative else res
+
+
+def deforming_potential(
+    traj: Trajectory, times: ArrayLike, z: ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """V(z, D(t), λ) at the given times: the potential θ rides in, and θ(t) itself.
+
+    Returns
+    -------
+    z : ndarray, shape (nz,)
+        Grid of cos θ (default 801 points in (−1, 1)).
+    V : ndarray, shape (nt, nz)
+        V(z, D(t_i), λ(t_i)) (J).
+    theta : ndarray, shape (nt,)
+        θ(t_i) from the dense output.
+    """
+    times = np.atleast_1d(np.asarray(times, dtype=float))
+    z = np.linspace(-0.9995, 0.9995, 801) if z is None else np.asarray(z, dtype=float)
+    s = traj.at(times)
+    D, lam = _integrals_at(traj, s)
+    V = potential.V(traj.top, z[None, :], D[:, None], lam[:, None])
+    return z, V, np.asarray(s.theta)
+
+
+def _integrals_at(traj: Trajectory, s) -> tuple[np.ndarray, np.ndarray]:
+    from .integrals import jellett, routh
+
+    return np.atleast_1d(routh(traj.top, s)), np.atleast_1d(jellett(traj.top, s))
+
+
+def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarray:
+    """z_min(t): position (cos θ) of the minimum of V(·, D(t), λ) at the given times.
+
+    Default: 200 times spread over the run. Moves from near 1 to near −1 during an inversion
+    (RR14 §3; theory.md §8).
+    """
+    times = np.linspace(traj.t[0], traj.t[-1], 200) if times is None else np.asarray(times)
+    s = traj.at(np.atleast_1d(times))
+    D, lam = _integrals_at(traj, s)
+    return np.array(
+        [estimates.potential_minimum(traj.top, d, la) for d, la in zip(D, lam, strict=True)]
+    )
+
+
+class TurningPoints(NamedTuple):
+    """Times and angles at which θ̇ = 0 along a trajectory."""
+
+    t: np.ndarray
+    theta: np.ndarray
+    kind: np.ndarray
+    """+1 at a maximum of θ, −1 at a minimum."""
+
+
+def _illinois(fn, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.ndarray, tol: float):
+    """Vectorised Illinois (modified regula falsi): roots of ``fn`` in every bracket at once.
+
+    One call of ``fn`` per iteration for all brackets, so the dense output is evaluated in bulk.
+    """
+    lo, hi, f_lo, f_hi = (np.array(x, dtype=float) for x in (lo, hi, f_lo, f_hi))
+    x = 0.5 * (lo + hi)
+    for _ in range(100):
+        x_prev = x
+        x = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        fx = fn(x)
+        left = np.sign(fx) == np.sign(f_lo)
+        # Illinois: halve the retained end's value when the same end is kept twice
+        f_hi = np.where(left, f_hi * 0.5, fx)
+        hi_new = np.where(left, hi, x)
+        f_lo = np.where(left, fx, f_lo)
+        lo = np.where(left, x, lo)
+        hi = hi_new
+        # Illinois keeps one end fixed, so the bracket need not shrink: stop on the iterate
+        if np.all(np.abs(x - x_prev) <= tol):
+            break
+    return x
+
+
+def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
+    """Turning points of θ(t): zeros of θ̇ located on the dense output.
+
+    Each interval between output samples is cut into ``subdivision`` pieces to bracket the sign
+    changes of θ̇ (with the solver's own steps as samples, the default of :func:`mett.simulate`,
+    that resolves every nutation); all brackets are then refined together to ~1e-13 s.
+    """
+    t = np.asarray(traj.t, dtype=float)
+    frac = np.arange(subdivision) / subdivision
+    grid = np.append((t[:-1, None] + np.diff(t)[:, None] * frac).ravel(), t[-1])
+    thd = np.asarray(traj.at(grid).thetadot)
+    idx = np.flatnonzero(thd[:-1] * thd[1:] < 0.0)
+    if idx.size == 0:
+        return TurningPoints(np.empty(0), np.empty(0), np.empty(0, dtype=int))
+    times = _illinois(
+        lambda tt: np.asarray(traj.at(tt).thetadot),
+        grid[idx], grid[idx + 1], thd[idx], thd[idx + 1], tol=1e-13,
+    )  # fmt: skip
+    kinds = np.where(thd[idx] > 0, 1, -1)
+    return TurningPoints(times, traj.theta_at(times), kinds)
+
+
+class PeriodComparison(NamedTuple):
+    """Observed θ-oscillation periods against rolling-METT periods (theory.md §8)."""
+
+    t: np.ndarray
+    """Mid-times of the observed periods (s)."""
+    observed: np.ndarray
+    """Time between successive maxima of θ (s)."""
+    rolling: np.ndarray
+    """Exact rolling-METT period with Ẽ, D, λ frozen at that time (s); NaN if inadmissible."""
+    fast_top: np.ndarray
+    """Gliding fast-top period 2π I1/(I3 |ω3|) (s)."""
+    estimates: estimates.PeriodEstimates
+    """RR14's bounds (T(D0), T(D1)) for the run's λ."""
+
+
+def period_comparison(traj: Trajectory) -> PeriodComparison:
+    """Observed periods of θ(t) set against the rolling METT and the gliding fast-top value.
+
+    The observed period is the time between successive maxima of θ; the rolling period is
+    :func:`mett.nutation_period` at (Ẽ(t), D(t), λ) at the mid-time, the period the top would have
+    if it stopped gliding there; the fast-top period 2π I1/(I3|ω3|) is the nutation of a gliding top
+    at high spin. For the thesis run the observed periods lie between T(D0) and T(D1) and close to
+    the fast-top value; the gliding top is slower than the rolling estimate at the start and faster
+    at the end (tests/test_analysis.py has the numbers). A nutation whose θ̇ does not reach zero
+    (a shoulder in θ instead of a maximum) merges two periods into one observed interval.
+    """
+    tp = turning_points(traj)
+    tmax = tp.t[tp.kind == 1]
+    mids = 0.5 * (tmax[1:] + tmax[:-1])
+    observed = np.diff(tmax)
+    s = traj.at(mids)
+    D, lam = _integrals_at(traj, s)
+    from .integrals import modified_energy
+
+    E = np.atleast_1d(modified_energy(traj.top, s))
+    rolling = np.full(mids.shape, np.nan)
+    for i in range(mids.size):
+        try:
+            rolling[i] = separation.nutation_period(
+                traj.top, E[i], D[i], lam[i], z0=float(np.cos(s.theta[i]))
+            )
+        except ValueError:
+            pass
+    fast = 2 * np.pi * traj.top.I1 / (traj.top.I3 * np.abs(np.atleast_1d(s.omega3)))
+    est = estimates.period_estimates(traj.top, float(np.median(traj.lam)))
+    return PeriodComparison(mids, observed, rolling, fast, est)
