@@ -83,6 +83,106 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _state_from_args(args: argparse.Namespace, top: TippeTop):
+    from .state import State
+
+    if args.cm_at_rest:
+        return State.with_cm_at_rest(
+            top, theta=args.theta0, omega3=args.omega3, thetadot=args.thetadot, phidot=args.phidot
+        )
+    return State(theta=args.theta0, omega3=args.omega3, thetadot=args.thetadot, phidot=args.phidot)
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .dynamics import simulate
+    from .integrals import jellett
+    from .thresholds import asymptotic_state
+
+    top = _top_from_args(args)
+    state = _state_from_args(args, top)
+    if args.out is not None and not args.out.endswith((".csv", ".npz")):
+        raise ValueError(f"--out must end in .csv or .npz; got {args.out!r}")
+    traj = simulate(top, state, args.t_end, model=args.model, rtol=args.rtol)
+    lam = float(jellett(top, state))
+    cross = traj.crossings(np.pi / 2)
+    print(f"status                 {traj.status}" + (f" ({traj.message})" if traj.message else ""))
+    print(f"lambda / lambda_thres  {lam / top.lambda_thres:.6g}")
+    t_inv = f"{cross[0]:.6g}" if cross.size else "never (within t_end)"
+    print(f"first theta = pi/2 [s] {t_inv}")
+    print(f"theta(end) [rad]       {traj.theta[-1]:.6g}  at t = {traj.t[-1]:.6g} s")
+    print(f"omega3(end) [rad/s]    {traj.omega3[-1]:.6g}")
+    if lam > 0:
+        pred = asymptotic_state(top, lam)
+        print(
+            f"predicted end state    {pred.kind}: theta = {pred.theta:.6g}, omega3 = {pred.omega3:.6g}"
+        )
+    if args.out is not None:
+        data = traj.as_dict()
+        if args.out.endswith(".npz"):
+            np.savez(args.out, **data)
+        else:
+            names = list(data)
+            np.savetxt(args.out, np.column_stack([data[n] for n in names]), delimiter=",",
+                       header=",".join(names), comments="")  # fmt: skip
+        print(f"wrote {args.out}")
+    if args.plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from .plotting import plot_theta
+
+        plot_theta(traj).savefig(args.plot, dpi=110)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _cmd_period(args: argparse.Namespace) -> int:
+    from . import integrals, separation
+
+    top = _top_from_args(args)
+    given = [v is not None for v in (args.E, args.D, args.lam)]
+    if any(given) and not all(given):
+        raise ValueError("give all of --E --D --lam, or a state with --theta0 --omega3")
+    if all(given):
+        E, D, lam, z0 = args.E, args.D, args.lam, None
+    elif args.theta0 is not None and args.omega3 is not None:
+        state = _state_from_args(args, top)
+        E, D, lam = (
+            float(f(top, state)) for f in (integrals.energy, integrals.routh, integrals.jellett)
+        )
+        import math
+
+        z0 = math.cos(args.theta0)
+    else:
+        raise ValueError("give --E --D --lam, or a rolling state with --theta0 --omega3")
+    band = separation.band(top, E, D, lam, z0=z0)
+    print(f"E [J], D [kg m^2/s], lam [kg m^3/s]  {E!r}, {D!r}, {lam!r}")
+    print(f"motion                 {band.kind}")
+    if band.kind == "none":
+        raise ValueError(f"no admissible motion: E lies {-band.depth:.3g} J below the minimum of V")
+    import math
+
+    print(f"turning points z       {band.z_low:.10g}, {band.z_high:.10g}")
+    print(f"turning points theta   {math.acos(band.z_high):.10g}, {math.acos(band.z_low):.10g} rad")
+    print(f"nutation period [s]    {separation.nutation_period(top, E, D, lam, z0=z0):.10g}")
+    print(f"mean precession [rad/s] {separation.mean_precession(top, E, D, lam, z0=z0):.10g}")
+    return 0
+
+
+def _cmd_figures(args: argparse.Namespace) -> int:
+    from . import gallery
+
+    paths = gallery.generate(args.out, animation=not args.no_animation, progress=not args.quiet)
+    from pathlib import Path
+
+    (Path(args.out) / "README.md").write_text(gallery.index_markdown(paths), encoding="utf-8")
+    for p in paths:
+        print(f"wrote {p}")
+    return 0
+
+
 def _build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="mett", description="Tippe-top dynamics around the METT.")
     sub = parser.add_subparsers(dest="command", parser_class=_Parser)
@@ -91,7 +191,43 @@ def _build_parser() -> argparse.ArgumentParser:
     _add_top_arguments(p)
     p.add_argument("--theta0", type=float, default=0.1, help="start angle for the minimal spin")
     p.set_defaults(func=_cmd_info)
+
+    from .dynamics import MODELS
+
+    p = sub.add_parser("simulate", help="simulate a top; print the inversion time and end state")
+    _add_top_arguments(p)
+    _add_state_arguments(p, required=True)
+    p.add_argument("--t-end", type=float, required=True, help="simulated time [s]")
+    p.add_argument("--model", default="gliding", choices=sorted(MODELS))
+    p.add_argument("--rtol", type=float, default=1e-10)
+    p.add_argument("--out", default=None, help="write the trajectory (.csv or .npz)")
+    p.add_argument("--plot", default=None, help="write θ(t) as an image (e.g. theta.png)")
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser("period", help="turning points, nutation period and precession (rolling)")
+    _add_top_arguments(p)
+    p.add_argument("--E", type=float, default=None, help="energy [J]")
+    p.add_argument("--D", type=float, default=None, help="Routh integral [kg m^2/s]")
+    p.add_argument("--lam", type=float, default=None, help="Jellett integral [kg m^3/s]")
+    _add_state_arguments(p, required=False)
+    p.set_defaults(func=_cmd_period)
+
+    p = sub.add_parser("figures", help="regenerate every published figure")
+    p.add_argument("--out", default="figures", help="output directory")
+    p.add_argument("--no-animation", action="store_true", help="skip the GIF")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_figures)
     return parser
+
+
+def _add_state_arguments(p: argparse.ArgumentParser, *, required: bool) -> None:
+    p.add_argument("--theta0", type=float, required=required, default=None, help="θ(0) [rad]")
+    p.add_argument("--omega3", type=float, required=required, default=None, help="ω3(0) [rad/s]")
+    p.add_argument("--thetadot", type=float, default=0.0, help="θ̇(0) [rad/s]")
+    p.add_argument("--phidot", type=float, default=0.0, help="φ̇(0) [rad/s]")
+    p.add_argument(
+        "--cm-at-rest", action="store_true", help="start with the CM at rest instead of ν(0) = 0"
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

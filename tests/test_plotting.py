@@ -84,3 +84,77 @@ def test_import_mett_does_not_import_matplotlib():
 
     code = "import mett, sys; assert 'matplotlib' not in sys.modules, 'matplotlib imported'"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+@pytest.fixture(scope="module")
+def short_run():
+    top = mett.presets.get("rutstam2013")
+    return mett.simulate(top, mett.State(theta=0.1, omega3=155.0), t_end=7.0)
+
+
+@pytest.mark.parametrize(
+    ("fn", "names"),
+    [
+        (plotting.plot_theta, ["theta"]),
+        (plotting.plot_thetadot, ["thetadot"]),
+        (plotting.plot_angular_velocities, ["psidot", "phidot"]),
+        (plotting.plot_omega3, ["omega3"]),
+        (plotting.plot_gliding_velocities, ["nu_x", "nu_y"]),
+        (plotting.plot_energies, ["E", "E_mod"]),
+    ],
+)
+def test_timeseries_lines_hold_the_trajectory(short_run, fn, names):
+    fig = fn(short_run)
+    ax = fig.axes[0]
+    for line, name in zip(ax.lines, names, strict=False):
+        t, y = line.get_data()
+        np.testing.assert_array_equal(t, short_run.t)
+        np.testing.assert_allclose(y, getattr(short_run, name) * plotting.SERIES[name][2])
+    assert ax.get_xlabel() == "t [s]" and "[" in ax.get_ylabel()
+
+
+def test_omega3_plot_marks_the_jellett_limit(short_run):
+    ax = plotting.plot_omega3(short_run).axes[0]
+    limit = ax.lines[1].get_ydata()[0]
+    assert limit == pytest.approx(-82.866, abs=1e-3)
+
+
+def test_D_E_curve_holds_the_integrals_and_the_spins(short_run):
+    ax = plotting.plot_D_E_curve(short_run).axes[0]
+    D, E = ax.lines[0].get_data()
+    np.testing.assert_allclose(D, short_run.D * 1e3)
+    np.testing.assert_allclose(E, short_run.E_mod * 1e3)
+    bv = mett.boundary_values(short_run.top, float(np.median(short_run.lam)))
+    assert ax.lines[1].get_xdata()[0] == pytest.approx(bv.D0 * 1e3)
+    assert ax.lines[2].get_ydata()[0] == pytest.approx(bv.E1 * 1e3)
+
+
+def test_deforming_potential_dots_sit_on_their_curves(short_run):
+    times = np.array([0.5, 5.0, 6.0])
+    ax = plotting.plot_deforming_potential(short_run, times).axes[0]
+    curves, dots = ax.lines[0::2], ax.lines[1::2]
+    assert len(curves) == 3
+    for t, dot in zip(times, dots, strict=True):
+        assert dot.get_xdata()[0] == pytest.approx(float(short_run.at(t).theta))
+
+
+def test_axis_trace_lies_on_the_unit_sphere(short_run):
+    ax = plotting.plot_axis_trace(short_run).axes[0]
+    x, y, z = ax.lines[0].get_data_3d()
+    np.testing.assert_allclose(x**2 + y**2 + z**2, 1.0, rtol=1e-12)
+    np.testing.assert_allclose(z, np.cos(short_run.theta), rtol=1e-12, atol=1e-15)
+
+
+def test_animation_writes_a_gif(short_run, tmp_path):
+    path = plotting.animate_deforming_potential(short_run, str(tmp_path / "a.gif"), frames=4, fps=4)
+    from PIL import Image
+
+    with Image.open(path) as im:
+        assert im.format == "GIF" and im.n_frames == 4
+
+
+def test_unknown_series_is_refused(short_run):
+    with pytest.raises(ValueError, match="unknown series"):
+        plotting.plot_timeseries(short_run, "spin")
+    with pytest.raises(ValueError, match="different units"):
+        plotting.plot_timeseries(short_run, "theta", "E")
