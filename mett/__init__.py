@@ -34,6 +34,16 @@ from .top import TippeTop
 
 __version__ = "0.1.0.dev0"
 
+
+def __getattr__(name: str):
+    # Lazy: sweeps need pandas, which `import mett` should not pay for.
+    if name == "sweep":
+        from .sweeps import sweep
+
+        return sweep
+    raise AttributeError(f"module 'mett' has no attribute {name!r}")
+
+
 __all__ = [
     "AsymptoticState",
     "Band",
@@ -70,6 +80,7 @@ __all__ = [
     "routh",
     "simulate",
     "spin_eigenvalues",
+    "sweep",
     "tumbling_state",
     "turning_points",
 ]

@@ -31,6 +31,7 @@ __all__ = [
     "plot_f",
     "plot_gliding_velocities",
     "plot_omega3",
+    "plot_phase_diagram",
     "plot_potential",
     "plot_potential_surface",
     "plot_theta",
@@ -357,4 +358,49 @@ def plot_axis_trace(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     ax.set_zlabel("z")
     ax.set_box_aspect((1, 1, 1))
     ax.legend(loc="upper left")
+    return fig
+
+
+_KIND_STYLE = {
+    "upright": ("o", "C0"),
+    "tumbling": ("^", "C2"),
+    "inverted": ("s", "C3"),
+    "contact_lost": ("x", "k"),
+    "failed": ("x", "0.5"),
+    "invalid": ("x", "0.7"),
+}
+
+
+def plot_phase_diagram(
+    table, *, x: str = "lam_ratio", y: str = "gamma", alpha: float | None = None,
+    ax: Axes | None = None,
+) -> Figure:  # fmt: skip
+    """End states of a sweep (:func:`mett.sweeps.sweep`) in the plane of two of its columns.
+
+    Points are drawn by their simulated end state (upright / tumbling / inverted; contact loss and
+    failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
+    the eccentricity ``alpha`` (default: the sweep's, if it did not vary): λ = λ_thres is the line
+    λ/λ_thres = 1 and λ = λ_0 the curve λ_0/λ_thres = ((1 − α)/(1 + α))² √((1 + α − γ)/(α + γ − 1))
+    (theory.md §7); between them the top ends tumbling.
+    """
+    fig, ax = _axes(ax)
+    for kind, (marker, color) in _KIND_STYLE.items():
+        sel = table[table["simulated"] == kind]
+        if len(sel):
+            ax.scatter(sel[x], sel[y], marker=marker, color=color, label=kind, s=28)
+    if x == "lam_ratio" and y == "gamma":
+        if alpha is None and "alpha" in table and table["alpha"].nunique() == 1:
+            alpha = float(table["alpha"].iloc[0])
+        if alpha is not None:
+            g = np.linspace(1 - alpha + 1e-3, 1 + alpha - 1e-3, 400)
+            ratio0 = ((1 - alpha) / (1 + alpha)) ** 2 * np.sqrt((1 + alpha - g) / (alpha + g - 1))
+            ax.plot(ratio0, g, color="C0", lw=1.2, label="λ = λ₀")
+            ax.axvline(1.0, color="C3", lw=1.2, label="λ = λ_thres")
+            ax.set_xlim(0, max(float(table[x].max()) * 1.1, 1.2))
+        ax.set_xlabel("λ / λ_thres")
+        ax.set_ylabel("γ = I1/I3")
+    else:
+        ax.set_xlabel(x)
+        ax.set_ylabel(y)
+    ax.legend(loc="best", fontsize="small")
     return fig

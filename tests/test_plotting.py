@@ -158,3 +158,26 @@ def test_unknown_series_is_refused(short_run):
         plotting.plot_timeseries(short_run, "spin")
     with pytest.raises(ValueError, match="different units"):
         plotting.plot_timeseries(short_run, "theta", "E")
+
+
+def test_phase_diagram_draws_points_by_end_state_and_the_thresholds():
+    import pandas as pd
+
+    table = pd.DataFrame(
+        {
+            "lam_ratio": [0.2, 0.7, 2.0, 2.5],
+            "gamma": [0.9, 0.9, 0.9, 1.1],
+            "alpha": [0.3] * 4,
+            "simulated": ["upright", "tumbling", "inverted", "contact_lost"],
+        }
+    )
+    ax = plotting.plot_phase_diagram(table).axes[0]
+    offsets = {c.get_label(): c.get_offsets() for c in ax.collections}
+    np.testing.assert_allclose(offsets["tumbling"], [[0.7, 0.9]])
+    np.testing.assert_allclose(offsets["inverted"], [[2.0, 0.9]])
+    assert "contact_lost" in offsets
+    lam0 = next(ln for ln in ax.lines if ln.get_label() == "λ = λ₀")
+    x, g = lam0.get_data()
+    top = mett.TippeTop(m=0.02, R=0.02, alpha=0.3, I1=g[200] * 3.2e-6, I3=3.2e-6)
+    assert x[200] == pytest.approx(top.lambda_0 / top.lambda_thres, rel=1e-12)
+    assert any(ln.get_label() == "λ = λ_thres" for ln in ax.lines)
