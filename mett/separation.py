@@ -18,7 +18,10 @@ root singularities at the turning points, and Gauss–Legendre quadrature in u c
 Precision. At high spin the band is narrow (width ~ ω3⁻²) and Ẽ − V is a tiny difference of numbers
 of size ½ I3 ω3²: in double precision it keeps few digits. The constant D²/(2 I1) − mλ²/(2 I1 I3) that
 carries that size is therefore subtracted from Ẽ exactly (mpmath, 50 digits) before anything else is
-done; what remains, E' − m g R(1 − αz) and C N², are of the size of the well itself.
+done; what remains, E' − m g R(1 − αz) and C N², are of the size of the well itself. Inside a band
+P is then written about the bottom z_r of the well (``_Well.set_reference``, also at a spinning
+pole), and the turning points and quadrature nodes are handled as offsets δ = z − z_r: the node next
+to a turning point lies only ~1e-7 band widths from it, closer than one ulp of z at high spin.
 """
 
 from __future__ import annotations
@@ -94,11 +97,28 @@ class _Well:
         return (1.0 - z * z) * (self.Es - self.gravity(z)) - self.C * n * n
 
     def set_reference(self, zr: float) -> None:
-        """Expand P about an interior point z_r (the bottom of the band's well)."""
-        if abs(zr) >= 1.0:
+        """Expand P about an interior point z_r (the bottom of the band's well).
+
+        A pole z_r = ±1 where N vanishes (a well at a spinning pole, D = D0 or D1) is allowed too:
+        there P(z_r + δ) = w(δ)(A + m g R α δ) − C ΔN(δ)² with A = Ẽ − V(z_r) = E' − m g R(1 ∓ α)
+        computed exactly (mpmath), so a narrow band next to the pole keeps its digits.
+        """
+        self.pole_ref = abs(zr) == 1.0
+        if abs(zr) >= 1.0 and not (self.pole_ref and self.n_vanishes(zr)):
             self.zr = None
             return
         self.zr = zr
+        if self.pole_ref:
+            top = self.top
+            self.sqd_r = float(np.sqrt(d(top, zr)))
+            self.dd_r = float(dd_dz(top, zr))
+            with mpmath.workdps(50):
+                mp = mpmath.mpf
+                m, I1, I3 = mp(top.m), mp(top.I1), mp(top.I3)
+                A = mp(self.E) - mp(self.D) ** 2 / (2 * I1) + m * mp(self.lam) ** 2 / (2 * I1 * I3)
+                A -= m * mp(top.g) * mp(top.R) * (1 - mp(top.alpha) * mp(zr))
+                self.A_r = float(A)
+            return
         self.w_r = 1.0 - zr * zr
         self.sqd_r = float(np.sqrt(d(self.top, zr)))
         self.dd_r = float(dd_dz(self.top, zr))
@@ -107,13 +127,18 @@ class _Well:
 
     def delta_V(self, z):
         """V(z) − V(z_r) without cancellation of the large terms (needs set_reference)."""
+        return self.delta_V_offset(z - self.zr)
+
+    def delta_V_offset(self, delta):
+        """V(z_r + δ) − V(z_r), with the offset δ itself as the argument.
+
+        In a narrow band δ is known far better than z_r + δ rounded to a double (whose ulp can be
+        a sizeable fraction of the distance from a quadrature node to a turning point).
+        """
         top = self.top
-        delta = z - self.zr
-        # d is quadratic: d(z) − d(z_r) = d'(z_r) δ + σ(1 − γ) δ² exactly.
-        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
-        dn = self.lam * dd / (np.sqrt(d(top, z)) + self.sqd_r) - top.R * self.D * delta
+        dn = self.delta_N(delta)
         n = self.N_r + dn
-        w = 1.0 - z * z
+        w = self.w_r - (2.0 * self.zr + delta) * delta
         # N²/w − N_r²/w_r = [ΔN (N + N_r) w_r + N_r² (w_r − w)] / (w w_r), w_r − w = 2 z_r δ + δ².
         kin = (dn * (n + self.N_r) * self.w_r + self.N_r**2 * (2.0 * self.zr + delta) * delta) / (
             w * self.w_r
@@ -123,6 +148,13 @@ class _Well:
     def P(self, z):
         if self.zr is None:
             return self.P_direct(z)
+        if self.pole_ref:
+            # 1 − z² from z itself: P_offset's −(2 z_r + δ)δ is only accurate near z_r.
+            z = np.asarray(z, dtype=float)
+            delta = z - self.zr
+            dn = self.delta_N(delta)
+            A = self.A_r + self.mgR * self.top.alpha * delta
+            return (1.0 - z) * (1.0 + z) * A - self.C * dn * dn
         z = np.asarray(z, dtype=float)
         pole = np.abs(z) == 1.0
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -130,6 +162,23 @@ class _Well:
         if np.any(pole):
             out = np.where(pole, self.P_direct(z), out)
         return out if out.ndim else float(out)
+
+    def delta_N(self, delta):
+        """N(z_r + δ) − N(z_r) without cancellation (needs set_reference)."""
+        top = self.top
+        z = np.clip(self.zr + delta, -1.0, 1.0)
+        # d is quadratic: d(z) − d(z_r) = d'(z_r) δ + σ(1 − γ) δ² exactly.
+        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
+        return self.lam * dd / (np.sqrt(d(top, z)) + self.sqd_r) - top.R * self.D * delta
+
+    def P_offset(self, delta):
+        """P(z_r + δ) in terms of the offset δ (needs set_reference)."""
+        if self.pole_ref:
+            w = -(2.0 * self.zr + delta) * delta
+            dn = self.delta_N(delta)
+            return w * (self.A_r + self.mgR * self.top.alpha * delta) - self.C * dn * dn
+        w = self.w_r - (2.0 * self.zr + delta) * delta
+        return w * (self.depth_r - self.delta_V_offset(delta))
 
     def scale(self, z):
         """Size of the terms of P at z, for rounding-error tolerances."""
@@ -396,11 +445,47 @@ def turning_points(
     return _map(one, E, D, lam, z0)
 
 
+def _offset_root(w: _Well, z_t: float, z_m: float) -> float:
+    """Turning point z_t as the offset z_t − z_r from the reference, refined on P_offset.
+
+    z_t is a correctly rounded root of P, but at high spin ulp(z_t) is not small against the band:
+    the Gauss–Legendre node next to a turning point is only ~1e-7 band widths from it, so an
+    endpoint off by one ulp of z puts a relative error of ulp/(1e-7 h) into P there. (Before this,
+    periods at ω3 = 3000 rad/s were off by ~1e-7 and at 3e4 rad/s by ~1e-5.)
+    """
+    x0 = z_t - w.zr
+    if abs(z_t) == 1.0:
+        return x0  # a pole reached by the band (N vanishes there): a turning point exactly
+    inward = 1.0 if z_m > z_t else -1.0
+    step = 4.0 * float(np.spacing(1.0))
+    for _ in range(40):
+        a, b = x0 - inward * step, x0 + inward * step  # a outside the band (P < 0), b inside
+        if abs(w.zr + a) < 1.0 and (b - x0) * inward < abs(z_m - z_t):
+            pa, pb = w.P_offset(a), w.P_offset(b)
+            if pa <= 0.0 <= pb:
+                lo, hi = min(a, b), max(a, b)
+                return optimize.brentq(w.P_offset, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+        step *= 4.0
+    return x0
+
+
 def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
-    """(T, ∮ weight dt) over one period, by Gauss–Legendre in u after z = c + h sin u."""
-    c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
-    z = c + h * np.sin(_U_NODES)
-    integrand = h * np.cos(_U_NODES) * np.sqrt(g(top, z) / w.P(z))
+    """(T, ∮ weight dt) over one period, by Gauss–Legendre in u after z = c + h sin u.
+
+    With a reference point (interior well) the nodes are placed and P evaluated as offsets
+    δ = z − z_r (see :func:`_offset_root`); ``weight_fn`` gets z.
+    """
+    if w.zr is None:
+        c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
+        z = c + h * np.sin(_U_NODES)
+        p = w.P(z)
+    else:
+        x_a, x_b = _offset_root(w, b.z_low, b.z_min), _offset_root(w, b.z_high, b.z_min)
+        c, h = 0.5 * (x_a + x_b), 0.5 * (x_b - x_a)
+        x = c + h * np.sin(_U_NODES)
+        z = np.clip(w.zr + x, -1.0, 1.0)
+        p = w.P_offset(x)
+    integrand = h * np.cos(_U_NODES) * np.sqrt(g(top, z) / p)
     T = 2.0 * float(np.dot(_U_WEIGHTS, integrand))
     if weight_fn is None:
         return T, math.nan
