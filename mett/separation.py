@@ -145,6 +145,25 @@ class _Well:
         )
         return -self.mgR * top.alpha * delta + self.C * kin
 
+    def delta_V_divided(self, a, x):
+        """Divided difference ΔV[a, x] = (V(z_r + x) − V(z_r + a))/(x − a), for offsets a, x.
+
+        Written without any division by x − a: d is quadratic and w = 1 − z², U linear, so
+        d[a, x] = −2σα + σ(1 − γ)(z_a + z_x) and w_a − w_x = (x − a)(z_a + z_x) exactly, and
+        K[a, x] for K = N²/w follows from N_x² w_a − N_a² w_x = (x − a)[N[a,x](N_x + N_a) w_a
+        + N_a² (z_a + z_x)]. Hence accurate even for a = x (it is then V'). Interior reference only.
+        """
+        top = self.top
+        zsum = 2.0 * self.zr + a + x
+        d_div = -2.0 * top.sigma * top.alpha + top.sigma * (1.0 - top.gamma) * zsum
+        za, zx = np.clip(self.zr + a, -1.0, 1.0), np.clip(self.zr + x, -1.0, 1.0)
+        n_div = self.lam * d_div / (np.sqrt(d(top, za)) + np.sqrt(d(top, zx))) - top.R * self.D
+        n_a, n_x = self.N_r + self.delta_N(a), self.N_r + self.delta_N(x)
+        w_a = self.w_r - (2.0 * self.zr + a) * a
+        w_x = self.w_r - (2.0 * self.zr + x) * x
+        k_div = (n_div * (n_x + n_a) * w_a + n_a * n_a * zsum) / (w_a * w_x)
+        return -self.mgR * top.alpha + self.C * k_div
+
     def P(self, z):
         if self.zr is None:
             return self.P_direct(z)
@@ -472,20 +491,35 @@ def _offset_root(w: _Well, z_t: float, z_m: float) -> float:
 def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
     """(T, ∮ weight dt) over one period, by Gauss–Legendre in u after z = c + h sin u.
 
-    With a reference point (interior well) the nodes are placed and P evaluated as offsets
-    δ = z − z_r (see :func:`_offset_root`); ``weight_fn`` gets z.
+    T = 2∫ √(g/P) dz = 2∫ √(g/R) du with R = P/((z − z_a)(z_b − z)). With an interior reference
+    point the nodes are placed as offsets x = z − z_r (see :func:`_offset_root`) and R is formed from
+    divided differences: since Ẽ = V at both turning points, P(x) = w(x)(ΔV(x_a) − ΔV(x)), so
+    R = −w ΔV[x_a, x]/(x_b − x) = w ΔV[x_b, x]/(x − x_a), each node using the farther turning point.
+    No node then divides two tiny numbers, which otherwise costs digits next to the turning points
+    (worst at the bottom of the well, where the whole band is tiny). ``weight_fn`` gets z.
     """
+    nodes = _U_NODES
+    interior = w.zr is not None and not w.pole_ref and abs(b.z_low) < 1.0 and abs(b.z_high) < 1.0
     if w.zr is None:
         c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
-        z = c + h * np.sin(_U_NODES)
-        p = w.P(z)
+        z = c + h * np.sin(nodes)
+        integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P(z))
     else:
         x_a, x_b = _offset_root(w, b.z_low, b.z_min), _offset_root(w, b.z_high, b.z_min)
         c, h = 0.5 * (x_a + x_b), 0.5 * (x_b - x_a)
-        x = c + h * np.sin(_U_NODES)
+        x = c + h * np.sin(nodes)
         z = np.clip(w.zr + x, -1.0, 1.0)
-        p = w.P_offset(x)
-    integrand = h * np.cos(_U_NODES) * np.sqrt(g(top, z) / p)
+        if interior:
+            wx = w.w_r - (2.0 * w.zr + x) * x
+            lower = nodes <= 0.0
+            R = np.where(
+                lower,
+                -wx * w.delta_V_divided(x_a, x) / (x_b - x),
+                wx * w.delta_V_divided(x_b, x) / (x - x_a),
+            )
+            integrand = np.sqrt(g(top, z) / R)
+        else:
+            integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P_offset(x))
     T = 2.0 * float(np.dot(_U_WEIGHTS, integrand))
     if weight_fn is None:
         return T, math.nan
