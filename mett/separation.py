@@ -17,19 +17,28 @@ root singularities at the turning points, and Gauss–Legendre quadrature in u c
 
 Precision. At high spin the band is narrow (width ~ ω3⁻²) and Ẽ − V is a tiny difference of numbers
 of size ½ I3 ω3²: in double precision it keeps few digits. The constant D²/(2 I1) − mλ²/(2 I1 I3) that
-carries that size is therefore subtracted from Ẽ exactly (mpmath, 50 digits) before anything else is
-done; what remains, E' − m g R(1 − αz) and C N², are of the size of the well itself. Inside a band
+carries that size is therefore subtracted from Ẽ exactly (error-free products and sums in double,
+:func:`_shift`) before anything else is done; what remains, E' − m g R(1 − αz) and C N², are of the size of the well itself. Inside a band
 P is then written about the bottom z_r of the well (``_Well.set_reference``, also at a spinning
 pole), and the turning points and quadrature nodes are handled as offsets δ = z − z_r: the node next
 to a turning point lies only ~1e-7 band widths from it, closer than one ulp of z at high spin.
+
+Vectorisation. The public functions work on whole arrays of (Ẽ, D, λ) at once (:class:`_Wells`):
+the wells are located on one grid for all elements, and every root (minimum of V, turning point,
+offset turning point) is refined by :func:`_brentq`, a vectorised transcription of scipy's
+``brentq``. The array helpers repeat the scalar helpers of :class:`_Well` operation for operation,
+so an element gets bit for bit the numbers the scalar reference path (:func:`_band_scalar` and the
+``_reference_*`` functions) gives it; only the final quadrature sum may differ in the last bit. Rare
+elements the array path does not handle (V with several wells, a failed bracket) are passed to the
+scalar reference path.
 """
 
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import TYPE_CHECKING, NamedTuple
 
-import mpmath
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import optimize
@@ -56,18 +65,123 @@ _N_QUAD = 96  # Gauss–Legendre nodes in u for periods and means
 _U_NODES, _U_WEIGHTS = np.polynomial.legendre.leggauss(_N_QUAD)
 _U_NODES = 0.5 * np.pi * _U_NODES
 _U_WEIGHTS = 0.5 * np.pi * _U_WEIGHTS
+_Z_GRID = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
+_Z_GRID[0], _Z_GRID[-1] = -1.0, 1.0
+_OFFSET_STEP = 4.0 * float(np.spacing(1.0))  # first half-width of an offset turning point's bracket
+_OFFSET_TRIES = 40  # ... widened 4× per try
+
+
+# --- the exact energy shift ------------------------------------------------------------------
+
+_SPLITTER = 134217729.0  # 2**27 + 1: Veltkamp's splitting constant for doubles
+_DISTIL_PASSES = 8
+_SAFE_MAX, _SAFE_MIN = 1e150, 1e-250  # outside these, fall back to exact rationals
+
+
+def _two_sum(a, b):
+    """s + e = a + b exactly, s = fl(a + b) (Knuth)."""
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+def _two_prod(a, b):
+    """p + e = a b exactly, p = fl(a b) (Dekker, with Veltkamp's splitting)."""
+    p = a * b
+    c = _SPLITTER * a
+    ah = c - (c - a)
+    al = a - ah
+    c = _SPLITTER * b
+    bh = c - (c - b)
+    bl = b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _distil(terms: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(hi, lo, ok): hi + lo equals the exact sum of ``terms`` to ~ε² of itself where ok.
+
+    Repeated error-free cascades (TwoSum from the first term to the last) move the sum into the
+    last term and leave rounding errors, which shrink by a factor ~ε per pass, in the others.
+    """
+    t = list(terms)
+    for _ in range(_DISTIL_PASSES):
+        for i in range(1, len(t)):
+            t[i], t[i - 1] = _two_sum(t[i], t[i - 1])
+        rest = sum(np.abs(x) for x in t[:-1])
+        ok = rest <= _EPS * np.abs(t[-1])
+        if np.all(ok):
+            break
+    return t[-1], sum(t[:-1]), ok
+
+
+def _shift_fraction(top: TippeTop, E: float, D: float, lam: float, pole: float | None) -> float:
+    """The exact shift in rational arithmetic, correctly rounded (slow; for extreme inputs)."""
+    F = Fraction
+    I1, I3, m = F(top.I1), F(top.I3), F(top.m)
+    val = F(E) - F(D) ** 2 / (2 * I1) + m * F(lam) ** 2 / (2 * I1 * I3)
+    if pole is not None:
+        val -= m * F(top.g) * F(top.R) * (1 - F(top.alpha) * F(pole))
+    return float(val)
+
+
+def _pole_constant(top: TippeTop, pole: float) -> tuple[float, float, float]:
+    """2 I1 I3 · m g R (1 ∓ α) as a sum of three doubles (exact to ~ε³)."""
+    F = Fraction
+    k = 2 * F(top.I1) * F(top.I3) * F(top.m) * F(top.g) * F(top.R) * (1 - F(top.alpha) * F(pole))
+    k1 = float(k)
+    k2 = float(k - F(k1))
+    return k1, k2, float(k - F(k1) - F(k2))
+
+
+def _shift(top: TippeTop, E, D, lam, pole=None) -> np.ndarray:
+    """E' = Ẽ − D²/(2 I1) + m λ²/(2 I1 I3) for arrays, within one ulp (almost always correctly rounded).
+
+    With ``pole`` (an array of ±1): the pole reference's A = E' − m g R (1 ∓ α), likewise exact.
+
+    Multiplied through by 2 I1 I3 the numerator 2 I1 I3 Ẽ − I3 D² + m λ² is a sum of products of
+    doubles; each product is split exactly into two doubles (:func:`_two_prod`), the sum is distilled
+    into a double-double (:func:`_distil`), and the quotient by 2 I1 I3 (itself an exact
+    double-double) is formed with a correction from the exact remainder. The large terms of size
+    ½ I3 ω3² thus cancel without any rounding. Inputs near the limits of the exponent range (or an
+    unconverged distillation) go through :func:`_shift_fraction` instead.
+    """
+    E, D, lam = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (E, D, lam)))
+    shape = E.shape
+    E, D, lam = E.ravel(), D.ravel(), lam.ravel()
+    dh, dl = _two_prod(top.I1, top.I3)
+    dh, dl = 2.0 * dh, 2.0 * dl  # 2 I1 I3 = dh + dl exactly
+    terms = [*_two_prod(E, dh), *_two_prod(E, dl)]
+    d1, d2 = _two_prod(D, D)
+    for part in (d1, d2):
+        p, e = _two_prod(top.I3, part)
+        terms += [-p, -e]
+    l1, l2 = _two_prod(lam, lam)
+    for part in (l1, l2):
+        terms += [*_two_prod(top.m, part)]
+    poles = None
+    if pole is not None:
+        poles = np.broadcast_to(np.asarray(pole, dtype=float), shape).ravel()
+        ks = {p: _pole_constant(top, p) for p in (-1.0, 1.0)}
+        for j in range(3):
+            terms.append(-np.where(poles > 0.0, ks[1.0][j], ks[-1.0][j]))
+    hi, lo, ok = _distil(terms)
+    with np.errstate(all="ignore"):
+        q0 = hi / dh
+        ph, pl = _two_prod(q0, dh)
+        qh, ql = _two_prod(q0, dl)
+        r = ((((hi - ph) - pl) + lo) - qh) - ql
+        out = q0 + r / dh
+    big = np.maximum(np.maximum(np.abs(E), np.abs(D)), np.abs(lam))
+    slow = ~ok | ~np.isfinite(out) | (big > _SAFE_MAX) | ((np.abs(hi) < _SAFE_MIN) & (big > 0.0))
+    for i in np.flatnonzero(slow):
+        pl_i = None if poles is None else float(poles[i])
+        out[i] = _shift_fraction(top, float(E[i]), float(D[i]), float(lam[i]), pl_i)
+    return out.reshape(shape)
 
 
 def _shifted_energy(top: TippeTop, E: float, D: float, lam: float) -> float:
-    """E' = E − D²/(2 I1) + m λ²/(2 I1 I3), with the large terms cancelled exactly (mpmath)."""
-    with mpmath.workdps(50):
-        mp = mpmath.mpf
-        val = (
-            mp(E)
-            - mp(D) ** 2 / (2 * mp(top.I1))
-            + mp(top.m) * mp(lam) ** 2 / (2 * mp(top.I1) * mp(top.I3))
-        )
-        return float(val)
+    """E' = E − D²/(2 I1) + m λ²/(2 I1 I3) for one element (see :func:`_shift`)."""
+    return float(_shift(top, E, D, lam))
 
 
 class _Well:
@@ -101,7 +215,7 @@ class _Well:
 
         A pole z_r = ±1 where N vanishes (a well at a spinning pole, D = D0 or D1) is allowed too:
         there P(z_r + δ) = w(δ)(A + m g R α δ) − C ΔN(δ)² with A = Ẽ − V(z_r) = E' − m g R(1 ∓ α)
-        computed exactly (mpmath), so a narrow band next to the pole keeps its digits.
+        computed exactly (:func:`_shift`), so a narrow band next to the pole keeps its digits.
         """
         self.pole_ref = abs(zr) == 1.0
         if abs(zr) >= 1.0 and not (self.pole_ref and self.n_vanishes(zr)):
@@ -112,14 +226,14 @@ class _Well:
             top = self.top
             self.sqd_r = float(np.sqrt(d(top, zr)))
             self.dd_r = float(dd_dz(top, zr))
-            with mpmath.workdps(50):
-                mp = mpmath.mpf
-                m, I1, I3 = mp(top.m), mp(top.I1), mp(top.I3)
-                A = mp(self.E) - mp(self.D) ** 2 / (2 * I1) + m * mp(self.lam) ** 2 / (2 * I1 * I3)
-                A -= m * mp(top.g) * mp(top.R) * (1 - mp(top.alpha) * mp(zr))
-                self.A_r = float(A)
+            self.A_r = float(_shift(top, self.E, self.D, self.lam, zr))
             return
         self.w_r = 1.0 - zr * zr
+        if self.w_r <= 64.0 * _EPS:
+            # A well within a few ulps of a pole (a vanishing spin's wall): an expansion about it
+            # is meaningless, and P needs none (nothing large cancels when N is that small).
+            self.zr = None
+            return
         self.sqd_r = float(np.sqrt(d(self.top, zr)))
         self.dd_r = float(dd_dz(self.top, zr))
         self.N_r = float(self.N(zr))
@@ -244,8 +358,7 @@ class Band(NamedTuple):
 
 def _wells(w: _Well) -> list[float]:
     """Positions of the local minima of V on [−1, 1]."""
-    zs = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
-    zs[0], zs[-1] = -1.0, 1.0
+    zs = _Z_GRID
     cr = w.critical(zs)
     mins = []
     for i in range(len(zs) - 1):
@@ -464,8 +577,10 @@ def turning_points(
     return _map(one, E, D, lam, z0)
 
 
-def _offset_root(w: _Well, z_t: float, z_m: float) -> float:
+def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
     """Turning point z_t as the offset z_t − z_r from the reference, refined on P_offset.
+
+    Returns the offset and whether it is a root of P (False for a wall next to a pole).
 
     z_t is a correctly rounded root of P, but at high spin ulp(z_t) is not small against the band:
     the Gauss–Legendre node next to a turning point is only ~1e-7 band widths from it, so an
@@ -474,18 +589,20 @@ def _offset_root(w: _Well, z_t: float, z_m: float) -> float:
     """
     x0 = z_t - w.zr
     if abs(z_t) == 1.0:
-        return x0  # a pole reached by the band (N vanishes there): a turning point exactly
+        return x0, True  # a pole reached by the band (N vanishes there): a turning point exactly
     inward = 1.0 if z_m > z_t else -1.0
-    step = 4.0 * float(np.spacing(1.0))
-    for _ in range(40):
+    step = _OFFSET_STEP
+    for _ in range(_OFFSET_TRIES):
         a, b = x0 - inward * step, x0 + inward * step  # a outside the band (P < 0), b inside
         if abs(w.zr + a) < 1.0 and (b - x0) * inward < abs(z_m - z_t):
             pa, pb = w.P_offset(a), w.P_offset(b)
             if pa <= 0.0 <= pb:
                 lo, hi = min(a, b), max(a, b)
-                return optimize.brentq(w.P_offset, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+                return optimize.brentq(w.P_offset, lo, hi, xtol=1e-300, rtol=4 * _EPS), True
         step *= 4.0
-    return x0
+    # No sign change next to z_t: a wall within one ulp of a pole (N ≈ 0, a vanishing spin; see
+    # _turning_point), not a root of P.
+    return x0, False
 
 
 def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
@@ -499,26 +616,31 @@ def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float
     (worst at the bottom of the well, where the whole band is tiny). ``weight_fn`` gets z.
     """
     nodes = _U_NODES
-    interior = w.zr is not None and not w.pole_ref and abs(b.z_low) < 1.0 and abs(b.z_high) < 1.0
     if w.zr is None:
         c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
         z = c + h * np.sin(nodes)
         integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P(z))
     else:
-        x_a, x_b = _offset_root(w, b.z_low, b.z_min), _offset_root(w, b.z_high, b.z_min)
+        (x_a, root_a), (x_b, root_b) = (_offset_root(w, zt, b.z_min) for zt in (b.z_low, b.z_high))
+        # The divided differences need Ẽ = V at both ends: not at a wall next to a pole.
+        interior = not w.pole_ref and abs(b.z_low) < 1.0 and abs(b.z_high) < 1.0
+        interior = interior and root_a and root_b
         c, h = 0.5 * (x_a + x_b), 0.5 * (x_b - x_a)
         x = c + h * np.sin(nodes)
         z = np.clip(w.zr + x, -1.0, 1.0)
+        integrand = None
         if interior:
             wx = w.w_r - (2.0 * w.zr + x) * x
             lower = nodes <= 0.0
-            R = np.where(
-                lower,
-                -wx * w.delta_V_divided(x_a, x) / (x_b - x),
-                wx * w.delta_V_divided(x_b, x) / (x - x_a),
-            )
-            integrand = np.sqrt(g(top, z) / R)
-        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                R = np.where(
+                    lower,
+                    -wx * w.delta_V_divided(x_a, x) / (x_b - x),
+                    wx * w.delta_V_divided(x_b, x) / (x - x_a),
+                )
+            if np.all(np.isfinite(R) & (R > 0.0)):
+                integrand = np.sqrt(g(top, z) / R)
+        if integrand is None:  # degenerate geometry (e.g. a wall one ulp from a pole)
             integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P_offset(x))
     T = 2.0 * float(np.dot(_U_WEIGHTS, integrand))
     if weight_fn is None:
