@@ -14,6 +14,14 @@ def run(*args: str) -> subprocess.CompletedProcess:
     )
 
 
+def assert_one_line_error(out: subprocess.CompletedProcess, needle: str) -> None:
+    """Bad arguments: exit status 2, one line on stderr naming the problem, no traceback."""
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert needle in out.stderr
+
+
 def test_info_prints_thesis_thresholds():
     out = run("info", "--preset", "rutstam2013")
     assert out.returncode == 0, out.stderr
@@ -49,11 +57,7 @@ def test_info_with_explicit_parameters():
     ],
 )
 def test_bad_arguments_give_one_line_and_exit_2(args, needle):
-    out = run(*args)
-    assert out.returncode == 2
-    assert "Traceback" not in out.stderr
-    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
-    assert needle in out.stderr
+    assert_one_line_error(run(*args), needle)
 
 
 def test_simulate_prints_inversion_time_and_writes_outputs(tmp_path):
@@ -119,8 +123,4 @@ def test_figures_command_writes_every_figure(tmp_path):
     ],
 )  # fmt: skip
 def test_bad_arguments_of_the_other_commands(args, needle):
-    out = run(*args)
-    assert out.returncode == 2
-    assert "Traceback" not in out.stderr
-    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
-    assert needle in out.stderr
+    assert_one_line_error(run(*args), needle)

@@ -14,6 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pandas as pd
 import pytest
+from test_cli import assert_one_line_error
 
 import mett
 from mett.sweeps import sweep
@@ -183,5 +184,4 @@ def test_cli_sweep_bad_grid(args, needle):
         [sys.executable, "-m", "mett", "sweep", "--preset", "rutstam2013", "--t-end", "1", *args],
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
-    assert res.returncode == 2 and "Traceback" not in res.stderr
-    assert len(res.stderr.strip().splitlines()) == 1 and needle in res.stderr
+    assert_one_line_error(res, needle)
