@@ -87,6 +87,7 @@ def test_checkpoint_for_other_arguments_is_refused(tmp_path):
 
 
 def test_sweep_killed_with_sigkill_resumes_without_loss_or_duplicates(tmp_path):
+    # the scipy backend keeps each point slow enough (~0.3 s) to be killed in the middle
     path = tmp_path / "ckpt.jsonl"
     grid = {"mu": [0.2, 0.3, 0.4], "omega3": [120.0, 160.0]}
     script = textwrap.dedent(
@@ -94,7 +95,7 @@ def test_sweep_killed_with_sigkill_resumes_without_loss_or_duplicates(tmp_path):
         import mett
         from mett.sweeps import sweep
         top = mett.presets.get("rutstam2013")
-        sweep(top, {grid!r}, t_end=2.0, checkpoint={str(path)!r})
+        sweep(top, {grid!r}, t_end=2.0, checkpoint={str(path)!r}, backend="scipy")
         """
     )
     proc = subprocess.Popen([sys.executable, "-c", script])
@@ -111,8 +112,8 @@ def test_sweep_killed_with_sigkill_resumes_without_loss_or_duplicates(tmp_path):
         proc.wait(timeout=60)
     n_before = len([ln for ln in path.read_text().splitlines()[1:] if ln.strip()])
     assert 2 <= n_before < 6  # killed in the middle
-    resumed = sweep(TOP, grid, t_end=2.0, checkpoint=path)
-    fresh = sweep(TOP, grid, t_end=2.0)
+    resumed = sweep(TOP, grid, t_end=2.0, checkpoint=path, backend="scipy")
+    fresh = sweep(TOP, grid, t_end=2.0, backend="scipy")
     pd.testing.assert_frame_equal(resumed, fresh)
     records = [json.loads(ln) for ln in path.read_text().splitlines()[1:]]
     indices = [r["index"] for r in records]

@@ -10,7 +10,10 @@ Models (theory.md §2, §3, §10; Rutstam 2012; thesis eqs (10)–(15)):
 * ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`).
 
 Every right-hand side is a pure function ``rhs(t, y, params)`` of a flat float array and a tuple of
-floats, so it can be compiled later without changing :func:`simulate`.
+floats, written as plain float arithmetic. :func:`simulate` runs it either through scipy
+(``backend="scipy"``, the reference) or, by default, compiled: :mod:`._kernels` compiles the same
+source with numba for the compiled DOP853 of :mod:`.dop853` (``backend="compiled"``), loaded on the
+first compiled run so that ``import mett`` does not import numba.
 """
 
 from .euler import euler_normal_force, euler_rhs

@@ -33,7 +33,8 @@ a new process loads them from the cache too.
 
 The compiled kernel never raises for numerical trouble: it returns a status code (see
 :data:`STATUS_MESSAGES`).  :func:`solve` is the Python entry point; :class:`DenseOutput` evaluates
-the piecewise 7th-order interpolant, vectorised over times, with plain numpy.
+the piecewise 7th-order interpolant at any number of times (compiled too: evaluating it at ten
+thousand times is part of every crossing search).
 
 The coefficients below are those of Hairer's Fortran DOP853 as tabulated in scipy's
 ``scipy/integrate/_ivp/dop853_coefficients.py`` (BSD-3-Clause).
@@ -783,6 +784,37 @@ def _integrate(
     )
 
 
+@_njit_nort
+def _dense_many(ts, ys, hs, F, sign, tt, out):
+    """``out[j]`` = the interpolant at ``tt[j]``, as :func:`_dense_eval` (the same operations).
+
+    Segment i holds sign·ts[i] <= sign·t < sign·ts[i+1]; the end segments extrapolate.
+    """
+    m = hs.size
+    n = out.shape[1]
+    for j in range(tt.size):
+        t = tt[j]
+        lo, hi = 0, ts.size  # binary search: numpy's searchsorted(side="right") on sign·ts
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if sign * ts[mid] <= sign * t:
+                lo = mid + 1
+            else:
+                hi = mid
+        i = min(max(lo - 1, 0), m - 1)
+        x = (t - ts[i]) / hs[i]
+        xm = 1.0 - x
+        for c in range(n):
+            acc = F[i, 6, c] * x
+            acc = (acc + F[i, 5, c]) * xm
+            acc = (acc + F[i, 4, c]) * x
+            acc = (acc + F[i, 3, c]) * xm
+            acc = (acc + F[i, 2, c]) * x
+            acc = (acc + F[i, 1, c]) * xm
+            acc = (acc + F[i, 0, c]) * x
+            out[j, c] = ys[i, c] + acc
+
+
 @numba.njit(cache=True)
 def _no_events(t, y, params, out):
     # stands in for ``events`` when there are none (n_events = 0: never called)
@@ -793,7 +825,7 @@ def _no_events(t, y, params, out):
 
 
 class DenseOutput:
-    """The piecewise 7th-order continuous extension of a DOP853 run, evaluated with numpy.
+    """The piecewise 7th-order continuous extension of a DOP853 run (evaluated compiled).
 
     Segment ``i`` covers ``[t[i], t[i+1]]`` with the interpolant of the step that started at
     ``t[i]`` with size ``h[i]`` (after a terminal event the last segment ends before ``t[i] + h[i]``).
@@ -813,11 +845,16 @@ class DenseOutput:
     """
 
     def __init__(self, t: np.ndarray, y: np.ndarray, h: np.ndarray, F: np.ndarray) -> None:
-        self.t = t
-        self.y = y
-        self.h = h
-        self.F = F
+        self.t = np.ascontiguousarray(t, dtype=float)
+        self.y = np.ascontiguousarray(y, dtype=float)
+        self.h = np.ascontiguousarray(h, dtype=float)
+        self.F = np.ascontiguousarray(F, dtype=float)
         self._sign = 1.0 if t.size < 2 or t[-1] >= t[0] else -1.0
+
+    @property
+    def ts(self) -> np.ndarray:
+        """The breakpoints ``t`` (the name of scipy's ``OdeSolution.ts``)."""
+        return self.t
 
     @property
     def t_min(self) -> float:
@@ -837,21 +874,11 @@ class DenseOutput:
         if self.h.size == 0:  # no step taken: only the initial state is known
             out = np.repeat(self.y[:1], tt.size, axis=0).T
             return out[:, 0] if scalar else out
-        # segment i holds t[i] <= t < t[i+1]; the last segment also takes t = t[-1] and beyond
-        idx = np.searchsorted(self._sign * self.t, self._sign * tt, side="right") - 1
-        idx = np.clip(idx, 0, self.h.size - 1)
-        x = ((tt - self.t[idx]) / self.h[idx])[:, None]
-        xm = 1.0 - x
-        F = self.F[idx]  # (k, 7, n)
-        acc = F[:, 6] * x
-        acc = (acc + F[:, 5]) * xm
-        acc = (acc + F[:, 4]) * x
-        acc = (acc + F[:, 3]) * xm
-        acc = (acc + F[:, 2]) * x
-        acc = (acc + F[:, 1]) * xm
-        acc = (acc + F[:, 0]) * x
-        out = (self.y[idx] + acc).T
-        return out[:, 0] if scalar else out
+        # compiled: the numpy form of this loop (a (k, 7, n) gather and Horner's scheme on arrays)
+        # took 4 ms for the 10 000 times of a crossing search on the thesis run, this 0.2 ms
+        out = np.empty((tt.size, self.y.shape[1]))
+        _dense_many(self.t, self.y, self.h, self.F, self._sign, tt, out)
+        return out[0] if scalar else out.T
 
 
 @dataclass

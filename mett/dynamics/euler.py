@@ -105,11 +105,29 @@ def _cm_velocity_horizontal(y: Any, params: tuple) -> tuple:
 
 def _rhs(t: float, y: np.ndarray, params: tuple) -> np.ndarray:
     """Euler form extended by φ and the CM position: y = [θ, θ̇, φ̇, ω3, ν_x, ν_y, φ, x, y]."""
+    return np.array(_extended_core(y, params))
+
+
+def _extended_core(y: Any, params: Any) -> tuple:
     d = _euler_core(y, params)
     vxh, vyh = _cm_velocity_horizontal(y, params)
     sp, cp = np.sin(y[6]), np.cos(y[6])
     # x̂ = (sinφ, −cosφ, 0), ŷ = (cosφ, sinφ, 0)
-    return np.array([*d[:6], y[2], vxh * sp + vyh * cp, -vxh * cp + vyh * sp])
+    return (d[0], d[1], d[2], d[3], d[4], d[5], y[2], vxh * sp + vyh * cp, -vxh * cp + vyh * sp)
+
+
+def _rhs_into(t: float, y: Any, params: Any, out: Any) -> None:
+    """:func:`_rhs` written into ``out``, for the compiled integrator (see
+    :func:`mett.dynamics.gliding._rhs_into`)."""
+    d = _extended_core(y, params)
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8] = d[5], d[6], d[7], d[8]
+
+
+def _events_into(t: float, y: Any, params: Any, out: Any) -> None:
+    """Contact g_n/(m g), then the pole guard of :data:`MODEL` (same order as ``MODEL.guards``)."""
+    out[0] = euler_normal_force(y, params) * (1.0 / (params[0] * params[6]))
+    out[1] = _pole(t, y, params)
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:

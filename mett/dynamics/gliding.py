@@ -123,6 +123,22 @@ def gliding_normal_force(y: np.ndarray, p: tuple) -> Any:
     return _core(y, p)[10]
 
 
+def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
+    """:func:`gliding_rhs` written into ``out``: the form the compiled integrator calls.
+
+    Plain Python on purpose: :mod:`mett.dynamics._kernels` compiles this function and :func:`_core`
+    with numba, so the physics is written once (and ``import mett`` does not import numba).
+    """
+    d = _core(y, p)
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+
+
+def _events_into(t: float, y: Any, p: Any, out: Any) -> None:
+    """The contact event g_n/(m g) (terminal, falling through 0), compiled like :func:`_rhs_into`."""
+    out[0] = _core(y, p)[10] * (1.0 / (p[0] * p[6]))
+
+
 def _initial(state: Any, p: tuple) -> np.ndarray:
     m, R, l, I1, I3, mu, g = p
     v = lab_vectors(state, R, l)

@@ -137,6 +137,11 @@ def cylinder_rhs(t: float, y: np.ndarray, params: tuple) -> np.ndarray:
     params : tuple
         ``(m, R, alpha, I1, I3, mu, g)`` (I3 unused).
     """
+    return np.array(_cylinder_core(y, params))
+
+
+def _cylinder_core(y: Any, params: Any) -> tuple:
+    """(θ̇, θ̈, ν̇_x, Ẋ) of the cylinder; plain arithmetic on floats or equal-shape arrays."""
     m, R, al, I1, I3, mu, g = params
     th, thd, nux = y[0], y[1], y[2]
     s, c = np.sin(th), np.cos(th)
@@ -146,7 +151,18 @@ def cylinder_rhs(t: float, y: np.ndarray, params: tuple) -> np.ndarray:
         mu * gn * nux / (m * I1)
     ) * (I1 + m * R * R * (1.0 - al * c) ** 2)
     # CM velocity along x̂: ν_x − (ω × a)·x̂ = ν_x + R θ̇ (1 − α cos θ)
-    return np.array([thd, thdd, nuxd, nux + R * thd * (1.0 - al * c)])
+    return thd, thdd, nuxd, nux + R * thd * (1.0 - al * c)
+
+
+def _cylinder_rhs_into(t: float, y: Any, params: Any, out: Any) -> None:
+    """:func:`cylinder_rhs` written into ``out``, for the compiled integrator (see
+    :func:`mett.dynamics.gliding._rhs_into`)."""
+    out[0], out[1], out[2], out[3] = _cylinder_core(y, params)
+
+
+def _cylinder_events_into(t: float, y: Any, params: Any, out: Any) -> None:
+    """The contact event g_n/(m g), for the compiled integrator."""
+    out[0] = cylinder_normal_force(y, params) * (1.0 / (params[0] * params[6]))
 
 
 def _cyl_initial(state: Any, p: tuple) -> np.ndarray:

@@ -105,6 +105,19 @@ def rolling_normal_force(y: np.ndarray, p: tuple) -> Any:
     return _core(y, p)[8]
 
 
+def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
+    """:func:`rolling_rhs` written into ``out``, for the compiled integrator (see
+    :func:`mett.dynamics.gliding._rhs_into`)."""
+    d = _core(y, p)
+    out[0], out[1], out[2], out[3] = d[0], d[1], d[2], d[3]
+    out[4], out[5], out[6], out[7] = d[4], d[5], d[6], d[7]
+
+
+def _events_into(t: float, y: Any, p: Any, out: Any) -> None:
+    """The contact event g_n/(m g), for the compiled integrator."""
+    out[0] = _core(y, p)[8] * (1.0 / (p[0] * p[6]))
+
+
 def _initial(state: Any, p: tuple) -> np.ndarray:
     m, R, l, I1, I3, mu, g = p
     if state.nu_x != 0.0 or state.nu_y != 0.0:

@@ -1,8 +1,20 @@
-"""``simulate``: integrate a model of the tippe top from a :class:`~mett.State` (reference path).
+"""``simulate``: integrate a model of the tippe top from a :class:`~mett.State`.
 
-This is the scipy ``solve_ivp`` path (DOP853 by default, with dense output and event location). The
-right-hand sides are pure functions of ``(t, y, params)`` on flat float arrays, so a compiled fast
-path can later replace the integrator without changing this API.
+Two backends run the same models (design.md, "Numerical design"):
+
+* ``backend="compiled"`` (default): the compiled DOP853 of :mod:`.dop853` with the model's compiled
+  right-hand side (:mod:`._kernels`, compiled from the same source as ``Model.rhs``). The contact
+  event g_n = 0 and the model's guards are located inside the compiled loop. User ``events``
+  (Python callables of a :class:`~mett.State`) cannot run there: they are evaluated after the run
+  on the solver's steps and dense output, with scipy's rules (sign change over a step, refined by
+  Brent's method on the interpolant), and a terminal user event truncates the trajectory there.
+  numba is imported on the first compiled run, not by ``import mett``.
+* ``backend="scipy"``: :func:`scipy.integrate.solve_ivp` with the pure-Python right-hand side, any of
+  its methods; the reference path of the tests.
+
+The compiled DOP853 takes the same steps as scipy's (same tableau, error norm and controller), so
+both backends agree to rounding: the thesis run's first θ = π/2 time to ~1e-12 s (tests/
+test_dynamics_compiled.py).
 """
 
 from __future__ import annotations
@@ -31,6 +43,22 @@ MODELS: Mapping[str, Model] = MappingProxyType(
 """The models :func:`simulate` knows, by name (read-only)."""
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
+MAX_STEPS = 1_000_000
+"""The compiled backend stops with status "failed" after this many steps (it keeps every step in
+memory; about 3000 s of the thesis top at rtol = 1e-10, 650 MB of dense output)."""
+_BACKENDS = ("auto", "compiled", "scipy")
+
+# The compiled twin (a name in mett.dynamics._kernels.KERNELS) of each Python right-hand side,
+# keyed by the function it is compiled from: a Model whose rhs is replaced (dataclasses.replace)
+# has no twin, so "auto" runs it on scipy rather than run the compiled physics of another function.
+_COMPILED_TWIN: Mapping[Callable, str] = MappingProxyType(
+    {
+        gliding.gliding_rhs: "gliding",  # also "gliding-hst": the same equations with R = 0
+        rolling.rolling_rhs: "rolling",
+        reduced.cylinder_rhs: "cylinder",
+        euler.MODEL.rhs: "gliding-euler",
+    }
+)
 
 
 def _check_state(state: Any) -> State:
@@ -107,6 +135,7 @@ def simulate(
     t_eval: ArrayLike | None = None,
     events: Sequence[Callable[[float, State], float]] | None = None,
     method: str = "DOP853",
+    backend: str = "auto",
     max_step: float = math.inf,
     l: float | None = None,
 ) -> Trajectory:
@@ -147,8 +176,21 @@ def simulate(
         ``event(t, state) -> float`` with a scalar :class:`~mett.State`; optional attributes
         ``terminal`` and ``direction`` as in :func:`scipy.integrate.solve_ivp`. Their times are
         in ``Trajectory.t_events``. A terminal user event ends the run with status "completed".
+        With the compiled backend they are evaluated after the run, on the same steps and dense
+        output scipy would use (so the times agree), and the trajectory is cut at the first
+        terminal one.
     method : str, default "DOP853"
-        Integrator of :func:`scipy.integrate.solve_ivp`.
+        Integration method: DOP853 on either backend, or another method of
+        :func:`scipy.integrate.solve_ivp` ("RK45", "Radau", …) on the scipy backend.
+    backend : {"auto", "compiled", "scipy"}, default "auto"
+        ``"compiled"``: mett's numba DOP853 with the model's compiled right-hand side (the first
+        call in a process loads it from numba's cache, about 0.5 s, or compiles it, a few seconds
+        once per installation); DOP853 only. ``"scipy"``: :func:`scipy.integrate.solve_ivp` with
+        the Python right-hand side, the reference; 30-50× slower. With DOP853 both take the same
+        steps and agree to rounding. ``"auto"``: compiled for DOP853 (every model has a compiled
+        twin), scipy for other methods. ``Trajectory.backend`` says which ran. The compiled
+        backend keeps every step in memory and stops with status "failed" after
+        :data:`MAX_STEPS` steps.
     max_step : float, default inf
         Largest step (s).
     l : float, optional
@@ -165,7 +207,8 @@ def simulate(
     ------
     ValueError
         Bad input: non-finite state or θ outside [0, π], ``t_end <= 0``, ``rtol`` outside (0, 1),
-        bad ``atol``/``t_eval``, an unknown model or method, or a state the model cannot represent.
+        bad ``atol``/``t_eval``, an unknown model, method or backend, ``backend="compiled"`` with a
+        method other than DOP853, or a state the model cannot represent.
     TypeError
         If ``top`` is not a :class:`~mett.TippeTop`.
 
@@ -189,6 +232,22 @@ def simulate(
     t_eval_arr = _check_t_eval(t_eval, t_end)
     if method not in _METHODS:
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
+    if backend not in _BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    mdl = MODELS[model]
+    kernel = _COMPILED_TWIN.get(mdl.rhs)
+    if backend == "auto":
+        backend = "compiled" if method == "DOP853" and kernel is not None else "scipy"
+    elif backend == "compiled":
+        if method != "DOP853":
+            raise ValueError(
+                f"the compiled backend implements method 'DOP853' only; got method {method!r} "
+                "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
+            )
+        if kernel is None:
+            raise ValueError(
+                f"model {model!r} has no compiled right-hand side; use backend='scipy'"
+            )
     max_step = float(max_step)
     if not max_step > 0.0:
         raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
@@ -204,39 +263,64 @@ def simulate(
         if not callable(ev):
             raise ValueError(f"events must be callables event(t, state) -> float; got {ev!r}")
 
-    mdl = MODELS[model]
     params = mdl.params(top, options)
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
     atol_arr = _check_atol(atol, y0.size)
     if atol_arr is None:
         atol_arr = rtol * np.asarray(mdl.scales(y0, params), dtype=float)
 
-    def result(t, Y, sol, status, message, **kw) -> Trajectory:
+    run = _Run(mdl, top, params, y0, backend)
+    gn0 = float(mdl.normal_force(y0, params))
+    if not math.isfinite(gn0):
+        return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
+    if gn0 <= 0.0:
+        msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
+        return run.at_start("contact_lost", msg, t_contact_lost=0.0)
+    if backend == "compiled":
+        return _solve_compiled(run, kernel, t_end, rtol, atol_arr, t_eval_arr, max_step, events)
+    return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method)
+
+
+class _Run:
+    """What both backends share: the model, its parameters, and how to build the Trajectory."""
+
+    def __init__(
+        self, mdl: Model, top: TippeTop, params: tuple, y0: np.ndarray, backend: str
+    ) -> None:
+        self.mdl, self.top, self.params, self.y0, self.backend = mdl, top, params, y0, backend
+
+    def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Trajectory:
         return Trajectory(
             t=t,
             states=Y,
-            model=mdl,
-            top=top,
-            params=params,
+            model=self.mdl,
+            top=self.top,
+            params=self.params,
             solution=sol,
             status=status,
             message=message,
+            backend=self.backend,
             **kw,
         )
 
-    gn0 = float(mdl.normal_force(y0, params))
-    if not math.isfinite(gn0):
-        return result([0.0], y0, _Constant(0.0, y0), "failed", f"normal force at t = 0 is {gn0!r}")
-    if gn0 <= 0.0:
-        return result(
-            [0.0],
-            y0,
-            _Constant(0.0, y0),
-            "contact_lost",
-            f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive",
-            t_contact_lost=0.0,
-        )
+    def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
+        """A run that ends at t = 0 (contact lost or failure before the first step)."""
+        return self.result([0.0], self.y0, _Constant(0.0, self.y0), status, message, **kw)
 
+    def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
+        msg = f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
+        return self.result(t_out, Y, sol, "contact_lost", msg, t_contact_lost=float(t_ev), **kw)
+
+    def guard(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
+        msg = f"{self.mdl.guards[index][2]} (t = {t_ev:.9g} s)"
+        return self.result(t_out, Y, sol, "failed", msg, **kw)
+
+
+def _solve_scipy(
+    run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method
+) -> Trajectory:
+    """The reference backend: :func:`scipy.integrate.solve_ivp` with the Python right-hand side."""
+    mdl, params, y0 = run.mdl, run.params, run.y0
     rhs, nan = mdl.rhs, np.full(y0.size, np.nan)
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
@@ -247,7 +331,7 @@ def simulate(
         except ArithmeticError:
             return nan
 
-    weight = 1.0 / (top.m * top.g)
+    weight = 1.0 / (run.top.m * run.top.g)
 
     def contact(t: float, y: np.ndarray) -> float:
         try:
@@ -284,7 +368,7 @@ def simulate(
                 max_step=max_step,
             )
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
-        return result([0.0], y0, _Constant(0.0, y0), "failed", f"integration failed: {exc}")
+        return run.at_start("failed", f"integration failed: {exc}")
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
@@ -307,11 +391,10 @@ def simulate(
         bad = int(np.argmax(~np.all(np.isfinite(Y), axis=0)))
         t_bad = float(t_out[bad])
         t_out, Y = t_out[: max(bad, 1)], Y[:, : max(bad, 1)]
-        return result(t_out, Y, sol, "failed", f"non-finite state at t = {t_bad:.9g} s", **kw)
+        return run.result(t_out, Y, sol, "failed", f"non-finite state at t = {t_bad:.9g} s", **kw)
     if res.status == -1:
-        return result(
-            t_out, Y, sol, "failed", f"integrator failed at t = {t_stop:.9g} s: {res.message}", **kw
-        )
+        msg = f"integrator failed at t = {t_stop:.9g} s: {res.message}"
+        return run.result(t_out, Y, sol, "failed", msg, **kw)
     if res.status == 1:
         # the terminating event is the terminal event with the latest recorded time
         last = [
@@ -321,12 +404,136 @@ def simulate(
         ]
         t_ev, idx = max(last)
         if idx == 0:
-            kw["t_contact_lost"] = float(t_ev)
-            msg = f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
-            return result(t_out, Y, sol, "contact_lost", msg, **kw)
+            return run.contact_lost(t_out, Y, sol, t_ev, **kw)
         if idx < n_internal:
-            msg = f"{mdl.guards[idx - 1][2]} (t = {t_ev:.9g} s)"
-            return result(t_out, Y, sol, "failed", msg, **kw)
+            return run.guard(t_out, Y, sol, idx - 1, t_ev, **kw)
         msg = f"stopped by terminal event {idx - n_internal} at t = {t_ev:.9g} s"
-        return result(t_out, Y, sol, "completed", msg, **kw)
-    return result(t_out, Y, sol, "completed", f"reached t_end = {t_end:g} s", **kw)
+        return run.result(t_out, Y, sol, "completed", msg, **kw)
+    return run.result(t_out, Y, sol, "completed", f"reached t_end = {t_end:g} s", **kw)
+
+
+def _solve_compiled(
+    run: _Run, kernel: str, t_end, rtol, atol_arr, t_eval_arr, max_step, events
+) -> Trajectory:
+    """The default backend: compiled DOP853 (:mod:`.dop853`) with the model's compiled kernel."""
+    # imported here: numba (and the compiled code) only when a compiled run is asked for
+    from . import _kernels, dop853
+
+    mdl, params = run.mdl, run.params
+    rhs, ev_fn = _kernels.get(kernel)
+    directions = [-1.0] + [direction for _, direction, _ in mdl.guards]
+    sol = dop853.solve(
+        rhs,
+        (0.0, t_end),
+        run.y0,
+        params,
+        rtol=rtol,
+        atol=atol_arr,
+        events=ev_fn,
+        direction=directions,
+        terminal=[True] * len(directions),
+        max_step=max_step,
+        max_steps=MAX_STEPS,
+    )
+    dense = sol.dense
+    t_stop = float(sol.t_steps[-1])
+    if sol.status < 0:
+        base = dop853.STATUS_MESSAGES[sol.status]
+        if sol.status == dop853.MAX_STEPS:
+            base = f"maximum number of steps ({MAX_STEPS}) reached"
+        failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
+        if dense.h.size == 0:  # not a single step: nothing to interpolate
+            return run.at_start("failed", failure, nfev=sol.nfev)
+    stopped_by = int(sol.event_index[-1]) if sol.status == dop853.TERMINAL_EVENT else None
+
+    kw: dict[str, Any] = {"nfev": sol.nfev, "t_events": []}
+    user_stop = None
+    if events:
+        try:
+            t_user, t_term, k_term = _user_events_after_run(events, run, dense)
+        except (ArithmeticError, ValueError) as exc:  # as solve_ivp's failures on scipy
+            return run.at_start("failed", f"integration failed: {exc}")
+        if t_term is not None and t_term <= t_stop:
+            # the run would have stopped here: cut it, and its dense output, at the event
+            dense, t_stop, user_stop = _truncate(dense, t_term), t_term, k_term
+        kw["t_events"] = [te[te <= t_stop] for te in t_user]
+
+    if t_eval_arr is None:
+        t_out, Y = dense.t, dense.y.T
+    else:
+        t_out = t_eval_arr[t_eval_arr <= t_stop]
+        if t_out.size == 0 or t_out[-1] < t_stop:
+            t_out = np.append(t_out[t_out < t_stop], t_stop)
+        Y = dense(t_out).reshape(run.y0.size, -1)
+
+    if user_stop is not None:
+        msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
+        return run.result(t_out, Y, dense, "completed", msg, **kw)
+    if stopped_by == 0:
+        return run.contact_lost(t_out, Y, dense, float(sol.event_t[-1]), **kw)
+    if stopped_by is not None:
+        return run.guard(t_out, Y, dense, stopped_by - 1, float(sol.event_t[-1]), **kw)
+    if sol.status < 0:
+        return run.result(t_out, Y, dense, "failed", failure, **kw)
+    return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
+
+
+def _user_events_after_run(
+    events: list[Callable], run: _Run, dense: Any
+) -> tuple[list[np.ndarray], float | None, int]:
+    """Zeros of the user events along a finished compiled run, with scipy's rules.
+
+    Each event is evaluated at the solver's steps; a sign change over a step (allowed by the
+    event's ``direction``; a zero at the start of a step belongs to the previous step) is refined
+    by Brent's method on that step's interpolant, as ``solve_ivp`` does during the run. Returns the
+    times per event, and the time and index of the first terminal zero (None, -1 if none).
+    """
+    from scipy.optimize import brentq
+
+    ts = dense.t
+    # the States at the steps, derived in one vectorised call and shared by all events
+    series = run.mdl.derive(dense.y.T, run.params)
+    theta = np.clip(series["theta"], 0.0, math.pi)
+    states = [
+        State(theta=th, thetadot=a, phidot=b, omega3=c, nu_x=d, nu_y=e)
+        for th, a, b, c, d, e in zip(
+            theta.tolist(),
+            *(series[k].tolist() for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
+            strict=True,
+        )
+    ]
+    eps = np.finfo(float).eps
+    t_user: list[np.ndarray] = []
+    t_term, k_term = None, -1
+    for k, ev in enumerate(events):
+        g = np.array([float(ev(t, st)) for t, st in zip(ts.tolist(), states, strict=True)])
+        direction = np.sign(float(getattr(ev, "direction", 0.0)))
+        up = (g[:-1] < 0.0) & (g[1:] >= 0.0)
+        down = (g[:-1] > 0.0) & (g[1:] <= 0.0)
+        steps = np.flatnonzero((up & (direction >= 0)) | (down & (direction <= 0)))
+        fn = _user_event(ev, run.mdl, run.params)
+        roots = np.empty(steps.size)
+        for j, i in enumerate(steps):
+            a, b, ga, gb = ts[i], ts[i + 1], g[i], g[i + 1]
+
+            def h(t: float, fn=fn, a=a, b=b, ga=ga, gb=gb) -> float:
+                # the step values at the ends: the interpolant's end value can differ by an ulp
+                # and must not lose the bracket
+                return ga if t == a else gb if t == b else fn(t, dense(t))
+
+            roots[j] = brentq(h, a, b, xtol=4 * eps, rtol=4 * eps)
+        t_user.append(roots)
+        if getattr(ev, "terminal", False) and roots.size and (t_term is None or roots[0] < t_term):
+            t_term, k_term = float(roots[0]), k
+    return t_user, t_term, k_term
+
+
+def _truncate(dense: Any, t_stop: float) -> Any:
+    """The dense output of a compiled run cut at ``t_stop`` (inside its last kept step)."""
+    from .dop853 import DenseOutput
+
+    k = int(np.searchsorted(dense.t, t_stop, side="left"))  # dense.t[k-1] < t_stop <= dense.t[k]
+    k = max(k, 1)
+    t = np.append(dense.t[:k], t_stop)
+    y = np.vstack([dense.y[:k], dense(t_stop)[None, :]])
+    return DenseOutput(t, y, dense.h[:k], dense.F[:k])

@@ -9,8 +9,7 @@ All series are computed once, vectorised, from the model's state after the run.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -23,7 +22,7 @@ if TYPE_CHECKING:
     from ..top import TippeTop
     from ._model import Model
 
-__all__ = ["SERIES", "STATUSES", "Trajectory"]
+__all__ = ["SERIES", "STATUSES", "DenseSolution", "Trajectory"]
 
 STATUSES = ("completed", "contact_lost", "failed")
 
@@ -49,6 +48,21 @@ SERIES = (
 # Sub-steps per solver step when bracketing crossings on the dense output: a crossing pair inside
 # one step (a shallow extremum) is still found unless it lies within a quarter step.
 _CROSSING_SUBDIVISION = 4
+
+
+class DenseSolution(Protocol):
+    """What a :class:`Trajectory` needs of the integrator's continuous solution.
+
+    Both backends provide one: scipy's ``OdeSolution`` and the compiled integrator's
+    :class:`mett.dynamics.dop853.DenseOutput` (and ``_Constant`` for a run that never left t = 0).
+    """
+
+    ts: np.ndarray
+    """Breakpoints of the piecewise interpolant (the solver's steps), increasing."""
+
+    def __call__(self, t: Any) -> np.ndarray:
+        """State(s) at ``t``: shape (n,) for a scalar time, (n, k) for k times."""
+        ...
 
 
 class _Constant:
@@ -101,6 +115,8 @@ class Trajectory:
         The model's own state vectors at ``t``, shape (n_state, len(t)).
     nfev : int
         Right-hand-side evaluations.
+    backend : str
+        ``"compiled"`` or ``"scipy"``: which integrator ran (see :func:`~mett.simulate`).
 
     Notes
     -----
@@ -134,12 +150,13 @@ class Trajectory:
         model: Model,
         top: TippeTop,
         params: tuple,
-        solution: Callable[[Any], np.ndarray],
+        solution: DenseSolution,
         status: str,
         message: str,
         t_contact_lost: float | None = None,
         t_events: list[np.ndarray] | None = None,
         nfev: int = 0,
+        backend: str = "scipy",
     ) -> None:
         if status not in STATUSES:
             raise ValueError(f"status must be one of {STATUSES}; got {status!r}")
@@ -153,6 +170,7 @@ class Trajectory:
         self.t_contact_lost = t_contact_lost
         self.t_events = [] if t_events is None else list(t_events)
         self.nfev = int(nfev)
+        self.backend = backend
         self._model = model
         self._sol = solution
         series = model.derive(self.states, params)
