@@ -28,7 +28,7 @@ from collections.abc import Callable
 
 import numba
 
-from . import euler, gliding, reduced, rolling
+from . import euler, gliding, reduced, rolling, routhian
 
 __all__ = ["KERNELS", "get"]
 
@@ -59,6 +59,7 @@ KERNELS: dict[str, tuple[Callable, Callable]] = {
     "rolling": (_jit(rolling._rhs_into), _jit(rolling._events_into)),
     "cylinder": (_jit(reduced._cylinder_rhs_into), _jit(reduced._cylinder_events_into)),
     "gliding-euler": (_jit(euler._rhs_into), _jit(euler._events_into)),
+    "frictionless-routhian": (_jit(routhian._rhs_into), _jit(routhian._events_into)),
 }
 """``Model.kernel`` → (rhs, events) numba dispatchers; compiled (or loaded from the cache) lazily,
 at their first use."""

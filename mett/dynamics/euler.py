@@ -170,7 +170,8 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
 
 
 def _pole(t: float, y: np.ndarray, p: tuple) -> float:
-    return abs(np.sin(y[0])) - POLE_GUARD
+    # signed: a step that jumps across θ = 0 or π changes its sign (|sin θ| would not)
+    return np.sin(y[0]) - POLE_GUARD
 
 
 MODEL = Model(

@@ -31,14 +31,24 @@ from scipy.integrate import solve_ivp
 from .. import _validate
 from ..state import State
 from ..top import TippeTop
-from . import euler, gliding, reduced, rolling
+from . import euler, gliding, reduced, rolling, routhian
 from ._model import Model
 from .trajectory import Trajectory, _Constant
 
 __all__ = ["MODELS", "simulate"]
 
 MODELS: Mapping[str, Model] = MappingProxyType(
-    {m.name: m for m in (gliding.MODEL, rolling.MODEL, reduced.HST, reduced.CYLINDER, euler.MODEL)}
+    {
+        m.name: m
+        for m in (
+            gliding.MODEL,
+            rolling.MODEL,
+            reduced.HST,
+            reduced.CYLINDER,
+            euler.MODEL,
+            routhian.MODEL,
+        )
+    }
 )
 """The models :func:`simulate` knows, by name (read-only)."""
 
@@ -57,6 +67,7 @@ _COMPILED_TWIN: Mapping[Callable, str] = MappingProxyType(
         rolling.rolling_rhs: "rolling",
         reduced.cylinder_rhs: "cylinder",
         euler.MODEL.rhs: "gliding-euler",
+        routhian.routhian_rhs: "frictionless-routhian",
     }
 )
 
@@ -138,6 +149,7 @@ def simulate(
     backend: str = "auto",
     max_step: float = math.inf,
     l: float | None = None,
+    vertical_cm: bool | None = None,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
 
@@ -162,6 +174,8 @@ def simulate(
           (theory.md §10); needs such a state.
         * ``"gliding-euler"``: the gliding top in Euler angles (thesis eqs (10)–(15)), a cross-check
           of "gliding"; stops with status "failed" near sin θ = 0 where it is singular.
+        * ``"frictionless-routhian"``: the corrected seed-000 Routhian equations (no friction;
+          ``vertical_cm=False`` for the printed approximation); equals "gliding" at μ = 0.
     rtol : float, default 1e-10
         Relative tolerance, in (0, 1). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
@@ -195,6 +209,10 @@ def simulate(
         Largest step (s).
     l : float, optional
         Tip distance of the ``"gliding-hst"`` model (m), > 0; not allowed for other models.
+    vertical_cm : bool, optional
+        ``"frictionless-routhian"`` only: keep the vertical kinetic energy of the centre of mass
+        (True, the default: the corrected seed-000 equations, equal to ``"gliding"`` at μ = 0) or
+        drop it as the printed Routhian does (False, an approximation).
 
     Returns
     -------
@@ -258,6 +276,12 @@ def simulate(
                 f"l (the tip distance) applies only to model 'gliding-hst'; got model {model!r}"
             )
         options["l"] = _validate.positive_scalar("l", l)
+    if vertical_cm is not None:
+        if model != "frictionless-routhian":
+            raise ValueError(
+                f"vertical_cm applies only to model 'frictionless-routhian'; got model {model!r}"
+            )
+        options["vertical_cm"] = bool(vertical_cm)
     events = list(events or [])
     for ev in events:
         if not callable(ev):
