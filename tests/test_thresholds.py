@@ -25,7 +25,9 @@ def _euler_rhs_residual(top, th, phidot, omega3):
     )
     thdd = (s / I1) * (I1 * phidot**2 * c - I3 * omega3 * phidot - R * a * gn)
     nuxd = (R * s / I1) * (
-        phidot * omega3 * (I3 * (1 - a * c) - I1) + gn * R * a * (1 - a * c) - I1 * a * phidot**2 * s * s
+        phidot * omega3 * (I3 * (1 - a * c) - I1)
+        + gn * R * a * (1 - a * c)
+        - I1 * a * phidot**2 * s * s
     )
     return thdd, nuxd, gn
 
@@ -88,7 +90,9 @@ def test_min_spin_for_inversion(thesis_top):
     lam_at = mett.jellett(thesis_top, mett.State(theta=0.1, omega3=w))
     assert lam_at == pytest.approx(thesis_top.lambda_thres, rel=1e-12)
     # a precession in the spin's sense lowers the spin needed
-    assert min_spin_for_inversion(thesis_top, 0.5, phidot0=5.0) < min_spin_for_inversion(thesis_top, 0.5)
+    assert min_spin_for_inversion(thesis_top, 0.5, phidot0=5.0) < min_spin_for_inversion(
+        thesis_top, 0.5
+    )
     with pytest.raises(ValueError, match=r"theta0 must lie in \[0, arccos\(alpha\)\)"):
         min_spin_for_inversion(thesis_top, 1.4)
 
