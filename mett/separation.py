@@ -399,15 +399,15 @@ def _turning_point(w: _Well, pole: float, zm: float) -> float:
     return optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
 
 
-def _conditioning(top: TippeTop, E: float, D: float, lam: float, depth: float) -> float:
+def _conditioning(top: TippeTop, E, D, lam, depth):
     """Relative uncertainty of a band's width caused by rounding (E, D, λ) to doubles.
 
     The depth Ẽ − V_min is a difference of terms of size S = |Ẽ| + D²/(2 I1) + m λ²/(2 I1 I3);
     rounding each input by ε changes it by ~4εS, and the turning points move by about that fraction
     of the depth times the width.
     """
-    S = abs(E) + D * D / (2.0 * top.I1) + top.m * lam * lam / (2.0 * top.I1 * top.I3)
-    return 64.0 * _EPS * S / max(depth, 1e-300)
+    S = np.abs(E) + D * D / (2.0 * top.I1) + top.m * lam * lam / (2.0 * top.I1 * top.I3)
+    return 64.0 * _EPS * S / np.maximum(depth, 1e-300)
 
 
 def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
@@ -458,64 +458,9 @@ def _broadcast(E, D, lam, z0=None):
     return np.broadcast_arrays(E, D, lam, z0)
 
 
-def band(
-    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
-) -> Band:
-    """Classify the rolling θ-motion with integrals (Ẽ, D, λ) and find its band.
-
-    Parameters
-    ----------
-    top : TippeTop
-    E, D, lam : array_like
-        Modified energy Ẽ (= E when rolling), Routh and Jellett integrals; broadcast together.
-    z0 : array_like, optional
-        A value of cos θ the motion passes through (e.g. the start), to pick the band when V has
-        several wells. Without it, several admissible wells raise ``ValueError``.
-
-    Returns
-    -------
-    Band
-        Fields are arrays of the broadcast shape (floats for scalar input).
-    """
-    E, D, lam, z0 = _broadcast(E, D, lam, z0)
-    out = [
-        _band_scalar(top, float(e), float(dd), float(la), None if z0 is None else float(zz))
-        for e, dd, la, zz in zip(
-            E.ravel(),
-            D.ravel(),
-            lam.ravel(),
-            [None] * E.size if z0 is None else z0.ravel(),
-            strict=True,
-        )
-    ]
-    if E.ndim == 0:
-        return out[0]
-    fields = list(zip(*out, strict=True))
-    return Band(
-        np.array(fields[0], dtype=object).reshape(E.shape),
-        *(np.array(col, dtype=float).reshape(E.shape) for col in fields[1:]),
-    )
-
-
-def classify_motion(top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray | str:
-    """ "nutation", "steady" (bottom of the well) or "none" (no admissible motion); see :func:`band`."""
-    return band(top, E, D, lam).kind
-
-
-def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
-    """Right-hand side of ż² = f(z) = (1 − z²)(Ẽ − V(z, D, λ))/g(z) (theory.md §4).
-
-    Evaluated as P(z)/g(z) with the exact energy shift (module docstring), so it is finite at the
-    poles and accurate where Ẽ − V is a small difference of large numbers.
-    """
-    z = _validate.cos_theta(z)
-    E, D, lam, _ = _broadcast(E, D, lam)
-    z, E, D, lam = np.broadcast_arrays(z, E, D, lam)
-    out = np.empty(z.shape)
-    for idx in np.ndindex(z.shape):
-        w = _Well(top, float(E[idx]), float(D[idx]), float(lam[idx]))
-        out[idx] = w.P(float(z[idx]))
-    return out / g(top, z)
+# --- the scalar reference implementation --------------------------------------------------
+# One element at a time with scipy's brentq: the public functions below use the array path and
+# come here only for elements it passes on (see _solve); the tests compare the two paths.
 
 
 def _admissible(top: TippeTop, E, D, lam, z0) -> tuple[Band, _Well]:
@@ -541,40 +486,6 @@ def _map(fn, E, D, lam, z0):
     if E.ndim == 0:
         return float(arr[0]) if arr.ndim == 1 else arr[0]
     return arr.reshape(E.shape + arr.shape[1:])
-
-
-def turning_points(
-    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
-) -> np.ndarray:
-    """Turning points (z_low, z_high) of the rolling θ-motion: the roots of Ẽ = V(z, D, λ).
-
-    Returns
-    -------
-    ndarray
-        Shape ``broadcast_shape + (2,)``: ``[..., 0] = z_low <= [..., 1] = z_high``. For steady
-        precession both equal the minimum of V. A pole is returned when the band reaches it (only
-        possible when N vanishes there, i.e. D = D0 or D1).
-
-    Raises
-    ------
-    ValueError
-        If (E, D, λ) admits no motion (E below the minimum of V), or on bad input.
-
-    Examples
-    --------
-    >>> import mett
-    >>> top = mett.presets.get("rutstam2013")
-    >>> s = mett.State(theta=1.0, omega3=100.0, phidot=5.0)
-    >>> E, D, lam = mett.energy(top, s), mett.routh(top, s), mett.jellett(top, s)
-    >>> mett.turning_points(top, E, D, lam).round(6)
-    array([0.540302, 0.613785])
-    """
-
-    def one(E, D, lam, z0):
-        b, _ = _admissible(top, E, D, lam, z0)
-        return (b.z_low, b.z_high)
-
-    return _map(one, E, D, lam, z0)
 
 
 def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
@@ -603,6 +514,15 @@ def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
     # No sign change next to z_t: a wall within one ulp of a pole (N ≈ 0, a vanishing spin; see
     # _turning_point), not a root of P.
     return x0, False
+
+
+def _gauss_sum(values):
+    """Σ weights · values over the last axis (the u nodes).
+
+    Summed the same way for one element and for a row of many (numpy's pairwise sum along a
+    contiguous row), so the array path and the scalar path agree to the last bit.
+    """
+    return np.sum(values * _U_WEIGHTS, axis=-1)
 
 
 def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
@@ -642,10 +562,10 @@ def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float
                 integrand = np.sqrt(g(top, z) / R)
         if integrand is None:  # degenerate geometry (e.g. a wall one ulp from a pole)
             integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P_offset(x))
-    T = 2.0 * float(np.dot(_U_WEIGHTS, integrand))
+    T = 2.0 * float(_gauss_sum(integrand))
     if weight_fn is None:
         return T, math.nan
-    return T, 2.0 * float(np.dot(_U_WEIGHTS, integrand * weight_fn(z)))
+    return T, 2.0 * float(_gauss_sum(integrand * weight_fn(z)))
 
 
 def _small_oscillation_omega(top: TippeTop, b: Band, w: _Well) -> float:
@@ -656,6 +576,667 @@ def _small_oscillation_omega(top: TippeTop, b: Band, w: _Well) -> float:
         return math.sqrt(2.0 * slope / float(g(top, zm)))
     curv = float(d2V_dz2(top, zm, w.D, w.lam))
     return math.sqrt((1.0 - zm * zm) * curv / (2.0 * float(g(top, zm))))
+
+
+def _phidot(top: TippeTop, w: _Well, z):
+    """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (theory.md §4)."""
+    return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(d(top, z)))
+
+
+def _map(fn, E, D, lam, z0):
+    E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    zz = [None] * E.size if z0 is None else z0.ravel()
+    res = [
+        fn(float(e), float(dd), float(la), None if z is None else float(z))
+        for e, dd, la, z in zip(E.ravel(), D.ravel(), lam.ravel(), zz, strict=True)
+    ]
+    arr = np.array(res, dtype=float)
+    if E.ndim == 0:
+        return float(arr[0]) if arr.ndim == 1 else arr[0]
+    return arr.reshape(E.shape + arr.shape[1:])
+
+
+def _reference_band(top: TippeTop, E, D, lam, *, z0=None) -> Band:
+    """:func:`band`, one element at a time (scalar reference implementation)."""
+    E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    out = [
+        _band_scalar(top, float(e), float(dd), float(la), None if z0 is None else float(zz))
+        for e, dd, la, zz in zip(
+            E.ravel(),
+            D.ravel(),
+            lam.ravel(),
+            [None] * E.size if z0 is None else z0.ravel(),
+            strict=True,
+        )
+    ]
+    if E.ndim == 0:
+        return out[0]
+    fields = list(zip(*out, strict=True))
+    return Band(
+        np.array(fields[0], dtype=object).reshape(E.shape),
+        *(np.array(col, dtype=float).reshape(E.shape) for col in fields[1:]),
+    )
+
+
+def _reference_f(top: TippeTop, z, E, D, lam) -> np.ndarray:
+    """:func:`f`, one element at a time (scalar reference implementation)."""
+    z = _validate.cos_theta(z)
+    E, D, lam, _ = _broadcast(E, D, lam)
+    z, E, D, lam = np.broadcast_arrays(z, E, D, lam)
+    out = np.empty(z.shape)
+    for idx in np.ndindex(z.shape):
+        w = _Well(top, float(E[idx]), float(D[idx]), float(lam[idx]))
+        out[idx] = w.P(float(z[idx]))
+    return out / g(top, z)
+
+
+def _reference_turning_points(top: TippeTop, E, D, lam, *, z0=None) -> np.ndarray:
+    """:func:`turning_points`, one element at a time (scalar reference implementation)."""
+    return _map(lambda *args: _turning_points_one(top, *args), E, D, lam, z0)
+
+
+def _reference_nutation_period(top: TippeTop, E, D, lam, *, z0=None) -> np.ndarray:
+    """:func:`nutation_period`, one element at a time (scalar reference implementation)."""
+    return _map(lambda *args: _period_one(top, *args), E, D, lam, z0)
+
+
+def _reference_mean_precession(top: TippeTop, E, D, lam, *, z0=None) -> np.ndarray:
+    """:func:`mean_precession`, one element at a time (scalar reference implementation)."""
+    return _map(lambda *args: _precession_one(top, *args), E, D, lam, z0)
+
+
+def _turning_points_one(top: TippeTop, E, D, lam, z0) -> tuple[float, float]:
+    b, _ = _admissible(top, E, D, lam, z0)
+    return (b.z_low, b.z_high)
+
+
+def _period_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
+    if b is None:
+        b, w = _admissible(top, E, D, lam, z0)
+    else:
+        w = _Well(top, E, D, lam)
+        w.set_reference(b.z_min)
+    if b.kind == "steady":
+        return 2.0 * math.pi / _small_oscillation_omega(top, b, w)
+    return _quadrature(top, b, w)[0]
+
+
+def _precession_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
+    if b is None:
+        b, w = _admissible(top, E, D, lam, z0)
+    else:
+        w = _Well(top, E, D, lam)
+        w.set_reference(b.z_min)
+    if b.kind == "steady":
+        if abs(b.z_min) == 1.0:
+            return math.nan  # the precession angle of a vertical axis is undefined
+        return float(_phidot(top, w, b.z_min))
+    T, integral = _quadrature(top, b, w, lambda z: _phidot(top, w, z))
+    return integral / T
+
+
+# --- the array path ---------------------------------------------------------------------------
+
+_CHUNK = 512  # elements per block of the well search: keeps the (block × 401) grid in cache
+_NONE, _STEADY, _NUTATION = 0, 1, 2
+_KINDS = np.array(["none", "steady", "nutation"], dtype=object)
+_SIN_U, _COS_U = np.sin(_U_NODES), np.cos(_U_NODES)
+_HALF = _N_QUAD // 2  # nodes u <= 0 (lower half of the band) come first
+
+
+def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter: int = 100):
+    """scipy.optimize.brentq for arrays of brackets [a, b], iterate for iterate.
+
+    ``fun(x, k)`` evaluates the function of the elements with indices ``k`` (into ``a``) at ``x``.
+    The arithmetic and the branches are those of scipy's C implementation, so each element gets
+    the root scipy would return for it; converged elements drop out of the evaluations.
+
+    Returns
+    -------
+    root, ok : ndarray
+        ``ok`` is False (root NaN) where f(a) and f(b) have the same sign (scipy raises there).
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n = a.size
+    root, ok = np.full(n, np.nan), np.ones(n, dtype=bool)
+    if n == 0:
+        return root, ok
+    ids = np.arange(n)
+    xp, xc = a.copy(), b.copy()
+    fp, fc = fun(xp, ids), fun(xc, ids)
+    at_a = fp == 0.0
+    at_b = (fc == 0.0) & ~at_a
+    root[at_a], root[at_b] = xp[at_a], xc[at_b]
+    same = ~(at_a | at_b) & (np.signbit(fp) == np.signbit(fc))
+    ok[same] = False
+    keep = ~(at_a | at_b | same)
+    ids, xp, xc, fp, fc = ids[keep], xp[keep], xc[keep], fp[keep], fc[keep]
+    xb, fb, sp, sc = (np.zeros(ids.size) for _ in range(4))
+    for _ in range(maxiter):
+        if ids.size == 0:
+            break
+        new = (fp != 0.0) & (fc != 0.0) & (np.signbit(fp) != np.signbit(fc))
+        xb, fb = np.where(new, xp, xb), np.where(new, fp, fb)
+        s = xc - xp
+        sp, sc = np.where(new, s, sp), np.where(new, s, sc)
+        swap = np.abs(fb) < np.abs(fc)
+        xp, xc, xb = np.where(swap, xc, xp), np.where(swap, xb, xc), np.where(swap, xc, xb)
+        fp, fc, fb = np.where(swap, fc, fp), np.where(swap, fb, fc), np.where(swap, fc, fb)
+        delta = (xtol + rtol * np.abs(xc)) / 2
+        sbis = (xb - xc) / 2
+        done = (fc == 0.0) | (np.abs(sbis) < delta)
+        if np.any(done):
+            root[ids[done]] = xc[done]
+            keep = ~done
+            ids, xp, xc, xb, fp, fc, fb, sp, sc, delta, sbis = (
+                v[keep] for v in (ids, xp, xc, xb, fp, fc, fb, sp, sc, delta, sbis)
+            )
+            if ids.size == 0:
+                break
+        with np.errstate(all="ignore"):  # only the branch each element takes is used
+            interpolate = -fc * (xc - xp) / (fc - fp)
+            dpre = (fp - fc) / (xp - xc)
+            dblk = (fb - fc) / (xb - xc)
+            extrapolate = -fc * (fb * dblk - fp * dpre) / (dblk * dpre * (fb - fp))
+            stry = np.where(xp == xb, interpolate, extrapolate)
+            short = (np.abs(sp) > delta) & (np.abs(fc) < np.abs(fp))
+            short &= 2 * np.abs(stry) < np.minimum(np.abs(sp), 3 * np.abs(sbis) - delta)
+        sp, sc = np.where(short, sc, sbis), np.where(short, stry, sbis)
+        xp, fp = xc, fc
+        xc = np.where(np.abs(sc) > delta, xc + sc, xc + np.where(sbis > 0, delta, -delta))
+        fc = fun(xc, ids)
+    root[ids] = xc  # not converged in maxiter (scipy raises): the last iterate
+    return root, ok
+
+
+class _Wells:
+    """:class:`_Well` for n elements at once: the same arithmetic, operation for operation.
+
+    Per-element quantities are 1-d arrays. :meth:`sub` selects elements, :meth:`col` turns the
+    per-element arrays into columns that broadcast against (n, k) arrays of z (grid, nodes). A
+    reference (:meth:`set_reference`) is interior for all elements of an instance or at a pole
+    for all.
+    """
+
+    _PER_ELEMENT = ("E", "D", "lam", "Es", "zr", "sqd_r", "dd_r", "w_r", "N_r", "depth_r", "A_r")
+
+    def __init__(self, top: TippeTop, E, D, lam, Es=None) -> None:
+        self.top, self.E, self.D, self.lam = top, E, D, lam
+        self.Es = _shift(top, E, D, lam) if Es is None else Es
+        self.C = _kinetic_coefficient(top)
+        self.mgR = top.m * top.g * top.R
+        self.pole_ref = False
+        self.zr = self.sqd_r = self.dd_r = self.w_r = self.N_r = self.depth_r = self.A_r = None
+
+    def _derive(self, fn) -> _Wells:
+        new = object.__new__(_Wells)
+        new.__dict__.update(self.__dict__)
+        for name in self._PER_ELEMENT:
+            v = getattr(self, name)
+            if v is not None:
+                setattr(new, name, fn(v))
+        return new
+
+    def sub(self, idx) -> _Wells:
+        return self._derive(lambda v: v[idx])
+
+    def col(self) -> _Wells:
+        return self._derive(lambda v: v[:, None])
+
+    def N(self, z):
+        return self.lam * np.sqrt(d(self.top, z)) + self.top.R * self.D * (self.top.alpha - z)
+
+    def gravity(self, z):
+        return self.mgR * (1.0 - self.top.alpha * z)
+
+    def P_direct(self, z):
+        n = self.N(z)
+        return (1.0 - z * z) * (self.Es - self.gravity(z)) - self.C * n * n
+
+    def critical(self, z):
+        top = self.top
+        sqd = np.sqrt(d(top, z))
+        n = self.lam * sqd + top.R * self.D * (top.alpha - z)
+        dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
+        w = 1.0 - z * z
+        return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
+
+    def scale(self, z):
+        n = self.N(z)
+        return (1.0 - z * z) * (np.abs(self.Es) + self.gravity(z)) + self.C * n * n
+
+    def n_vanishes(self, z):
+        top = self.top
+        scale = np.abs(self.lam) * np.sqrt(d(top, z)) + np.abs(top.R * self.D * (top.alpha - z))
+        return np.abs(self.N(z)) <= _POLE_RTOL * scale
+
+    def excess(self, z):
+        w = 1.0 - z * z
+        n = self.N(z)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside = self.Es - self.gravity(z) - self.C * n * n / w
+        at_pole = np.where(self.n_vanishes(z), self.Es - self.gravity(z), -np.inf)
+        return np.where(w == 0.0, at_pole, inside)
+
+    def set_reference(self, zr, pole_ref: bool) -> None:
+        """As :meth:`_Well.set_reference`; ``pole_ref`` for zr = ±1 where N vanishes."""
+        top = self.top
+        self.zr, self.pole_ref = zr, pole_ref
+        self.sqd_r = np.sqrt(d(top, zr))
+        self.dd_r = dd_dz(top, zr)
+        if pole_ref:
+            self.A_r = _shift(top, self.E, self.D, self.lam, zr)
+            return
+        self.w_r = 1.0 - zr * zr
+        self.N_r = self.N(zr)
+        self.depth_r = self.Es - self.gravity(zr) - self.C * self.N_r**2 / self.w_r
+
+    def delta_N(self, delta):
+        top = self.top
+        z = np.clip(self.zr + delta, -1.0, 1.0)
+        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
+        return self.lam * dd / (np.sqrt(d(top, z)) + self.sqd_r) - top.R * self.D * delta
+
+    def delta_V_offset(self, delta):
+        top = self.top
+        dn = self.delta_N(delta)
+        n = self.N_r + dn
+        w = self.w_r - (2.0 * self.zr + delta) * delta
+        kin = (dn * (n + self.N_r) * self.w_r + self.N_r**2 * (2.0 * self.zr + delta) * delta) / (
+            w * self.w_r
+        )
+        return -self.mgR * top.alpha * delta + self.C * kin
+
+    def delta_V_divided(self, a, x):
+        top = self.top
+        zsum = 2.0 * self.zr + a + x
+        d_div = -2.0 * top.sigma * top.alpha + top.sigma * (1.0 - top.gamma) * zsum
+        za, zx = np.clip(self.zr + a, -1.0, 1.0), np.clip(self.zr + x, -1.0, 1.0)
+        n_div = self.lam * d_div / (np.sqrt(d(top, za)) + np.sqrt(d(top, zx))) - top.R * self.D
+        n_a, n_x = self.N_r + self.delta_N(a), self.N_r + self.delta_N(x)
+        w_a = self.w_r - (2.0 * self.zr + a) * a
+        w_x = self.w_r - (2.0 * self.zr + x) * x
+        k_div = (n_div * (n_x + n_a) * w_a + n_a * n_a * zsum) / (w_a * w_x)
+        return -self.mgR * top.alpha + self.C * k_div
+
+    def P(self, z):
+        if self.pole_ref:
+            delta = z - self.zr
+            dn = self.delta_N(delta)
+            A = self.A_r + self.mgR * self.top.alpha * delta
+            return (1.0 - z) * (1.0 + z) * A - self.C * dn * dn
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = (1.0 - z * z) * (self.depth_r - self.delta_V_offset(z - self.zr))
+        pole = np.abs(z) == 1.0
+        if np.any(pole):
+            out = np.where(pole, self.P_direct(z), out)
+        return out
+
+    def P_offset(self, delta):
+        if self.pole_ref:
+            w = -(2.0 * self.zr + delta) * delta
+            dn = self.delta_N(delta)
+            return w * (self.A_r + self.mgR * self.top.alpha * delta) - self.C * dn * dn
+        w = self.w_r - (2.0 * self.zr + delta) * delta
+        return w * (self.depth_r - self.delta_V_offset(delta))
+
+    def phidot(self, z):
+        top = self.top
+        return self.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(d(top, z)))
+
+
+def _locate_wells(W: _Wells) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_wells` for every element: (z_min, single), single False where V has not one well.
+
+    Elements with several minima (or none) are left to the scalar path.
+    """
+    n = W.E.size
+    zs = _Z_GRID
+    first = np.zeros(n, dtype=np.intp)
+    count = np.zeros(n, dtype=np.intp)
+    on_grid, pole_hi, pole_lo = (np.zeros(n, dtype=bool) for _ in range(3))
+    for start in range(0, n, _CHUNK):
+        blk = slice(start, min(start + _CHUNK, n))
+        cr = W.sub(blk).col().critical(zs)
+        neg = cr < 0.0
+        change = neg[:, :-1] & (cr[:, 1:] >= 0.0)  # − → +: a minimum in (zs[i], zs[i + 1]]
+        i = np.argmax(change, axis=1)
+        hi = (cr[:, -1] <= 0.0) & neg[:, -2]  # V decreasing into a pole where N vanishes
+        lo = (cr[:, 0] >= 0.0) & (cr[:, 1] > 0.0)
+        # a root exactly at z = 1 and the pole minimum there are one minimum (the set in _wells)
+        twice = hi & change[:, -1] & (cr[:, -1] == 0.0)
+        count[blk] = change.sum(axis=1) + hi + lo - twice
+        first[blk] = i
+        on_grid[blk] = cr[np.arange(cr.shape[0]), i + 1] == 0.0
+        pole_hi[blk], pole_lo[blk] = hi, lo
+    single = count == 1
+    zm = np.full(n, np.nan)
+    zm[single & pole_hi] = 1.0
+    zm[single & pole_lo] = -1.0
+    inner = single & ~pole_hi & ~pole_lo
+    grid = inner & on_grid
+    zm[grid] = zs[first[grid] + 1]
+    k = np.flatnonzero(inner & ~on_grid)
+    root, ok = _brentq(lambda x, j: W.sub(k[j]).critical(x), zs[first[k]], zs[first[k] + 1])
+    zm[k] = root
+    single[k[~ok]] = False
+    # A root found at a pole where N does not vanish is really a hair inside (V = +inf there).
+    k = np.flatnonzero(single & (np.abs(zm) == 1.0))
+    if k.size:
+        hair = ~W.sub(k).n_vanishes(zm[k])
+        zm[k[hair]] = np.nextafter(zm[k[hair]], 0.0)
+    return zm, single
+
+
+def _turning_points_vec(W: _Wells, pole: float, zm) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_turning_point` for every element of W (reference set): (z, ok)."""
+    zm = np.where(np.abs(zm) == 1.0, np.nextafter(zm, pole), zm)
+    n = zm.size
+    out, ok = np.full(n, np.nan), np.ones(n, dtype=bool)
+    end = np.full(n, pole)
+    todo = np.ones(n, dtype=bool)
+    k = np.flatnonzero(W.P(end) >= 0.0)  # N vanishes at the pole
+    if k.size:
+        Wk = W.sub(k)
+        reach = Wk.excess(end[k]) >= 0.0
+        out[k[reach]] = pole
+        inner = np.nextafter(end[k], zm[k])
+        wall = ~reach
+        wall[wall] = (inner[wall] == zm[k][wall]) | (Wk.sub(wall).P(inner[wall]) >= 0.0)
+        out[k[wall]] = inner[wall]
+        todo[k[reach | wall]] = False
+        end[k] = inner
+    k = np.flatnonzero(todo)
+    root, good = _brentq(
+        lambda x, j: W.sub(k[j]).P(x), np.minimum(end[k], zm[k]), np.maximum(end[k], zm[k])
+    )
+    out[k], ok[k] = root, good
+    return out, ok
+
+
+def _offset_roots(W: _Wells, z_t, z_m) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_offset_root` for every element of W: (offsets, is_root)."""
+    x0 = z_t - W.zr
+    out = x0.copy()
+    found = np.abs(z_t) == 1.0
+    inward = np.where(z_m > z_t, 1.0, -1.0)
+    room = np.abs(z_m - z_t)
+    lo, hi = np.zeros_like(x0), np.zeros_like(x0)
+    bracketed = np.zeros(x0.shape, dtype=bool)
+    pending = ~found
+    step = _OFFSET_STEP
+    for _ in range(_OFFSET_TRIES):
+        k = np.flatnonzero(pending)
+        if k.size == 0:
+            break
+        a, b = x0[k] - inward[k] * step, x0[k] + inward[k] * step
+        c = (np.abs(W.zr[k] + a) < 1.0) & ((b - x0[k]) * inward[k] < room[k])
+        kc, a, b = k[c], a[c], b[c]
+        if kc.size:
+            Wk = W.sub(kc)
+            pa, pb = Wk.P_offset(a), Wk.P_offset(b)
+            good = (pa <= 0.0) & (0.0 <= pb)
+            kg = kc[good]
+            lo[kg], hi[kg] = np.minimum(a[good], b[good]), np.maximum(a[good], b[good])
+            bracketed[kg] = True
+            pending[kg] = False
+        step *= 4.0
+    k = np.flatnonzero(bracketed)
+    out[k] = _brentq(lambda x, j: W.sub(k[j]).P_offset(x), lo[k], hi[k])[0]
+    return out, found | bracketed
+
+
+def _quadrature_vec(W: _Wells, z_low, z_high, z_min, precession: bool):
+    """:func:`_quadrature` for every element of W (reference set): (T, ∮ φ̇ dt or None)."""
+    top = W.top
+    x_a, root_a = _offset_roots(W, z_low, z_min)
+    x_b, root_b = _offset_roots(W, z_high, z_min)
+    c, h = 0.5 * (x_a + x_b), 0.5 * (x_b - x_a)
+    divided = (np.abs(z_low) < 1.0) & (np.abs(z_high) < 1.0) & root_a & root_b
+    divided &= not W.pole_ref
+    T = np.full(z_low.shape, np.nan)
+    integral = np.full(z_low.shape, np.nan) if precession else None
+    for mask, use_divided in ((divided, True), (~divided, False)):
+        k = np.flatnonzero(mask)
+        if k.size == 0:
+            continue
+        Wk = W.sub(k).col()
+        xa, xb, hk = x_a[k, None], x_b[k, None], h[k, None]
+        x = c[k, None] + hk * _SIN_U
+        z = np.clip(Wk.zr + x, -1.0, 1.0)
+        if use_divided:
+            wx = Wk.w_r - (2.0 * Wk.zr + x) * x
+            xl, xu = x[:, :_HALF], x[:, _HALF:]
+            R = np.empty_like(x)
+            R[:, :_HALF] = -wx[:, :_HALF] * Wk.delta_V_divided(xa, xl) / (xb - xl)
+            R[:, _HALF:] = wx[:, _HALF:] * Wk.delta_V_divided(xb, xu) / (xu - xa)
+            integrand = np.sqrt(g(top, z) / R)
+        else:
+            integrand = hk * _COS_U * np.sqrt(g(top, z) / Wk.P_offset(x))
+        T[k] = 2.0 * _gauss_sum(integrand)
+        if precession:
+            integral[k] = 2.0 * _gauss_sum(integrand * Wk.phidot(z))
+    return T, integral
+
+
+def _z0_message(z0, E, D, lam) -> str:
+    return (
+        f"no admissible motion through z0 = {z0!r} for (E, D, lam) = ({E!r}, {D!r}, {lam!r}): "
+        "E is below V(z0)"
+    )
+
+
+def _no_motion_message(E, D, lam, depth, z_min) -> str:
+    return (
+        f"(E, D, lam) = ({E!r}, {D!r}, {lam!r}) admits no motion: E lies "
+        f"{-depth:.3g} J below the minimum of V (at z = {z_min:.6g}); need E >= min V"
+    )
+
+
+class _Solution(NamedTuple):
+    """Flat results of :func:`_solve` (broadcast shape ``shape``)."""
+
+    shape: tuple
+    kind: np.ndarray  # _NONE, _STEADY, _NUTATION
+    z_low: np.ndarray
+    z_high: np.ndarray
+    z_min: np.ndarray
+    depth: np.ndarray
+    value: np.ndarray  # period or mean precession (NaN if not asked for)
+    errors: dict  # flat index -> (message, raised by band() too)
+    scalar: np.ndarray  # elements computed by the scalar reference path
+
+
+def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solution:
+    """Bands of all elements (and ``quantity``: "period" or "precession"), array path first."""
+    E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    shape = E.shape
+    E, D, lam = (np.array(v, dtype=float).ravel() for v in (E, D, lam))
+    z0 = None if z0 is None else np.array(z0, dtype=float).ravel()
+    n = E.size
+    kind = np.full(n, _NONE, dtype=np.int8)
+    z_low, z_high, z_min, depth, value = (np.full(n, np.nan) for _ in range(5))
+    errors: dict[int, tuple[str, bool]] = {}
+
+    W = _Wells(top, E, D, lam)
+    zm, vec = _locate_wells(W)
+    v = np.flatnonzero(vec)
+    Wv = W.sub(v)
+    zmv = zm[v]
+    dep = Wv.excess(zmv)
+    with np.errstate(over="ignore"):
+        size = Wv.scale(zmv) / np.maximum(1.0 - zmv * zmv, 1e-300)
+    tol = 64 * _EPS * np.maximum(np.maximum(size, np.abs(Wv.Es)), Wv.mgR)
+    kv = np.where(dep < -tol, _NONE, np.where(dep <= tol, _STEADY, _NUTATION))
+    kind[v], z_min[v], depth[v] = kv, zmv, dep
+    steady = v[kv == _STEADY]
+    z_low[steady] = z_high[steady] = zm[steady]
+    depth[steady] = np.maximum(depth[steady], 0.0)
+
+    # Nutation: turning points (and the quadrature) for interior and pole references apart.
+    nut = v[kv == _NUTATION]
+    at_pole = np.abs(zm[nut]) == 1.0
+    at_pole[at_pole] = W.sub(nut[at_pole]).n_vanishes(zm[nut[at_pole]])
+    vec[nut[(np.abs(zm[nut]) == 1.0) & ~at_pole]] = False  # no reference: scalar path
+    for k, pole_ref in ((nut[np.abs(zm[nut]) < 1.0], False), (nut[at_pole], True)):
+        if k.size == 0:
+            continue
+        Wk = W.sub(k)
+        Wk.set_reference(zm[k], pole_ref)
+        zl, zh = np.full(k.size, -1.0), np.full(k.size, 1.0)
+        good = np.ones(k.size, dtype=bool)
+        for pole, zt in ((-1.0, zl), (1.0, zh)):
+            j = np.flatnonzero(zm[k] != pole)
+            zt[j], ok = _turning_points_vec(Wk.sub(j), pole, zm[k][j])
+            good[j[~ok]] = False
+        vec[k[~good]] = False
+        z_low[k], z_high[k] = zl, zh
+        if quantity is not None and np.any(good):
+            j = np.flatnonzero(good)
+            T, integral = _quadrature_vec(
+                Wk.sub(j), zl[j], zh[j], zm[k[j]], precession=quantity == "precession"
+            )
+            value[k[j]] = T if integral is None else integral / T
+    if quantity is not None:
+        s = steady[vec[steady]]
+        zs, Ds, lams = zm[s], D[s], lam[s]
+        pole = np.abs(zs) == 1.0
+        if quantity == "period":
+            omega = np.empty(s.size)
+            zi = zs[~pole]
+            curv = d2V_dz2(top, zi, Ds[~pole], lams[~pole])
+            omega[~pole] = np.sqrt((1.0 - zi * zi) * curv / (2.0 * g(top, zi)))
+            slope = np.abs(dV_dz(top, zs[pole], Ds[pole], lams[pole]))
+            omega[pole] = np.sqrt(2.0 * slope / g(top, zs[pole]))
+            value[s] = 2.0 * math.pi / omega
+        else:
+            # At a pole the precession angle of a vertical axis is undefined: NaN.
+            value[s[~pole]] = W.sub(s[~pole]).phidot(zs[~pole])
+
+    # The start z0 must lie in the band (up to the conditioning of the band).
+    if z0 is not None:
+        live = v[(kind[v] != _NONE) & vec[v]]
+        width = z_high[live] - z_low[live]
+        slack = width * (1e-6 + _conditioning(top, E[live], D[live], lam[live], depth[live]))
+        slack = slack + 1e-12
+        inside = (z_low[live] - slack <= z0[live]) & (z0[live] <= z_high[live] + slack)
+        bad = np.concatenate([v[(kind[v] == _NONE) & vec[v]], live[~inside]])
+        for i in bad:
+            errors[i] = (_z0_message(float(z0[i]), float(E[i]), float(D[i]), float(lam[i])), True)
+    else:
+        for i in v[(kind[v] == _NONE) & vec[v]]:
+            msg = _no_motion_message(float(E[i]), float(D[i]), float(lam[i]), depth[i], z_min[i])
+            errors[i] = (msg, False)
+
+    # Everything else: the scalar reference path, element by element.
+    scalar = np.flatnonzero(~vec)
+    for i in scalar:
+        e, dd, la = float(E[i]), float(D[i]), float(lam[i])
+        zz = None if z0 is None else float(z0[i])
+        try:
+            b = _band_scalar(top, e, dd, la, zz)
+        except ValueError as exc:
+            errors[i] = (str(exc), True)
+            continue
+        kind[i] = _KINDS.tolist().index(b.kind)
+        z_low[i], z_high[i], z_min[i], depth[i] = b.z_low, b.z_high, b.z_min, b.depth
+        if b.kind == "none":
+            errors[i] = (_no_motion_message(e, dd, la, b.depth, b.z_min), False)
+        elif quantity == "period":
+            value[i] = _period_one(top, e, dd, la, zz, b)
+        elif quantity == "precession":
+            value[i] = _precession_one(top, e, dd, la, zz, b)
+    return _Solution(shape, kind, z_low, z_high, z_min, depth, value, errors, ~vec)
+
+
+def _raise_first(sol: _Solution, *, band_only: bool = False) -> None:
+    """Raise the error of the first failing element (C order), as the element loop did."""
+    bad = [i for i, (_, in_band) in sol.errors.items() if in_band or not band_only]
+    if bad:
+        raise ValueError(sol.errors[min(bad)][0])
+
+
+def _shaped(sol: _Solution, arr: np.ndarray):
+    return float(arr[0]) if sol.shape == () else arr.reshape(sol.shape)
+
+
+# --- the public functions ---------------------------------------------------------------------
+
+
+def band(
+    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
+) -> Band:
+    """Classify the rolling θ-motion with integrals (Ẽ, D, λ) and find its band.
+
+    Parameters
+    ----------
+    top : TippeTop
+    E, D, lam : array_like
+        Modified energy Ẽ (= E when rolling), Routh and Jellett integrals; broadcast together.
+    z0 : array_like, optional
+        A value of cos θ the motion passes through (e.g. the start), to pick the band when V has
+        several wells. Without it, several admissible wells raise ``ValueError``.
+
+    Returns
+    -------
+    Band
+        Fields are arrays of the broadcast shape (floats for scalar input).
+    """
+    sol = _solve(top, E, D, lam, z0)
+    _raise_first(sol, band_only=True)
+    kinds = _KINDS[sol.kind]
+    if sol.shape == ():
+        return Band(str(kinds[0]), *(float(a[0]) for a in sol[2:6]))
+    return Band(kinds.reshape(sol.shape), *(a.reshape(sol.shape) for a in sol[2:6]))
+
+
+def classify_motion(top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray | str:
+    """ "nutation", "steady" (bottom of the well) or "none" (no admissible motion); see :func:`band`."""
+    return band(top, E, D, lam).kind
+
+
+def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
+    """Right-hand side of ż² = f(z) = (1 − z²)(Ẽ − V(z, D, λ))/g(z) (theory.md §4).
+
+    Evaluated as P(z)/g(z) with the exact energy shift (module docstring), so it is finite at the
+    poles and accurate where Ẽ − V is a small difference of large numbers.
+    """
+    z = _validate.cos_theta(z)
+    E, D, lam, _ = _broadcast(E, D, lam)
+    Es = _shift(top, E, D, lam)
+    z, E, D, lam, Es = np.broadcast_arrays(z, E, D, lam, Es)
+    return _Wells(top, E, D, lam, Es).P_direct(z) / g(top, z)
+
+
+def turning_points(
+    top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike, *, z0: ArrayLike | None = None
+) -> np.ndarray:
+    """Turning points (z_low, z_high) of the rolling θ-motion: the roots of Ẽ = V(z, D, λ).
+
+    Returns
+    -------
+    ndarray
+        Shape ``broadcast_shape + (2,)``: ``[..., 0] = z_low <= [..., 1] = z_high``. For steady
+        precession both equal the minimum of V. A pole is returned when the band reaches it (only
+        possible when N vanishes there, i.e. D = D0 or D1).
+
+    Raises
+    ------
+    ValueError
+        If (E, D, λ) admits no motion (E below the minimum of V), or on bad input.
+
+    Examples
+    --------
+    >>> import mett
+    >>> top = mett.presets.get("rutstam2013")
+    >>> s = mett.State(theta=1.0, omega3=100.0, phidot=5.0)
+    >>> E, D, lam = mett.energy(top, s), mett.routh(top, s), mett.jellett(top, s)
+    >>> mett.turning_points(top, E, D, lam).round(6)
+    array([0.540302, 0.613785])
+    """
+    sol = _solve(top, E, D, lam, z0)
+    _raise_first(sol)
+    return np.stack([sol.z_low, sol.z_high], axis=-1).reshape((*sol.shape, 2))
 
 
 def nutation_period(
@@ -682,19 +1263,9 @@ def nutation_period(
     >>> round(float(T), 6)
     0.055014
     """
-
-    def one(E, D, lam, z0):
-        b, w = _admissible(top, E, D, lam, z0)
-        if b.kind == "steady":
-            return 2.0 * math.pi / _small_oscillation_omega(top, b, w)
-        return _quadrature(top, b, w)[0]
-
-    return _map(one, E, D, lam, z0)
-
-
-def _phidot(top: TippeTop, w: _Well, z):
-    """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (theory.md §4)."""
-    return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(d(top, z)))
+    sol = _solve(top, E, D, lam, z0, "period")
+    _raise_first(sol)
+    return _shaped(sol, sol.value)
 
 
 def mean_precession(
@@ -705,14 +1276,6 @@ def mean_precession(
     ⟨φ̇⟩ = (2/T) ∫ φ̇(z) √(g/P) dz with φ̇(z) = N(z)/(R I1 (1 − z²)√d(z)); for steady precession
     the rate φ̇(z_min) itself.
     """
-
-    def one(E, D, lam, z0):
-        b, w = _admissible(top, E, D, lam, z0)
-        if b.kind == "steady":
-            if abs(b.z_min) == 1.0:
-                return math.nan  # the precession angle of a vertical axis is undefined
-            return float(_phidot(top, w, b.z_min))
-        T, integral = _quadrature(top, b, w, lambda z: _phidot(top, w, z))
-        return integral / T
-
-    return _map(one, E, D, lam, z0)
+    sol = _solve(top, E, D, lam, z0, "precession")
+    _raise_first(sol)
+    return _shaped(sol, sol.value)
