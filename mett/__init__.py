@@ -1,7 +1,7 @@
 """mett — dynamics of the tippe top around the Main Equation for the Tippe Top (METT).
 
 The numeric core (this package minus :mod:`mett.symbolic` and :mod:`mett.plotting`) depends only on
-numpy, scipy and mpmath.
+numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, presets
