@@ -87,6 +87,35 @@ def test_matches_scipy_dop853_steps_and_solution():
     assert np.max(np.abs(ours.dense(tt) - ref.sol(tt))) < 1e-11 * scale
 
 
+def test_one_step_equals_the_full_tables():
+    # the kernel writes the stage sums out over the non-zeros of the tables: one fixed step of the
+    # Lotka-Volterra system must equal the plain dense-table formulas (scipy's rk_step and
+    # Dop853DenseOutput), stages 1..12 through y_new and the three extra stages through F
+    h = 0.05
+    sol = dop853.solve(_lotka_volterra, (0.0, h), LV_Y0, LV_PARAMS, fixed_step=h)
+
+    def f(t, y):
+        out = np.empty(2)
+        _lotka_volterra(t, y, LV_PARAMS, out)
+        return out
+
+    A, C, D = dop853._A, dop853._C, dop853._D
+    K = np.zeros((dop853.N_STAGES_EXTENDED, 2))
+    K[0] = f(0.0, LV_Y0)
+    for s in range(1, dop853.N_STAGES_EXTENDED):  # row 12 of A is b: K[12] = f(t + h, y_new)
+        K[s] = f(C[s] * h, LV_Y0 + h * (A[s, :s] @ K[:s]))
+    y_new = LV_Y0 + h * (A[dop853.N_STAGES, : dop853.N_STAGES] @ K[: dop853.N_STAGES])
+    dy = y_new - LV_Y0
+    F = np.vstack([dy, h * K[0] - dy, 2 * dy - h * (K[dop853.N_STAGES] + K[0]), h * (D @ K)])
+    np.testing.assert_allclose(sol.y[:, -1], y_new, rtol=1e-14)
+    # the dense rows are sums of terms ~1e5 times larger than the result: compare to the rounding
+    # bound of the terms (a wrong coefficient or a missing term errs by the size of a term)
+    dy_, k0, k12 = np.abs(dy), h * np.abs(K[0]), h * np.abs(K[dop853.N_STAGES])
+    terms = np.vstack([dy_, k0 + dy_, 2 * dy_ + k12 + k0, h * (np.abs(D) @ np.abs(K))])
+    assert np.all(np.abs(sol.dense.F[0] - F) <= 1e-14 * terms)
+    assert sol.nfev == 1 + dop853.N_STAGES_EXTENDED - 1
+
+
 def test_t_eval_is_the_dense_output():
     tt = np.linspace(0.0, 3.0, 7)
     sol = dop853.solve(_harmonic, (0.0, 3.0), [1.0, 0.0], [1.0], rtol=1e-10, atol=1e-12, t_eval=tt)

@@ -85,7 +85,23 @@ def unit_axis(Y: np.ndarray, start: int) -> np.ndarray:
     No integrator keeps |3̂| = 1 exactly; derived quantities use the normalised axis (design.md).
     """
     e = np.asarray(Y[start : start + 3], dtype=float)
-    return e / np.sqrt(np.sum(e * e, axis=0))
+    return e / np.sqrt(dot3(e, e))
+
+
+def dot3(a: Any, b: Any) -> Any:
+    """a·b over the first axis of two 3-vectors (or arrays of shape (3, k)).
+
+    Written out: np.sum(a * b, axis=0) adds in the same order but costs a reduction call (and
+    np.cross several moveaxis calls) per use, which made up much of the fixed cost of a Trajectory.
+    """
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross3(a: Any, b: Any) -> np.ndarray:
+    """a × b over the first axis of two 3-vectors (or arrays of shape (3, k)), as np.cross."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def axis_theta(Y: np.ndarray, start: int) -> np.ndarray:
@@ -107,12 +123,12 @@ def lab_vectors(state: Any, R: float, l: float) -> dict[str, np.ndarray]:
     c = np.cos(th)
     e3 = np.array([0.0, -s, c])
     e2 = np.array([1.0, 0.0, 0.0])
-    e1 = np.cross(e2, e3)
+    e1 = cross3(e2, e3)
     xh = np.array([0.0, -1.0, 0.0])
     omega = -state.phidot * s * e1 + state.thetadot * e2 + state.omega3 * e3
     nu = state.nu_x * xh + state.nu_y * e2
     a = l * e3 - np.array([0.0, 0.0, R])
-    v = nu - np.cross(omega, a)
+    v = nu - cross3(omega, a)
     return {"e3": e3, "omega": omega, "nu": nu, "v": v}
 
 
@@ -147,8 +163,8 @@ def euler_from_vectors(e: np.ndarray, omega: np.ndarray, nu: np.ndarray) -> dict
     w1 = wx * (yhy * ez) - wy * (yhx * ez) + wz * (yhx * ey - yhy * ex)
     with np.errstate(divide="ignore", invalid="ignore"):
         phidot = np.where(pole, 0.0, -w1 / safe)
-    edot = np.cross(omega, e, axis=0)
-    speed = np.sqrt(np.sum(edot * edot, axis=0))
+    edot = cross3(omega, e)
+    speed = np.sqrt(dot3(edot, edot))
     thetadot = np.where(pole, np.where(ez > 0, speed, -speed), thetadot)
     nu_x = nu[0] * xhx + nu[1] * xhy
     nu_y = nu[0] * yhx + nu[1] * yhy

@@ -245,31 +245,6 @@ _D[3, 14] = -0.39177261675615439165231486172e2
 _D[3, 15] = -0.14972683625798562581422125276e3
 
 
-def _csr(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row pointers, column indices and values of the non-zeros of a coefficient table.
-
-    The tableau is 70 % zeros; skipping them roughly halves the arithmetic of a step.  Adding
-    ``0.0 * k`` never changes a finite sum, so this gives the same numbers as scipy's dense dot
-    products (up to the summation order BLAS happens to use).
-    """
-    rows = np.atleast_2d(rows)
-    ptr = np.zeros(rows.shape[0] + 1, dtype=np.int64)
-    cols: list[int] = []
-    vals: list[float] = []
-    for r, row in enumerate(rows):
-        nz = np.flatnonzero(row)
-        cols.extend(nz.tolist())
-        vals.extend(row[nz].tolist())
-        ptr[r + 1] = len(cols)
-    return ptr, np.array(cols, dtype=np.int64), np.array(vals, dtype=np.float64)
-
-
-# Row s of _A combines k_0..k_{s-1} into the argument of stage s; row 12 (= B) gives y_new.
-_A_PTR, _A_COL, _A_VAL = _csr(_A)
-_E3_PTR, _E3_COL, _E3_VAL = _csr(_E3)
-_E5_PTR, _E5_COL, _E5_VAL = _csr(_E5)
-_D_PTR, _D_COL, _D_VAL = _csr(_D)
-
 # Step-size control (scipy.integrate._ivp.rk): the error estimator is of order 7, so the error
 # of a step scales like h^8 and the step factor like err^(-1/8).
 SAFETY = 0.9
@@ -344,26 +319,114 @@ def _all_finite(x: np.ndarray) -> bool:
 
 
 @_njit_nort
-def _combine(ptr, col, val, row, K, out):
-    """out = Σ_j coef[row, j] K[j] over the non-zeros of the row."""
-    for i in range(out.size):
-        out[i] = 0.0
-    for p in range(ptr[row], ptr[row + 1]):
-        a = val[p]
-        j = col[p]
-        # K[j, i], not a row view K[j]: every view costs an atomic incref/decref pair, which
-        # measured as much as the arithmetic
-        for i in range(out.size):
-            out[i] += a * K[j, i]
+def _all_row_finite(K: np.ndarray, row: int) -> bool:
+    for i in range(K.shape[1]):
+        if not math.isfinite(K[row, i]):
+            return False
+    return True
+
+
+# The stage sums are written out term by term over the non-zeros of the tables (70 % of the tableau
+# is zeros), as in Hairer's Fortran: with constant indices numba folds the coefficients into the
+# code and LLVM keeps the sums in registers. A loop over a sparse (CSR) copy of the tables took
+# twice as long per step, and a step's arithmetic (~1500 multiply-adds for n = 10) was then as
+# costly as its twelve right-hand-side calls. The sums run over increasing j, as the CSR loop did
+# (and 0 + x = x, so they equal the dense dot products up to summation order);
+# tests/test_dop853.py checks every sum against the full tables.
+
+
+# fmt: off
+@_njit_nort
+def _rk_stages(rhs, params, t, y, h, K, ytmp, y_new):
+    """Stages 1..12 of a step from (t, y) with K[0] = f(t, y): y_new and K[12] = f(t + h, y_new).
+
+    Stage 12 has c = 1 and a = b, so its state is y_new and K[12] the first stage of the next step.
+    """
+    n = y.size
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[1, 0] * K[0, i]) * h
+    rhs(t + _C[1] * h, ytmp, params, K[1])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[2, 0] * K[0, i] + _A[2, 1] * K[1, i]) * h
+    rhs(t + _C[2] * h, ytmp, params, K[2])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[3, 0] * K[0, i] + _A[3, 2] * K[2, i]) * h
+    rhs(t + _C[3] * h, ytmp, params, K[3])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[4, 0] * K[0, i] + _A[4, 2] * K[2, i] + _A[4, 3] * K[3, i]) * h
+    rhs(t + _C[4] * h, ytmp, params, K[4])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[5, 0] * K[0, i] + _A[5, 3] * K[3, i] + _A[5, 4] * K[4, i]) * h
+    rhs(t + _C[5] * h, ytmp, params, K[5])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[6, 0] * K[0, i] + _A[6, 3] * K[3, i] + _A[6, 4] * K[4, i] + _A[6, 5] * K[5, i]) * h
+    rhs(t + _C[6] * h, ytmp, params, K[6])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[7, 0] * K[0, i] + _A[7, 3] * K[3, i] + _A[7, 4] * K[4, i] + _A[7, 5] * K[5, i] + _A[7, 6] * K[6, i]) * h
+    rhs(t + _C[7] * h, ytmp, params, K[7])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[8, 0] * K[0, i] + _A[8, 3] * K[3, i] + _A[8, 4] * K[4, i] + _A[8, 5] * K[5, i] + _A[8, 6] * K[6, i] + _A[8, 7] * K[7, i]) * h
+    rhs(t + _C[8] * h, ytmp, params, K[8])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[9, 0] * K[0, i] + _A[9, 3] * K[3, i] + _A[9, 4] * K[4, i] + _A[9, 5] * K[5, i] + _A[9, 6] * K[6, i] + _A[9, 7] * K[7, i] + _A[9, 8] * K[8, i]) * h
+    rhs(t + _C[9] * h, ytmp, params, K[9])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[10, 0] * K[0, i] + _A[10, 3] * K[3, i] + _A[10, 4] * K[4, i] + _A[10, 5] * K[5, i] + _A[10, 6] * K[6, i] + _A[10, 7] * K[7, i] + _A[10, 8] * K[8, i] + _A[10, 9] * K[9, i]) * h
+    rhs(t + _C[10] * h, ytmp, params, K[10])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[11, 0] * K[0, i] + _A[11, 3] * K[3, i] + _A[11, 4] * K[4, i] + _A[11, 5] * K[5, i] + _A[11, 6] * K[6, i] + _A[11, 7] * K[7, i] + _A[11, 8] * K[8, i] + _A[11, 9] * K[9, i] + _A[11, 10] * K[10, i]) * h
+    rhs(t + _C[11] * h, ytmp, params, K[11])
+    for i in range(n):
+        y_new[i] = y[i] + (_A[12, 0] * K[0, i] + _A[12, 5] * K[5, i] + _A[12, 6] * K[6, i] + _A[12, 7] * K[7, i] + _A[12, 8] * K[8, i] + _A[12, 9] * K[9, i] + _A[12, 10] * K[10, i] + _A[12, 11] * K[11, i]) * h
+    rhs(t + _C[12] * h, y_new, params, K[12])
 
 
 @_njit_nort
-def _stage(rhs, params, t, y, h, row, K, ytmp):
-    """k_row = f(t + c_row h, y + h Σ_j a_row,j k_j); returns the stage state in ytmp."""
-    _combine(_A_PTR, _A_COL, _A_VAL, row, K, ytmp)
-    for i in range(y.size):
-        ytmp[i] = y[i] + ytmp[i] * h
-    rhs(t + _C[row] * h, ytmp, params, K[row])
+def _error_norm(K, y, y_new, rtol, atol, h_abs):
+    """scipy's DOP853 error norm |h| e5² / sqrt((e5² + 0.01 e3²) n), or nan if the trial step is not
+    finite (a finite norm does not exclude y_new = inf, where the scale is inf, so check all)."""
+    n = y.size
+    e5 = 0.0
+    e3 = 0.0
+    for i in range(n):
+        scale = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol[i]
+        a5 = (_E5[0] * K[0, i] + _E5[5] * K[5, i] + _E5[6] * K[6, i] + _E5[7] * K[7, i] + _E5[8] * K[8, i] + _E5[9] * K[9, i] + _E5[10] * K[10, i] + _E5[11] * K[11, i]) / scale
+        a3 = (_E3[0] * K[0, i] + _E3[5] * K[5, i] + _E3[6] * K[6, i] + _E3[7] * K[7, i] + _E3[8] * K[8, i] + _E3[9] * K[9, i] + _E3[10] * K[10, i] + _E3[11] * K[11, i]) / scale
+        e5 += a5 * a5
+        e3 += a3 * a3
+    if e5 == 0.0 and e3 == 0.0:
+        error_norm = 0.0
+    else:
+        error_norm = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+    if not (math.isfinite(error_norm) and _all_finite(y_new) and _all_row_finite(K, N_STAGES)):
+        return math.nan
+    return error_norm
+
+
+@_njit_nort
+def _dense_coefficients(rhs, params, t, y, y_new, h, K, ytmp, Fc):
+    """The three extra stages and the coefficients Fc (7, n) of the continuous extension of the
+    accepted step from (t, y) to (t + h, y_new) (scipy's ``Dop853DenseOutput``)."""
+    n = y.size
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[13, 0] * K[0, i] + _A[13, 6] * K[6, i] + _A[13, 7] * K[7, i] + _A[13, 8] * K[8, i] + _A[13, 9] * K[9, i] + _A[13, 10] * K[10, i] + _A[13, 11] * K[11, i] + _A[13, 12] * K[12, i]) * h
+    rhs(t + _C[13] * h, ytmp, params, K[13])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[14, 0] * K[0, i] + _A[14, 5] * K[5, i] + _A[14, 6] * K[6, i] + _A[14, 7] * K[7, i] + _A[14, 10] * K[10, i] + _A[14, 11] * K[11, i] + _A[14, 12] * K[12, i] + _A[14, 13] * K[13, i]) * h
+    rhs(t + _C[14] * h, ytmp, params, K[14])
+    for i in range(n):
+        ytmp[i] = y[i] + (_A[15, 0] * K[0, i] + _A[15, 5] * K[5, i] + _A[15, 6] * K[6, i] + _A[15, 7] * K[7, i] + _A[15, 8] * K[8, i] + _A[15, 12] * K[12, i] + _A[15, 13] * K[13, i] + _A[15, 14] * K[14, i]) * h
+    rhs(t + _C[15] * h, ytmp, params, K[15])
+    for i in range(n):
+        dy = y_new[i] - y[i]
+        Fc[0, i] = dy
+        Fc[1, i] = h * K[0, i] - dy
+        Fc[2, i] = 2 * dy - h * (K[N_STAGES, i] + K[0, i])
+        Fc[3, i] = h * (_D[0, 0] * K[0, i] + _D[0, 5] * K[5, i] + _D[0, 6] * K[6, i] + _D[0, 7] * K[7, i] + _D[0, 8] * K[8, i] + _D[0, 9] * K[9, i] + _D[0, 10] * K[10, i] + _D[0, 11] * K[11, i] + _D[0, 12] * K[12, i] + _D[0, 13] * K[13, i] + _D[0, 14] * K[14, i] + _D[0, 15] * K[15, i])
+        Fc[4, i] = h * (_D[1, 0] * K[0, i] + _D[1, 5] * K[5, i] + _D[1, 6] * K[6, i] + _D[1, 7] * K[7, i] + _D[1, 8] * K[8, i] + _D[1, 9] * K[9, i] + _D[1, 10] * K[10, i] + _D[1, 11] * K[11, i] + _D[1, 12] * K[12, i] + _D[1, 13] * K[13, i] + _D[1, 14] * K[14, i] + _D[1, 15] * K[15, i])
+        Fc[5, i] = h * (_D[2, 0] * K[0, i] + _D[2, 5] * K[5, i] + _D[2, 6] * K[6, i] + _D[2, 7] * K[7, i] + _D[2, 8] * K[8, i] + _D[2, 9] * K[9, i] + _D[2, 10] * K[10, i] + _D[2, 11] * K[11, i] + _D[2, 12] * K[12, i] + _D[2, 13] * K[13, i] + _D[2, 14] * K[14, i] + _D[2, 15] * K[15, i])
+        Fc[6, i] = h * (_D[3, 0] * K[0, i] + _D[3, 5] * K[5, i] + _D[3, 6] * K[6, i] + _D[3, 7] * K[7, i] + _D[3, 8] * K[8, i] + _D[3, 9] * K[9, i] + _D[3, 10] * K[10, i] + _D[3, 11] * K[11, i] + _D[3, 12] * K[12, i] + _D[3, 13] * K[13, i] + _D[3, 14] * K[14, i] + _D[3, 15] * K[15, i])
+# fmt: on
 
 
 @_njit_nort
@@ -486,12 +549,26 @@ def _copy(src, dst):
 
 
 @_njit_nort
-def _copy_rows(src, dst):
-    """Copy the 2-D ``src`` row by row into the 1-D ``dst``."""
+def _copy_row(K, src, dst):
+    """K[dst] = K[src] (indices, not row views: a view in NRT code costs an atomic incref/decref)."""
+    for i in range(K.shape[1]):
+        K[dst, i] = K[src, i]
+
+
+@_njit_nort
+def _put(src, dst, offset):
+    """dst[offset : offset + src.size] = src (1-D arrays; no slice views, see :func:`_copy_row`)."""
+    for i in range(src.size):
+        dst[offset + i] = src[i]
+
+
+@_njit_nort
+def _put_rows(src, dst, offset):
+    """The 2-D ``src`` row by row into the 1-D ``dst`` from ``offset``."""
     n = src.shape[1]
     for r in range(src.shape[0]):
         for i in range(n):
-            dst[r * n + i] = src[r, i]
+            dst[offset + r * n + i] = src[r, i]
 
 
 @numba.njit(cache=True)
@@ -502,110 +579,43 @@ def _grow(a, size):
     return out
 
 
-# Results come back as flat 1-D arrays (reshaped in Python): growing only 1-D buffers keeps the
-# number of compiled specialisations, and so the cold compile time, down.
-_KERNEL_RESULT = types.Tuple((_i8, _f8, _i8, _i8, _i8, _vec, _vec, _vec, _vec, _ivec, _vec, _vec))
-_KERNEL_SIGNATURE = _KERNEL_RESULT(
-    _fn,  # rhs
-    _fn,  # events
-    _i8,  # n_events
-    _vec,  # event directions (+1, -1, 0)
-    _vec,  # event terminal flags (1.0 / 0.0)
-    _f8,  # t0
-    _f8,  # t_bound
-    _vec,  # y0
-    _vec,  # params
-    _vec,  # rtol per component
-    _vec,  # atol per component
-    _f8,  # first step (0: automatic)
-    _f8,  # max step
-    _f8,  # fixed step (0: adaptive)
-    _i8,  # max steps
-    types.boolean,  # store the dense output
-)
+# Slots of the scalar state that _advance carries between calls (it returns to _integrate whenever
+# an output buffer is full, so that the buffers can grow).
+_T, _H_ABS = 0, 1  # float state: time, size of the next step
+_STATUS, _M, _N_REJ, _NFEV, _N_EV = 0, 1, 2, 3, 4  # int state
+_RUNNING = -99
 
 
-@numba.njit(_KERNEL_SIGNATURE, cache=True)
-def _integrate(
-    rhs,
-    events,
-    n_events,
-    ev_dir,
-    ev_term,
-    t0,
-    t_bound,
-    y0,
-    params,
-    rtol,
-    atol,
-    first_step,
-    max_step,
-    fixed_step,
-    max_steps,
-    store_dense,
-):
-    """The compiled DOP853 loop; see :func:`solve` for the meaning of the arguments.
+@_njit_nort
+def _advance(
+    rhs, events, n_events, ev_dir, ev_term, t_bound, params, rtol, atol, max_step, fixed_step,
+    max_steps, store_dense, K, Fc, y, y_new, ytmp, yev, g_old, g_new, gtmp, act_k, act_t,
+    ts, ys, hs, F, ev_idx, ev_t, ev_y, fstate, istate,
+):  # fmt: skip
+    """Take accepted steps until the run ends or an output buffer has no room for another step.
 
-    Returns ``(status, t_last, nfev, n_accepted, n_rejected, ts, ys, hs, F, ev_index, ev_t,
-    ev_y)`` with m accepted steps: the breakpoints ``ts`` (m+1,), the states ``ys`` ((m+1)·n,),
-    the step of each interpolant ``hs`` (m,), its coefficients ``F`` (m·7·n,; empty unless
-    ``store_dense``), and the events in the order they occurred (``ev_y`` flat, n per event).
+    The whole step loop runs here, without the numba runtime: it only indexes preallocated arrays.
+    In the NRT-compiled caller every array reassigned inside the loop (the growing buffers) cost
+    an atomic incref/decref pair per step; together about 10 % of the thesis run.  The state
+    between calls is in ``fstate`` (t, h_abs) and ``istate`` (status, m, n_rej, nfev, n_ev);
+    K[0] holds f(t, y) and g_old the event values at t.
     """
-    n = y0.size
+    n = y.size
     nF = INTERPOLATOR_POWER * n
-    direction = 1.0 if t_bound >= t0 else -1.0
+    direction = 1.0 if t_bound >= ts[0] else -1.0
     need_dense = store_dense or n_events > 0
+    t, h_abs = fstate[_T], fstate[_H_ABS]
+    status, m, n_rej, nfev, n_ev = istate[0], istate[1], istate[2], istate[3], istate[4]
 
-    K = np.empty((N_STAGES_EXTENDED, n))
-    Fc = np.empty((INTERPOLATOR_POWER, n))
-    y = y0.copy()
-    y_new = np.empty(n)
-    ytmp = np.empty(n)
-    yev = np.empty(n)
-    f = np.empty(n)
-    g_old = np.empty(n_events)
-    g_new = np.empty(n_events)
-    gtmp = np.empty(n_events)
-    act_k = np.empty(n_events, dtype=np.int64)
-    act_t = np.empty(n_events)
+    while status == _RUNNING:
+        # room for one more step and all the events it can report
+        if m + 2 > ts.size or m + 1 > hs.size or (m + 2) * n > ys.size:
+            break
+        if store_dense and (m + 1) * nF > F.size:
+            break
+        if n_ev + n_events > ev_t.size:
+            break
 
-    cap = 256
-    ts = np.empty(cap)
-    ys = np.empty(cap * n)
-    hs = np.empty(cap)
-    F = np.empty(cap * nF if store_dense else 0)
-    ev_idx = np.empty(8, dtype=np.int64)
-    ev_t = np.empty(8)
-    ev_y = np.empty(8 * n)
-    n_ev = 0
-
-    ts[0] = t0
-    _copy(y, ys)
-    m = 0  # accepted steps
-    n_rej = 0
-    t = t0
-    rhs(t, y, params, f)
-    nfev = 1
-    h_abs = 0.0
-    if not _all_finite(f):
-        status = NON_FINITE
-    elif t_bound == t0:
-        status = COMPLETED
-    else:
-        status = -99  # running
-        if n_events > 0:
-            events(t, y, params, g_old)
-        if fixed_step > 0.0:
-            h_abs = fixed_step
-        elif first_step > 0.0:
-            h_abs = first_step
-        else:
-            h_abs = _initial_step(
-                rhs, params, t, y, f, t_bound, max_step, direction, rtol, atol, ytmp, K[0]
-            )
-            nfev += 1
-
-    while status == -99:
         # ---- one accepted step (scipy RungeKutta._step_impl) ----
         min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
         if fixed_step > 0.0:
@@ -630,34 +640,10 @@ def _integrate(
             h = t_new - t
             h_abs = abs(h)
 
-            _copy(f, K[0])
-            for s in range(1, N_STAGES + 1):
-                # stage 12 has c = 1 and a = b: its state is y_new and k_12 = f(t + h, y_new)
-                _stage(rhs, params, t, y, h, s, K, ytmp)
-            _copy(ytmp, y_new)
+            _rk_stages(rhs, params, t, y, h, K, ytmp, y_new)
             nfev += N_STAGES
-
-            for i in range(n):
-                ytmp[i] = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol[i]
-            e5 = 0.0
-            e3 = 0.0
-            for i in range(n):
-                a5 = 0.0
-                for p in range(_E5_PTR[1]):
-                    a5 += _E5_VAL[p] * K[_E5_COL[p], i]
-                a3 = 0.0
-                for p in range(_E3_PTR[1]):
-                    a3 += _E3_VAL[p] * K[_E3_COL[p], i]
-                a5 /= ytmp[i]
-                a3 /= ytmp[i]
-                e5 += a5 * a5
-                e3 += a3 * a3
-            if e5 == 0.0 and e3 == 0.0:
-                error_norm = 0.0
-            else:
-                error_norm = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-            # a finite error norm does not exclude y_new = inf (then scale = inf), so check all
-            finite = math.isfinite(error_norm) and _all_finite(y_new) and _all_finite(K[N_STAGES])
+            error_norm = _error_norm(K, y, y_new, rtol, atol, h_abs)  # nan: not finite
+            finite = math.isfinite(error_norm)
 
             if fixed_step > 0.0:
                 last_nonfinite = not finite
@@ -686,20 +672,10 @@ def _integrate(
             status = NON_FINITE if last_nonfinite else STEP_TOO_SMALL
             break
 
-        # ---- continuous extension of the accepted step ----
+        # ---- continuous extension of the accepted step (3 extra stages) ----
         if need_dense:
-            for s in range(N_STAGES + 1, N_STAGES_EXTENDED):
-                _stage(rhs, params, t, y, h, s, K, ytmp)
+            _dense_coefficients(rhs, params, t, y, y_new, h, K, ytmp, Fc)
             nfev += N_STAGES_EXTENDED - N_STAGES - 1
-            for i in range(n):
-                dy = y_new[i] - y[i]
-                Fc[0, i] = dy
-                Fc[1, i] = h * K[0, i] - dy
-                Fc[2, i] = 2 * dy - h * (K[N_STAGES, i] + K[0, i])
-            for r in range(INTERPOLATOR_POWER - 3):
-                _combine(_D_PTR, _D_COL, _D_VAL, r, K, ytmp)
-                for i in range(n):
-                    Fc[3 + r, i] = h * ytmp[i]
 
         # ---- events: sign changes over the step, located on the interpolant ----
         t_stop = t_new
@@ -726,51 +702,172 @@ def _integrate(
                     act_k[j] = k
                     n_act += 1
             for j in range(n_act):
-                if n_ev == ev_t.size:
-                    ev_idx = _grow(ev_idx, n_ev + 1)
-                    ev_t = _grow(ev_t, n_ev + 1)
-                    ev_y = _grow(ev_y, (n_ev + 1) * n)
                 ev_idx[n_ev] = act_k[j]
                 ev_t[n_ev] = act_t[j]
-                _dense_eval(Fc, y, t, h, act_t[j], ev_y[n_ev * n : (n_ev + 1) * n])
+                _dense_eval(Fc, y, t, h, act_t[j], yev)
+                _put(yev, ev_y, n_ev * n)
                 n_ev += 1
                 if ev_term[act_k[j]] != 0.0:
                     terminate = True
                     t_stop = act_t[j]
                     break
-            g_old, g_new = g_new, g_old
+            _copy(g_new, g_old)
 
         # ---- store the step ----
         m += 1
-        if m == ts.size:
-            ts = _grow(ts, m + 1)
-            ys = _grow(ys, (m + 1) * n)
-            hs = _grow(hs, m + 1)
         hs[m - 1] = h
         if store_dense:
-            if m * nF > F.size:
-                F = _grow(F, m * nF)
-            _copy_rows(Fc, F[(m - 1) * nF : m * nF])
+            _put_rows(Fc, F, (m - 1) * nF)
         if terminate:
             ts[m] = t_stop
-            _dense_eval(Fc, y, t, h, t_stop, ys[m * n : (m + 1) * n])
+            _dense_eval(Fc, y, t, h, t_stop, yev)
+            _put(yev, ys, m * n)
             t = t_stop
             status = TERMINAL_EVENT
             break
         ts[m] = t_new
-        _copy(y_new, ys[m * n : (m + 1) * n])
+        _put(y_new, ys, m * n)
         t = t_new
         _copy(y_new, y)
-        _copy(K[N_STAGES], f)
+        _copy_row(K, N_STAGES, 0)
         if direction * (t - t_bound) >= 0:
             status = COMPLETED
         elif m >= max_steps:
             status = MAX_STEPS
 
+    fstate[_T], fstate[_H_ABS] = t, h_abs
+    istate[0], istate[1], istate[2], istate[3], istate[4] = status, m, n_rej, nfev, n_ev
+
+
+# Results come back as flat 1-D arrays (reshaped in Python): growing only 1-D buffers keeps the
+# number of compiled specialisations, and so the cold compile time, down.
+_KERNEL_RESULT = types.Tuple((_i8, _f8, _i8, _i8, _i8, _vec, _vec, _vec, _vec, _ivec, _vec, _vec))
+_KERNEL_SIGNATURE = _KERNEL_RESULT(
+    _fn,  # rhs
+    _fn,  # events
+    _i8,  # n_events
+    _vec,  # event directions (+1, -1, 0)
+    _vec,  # event terminal flags (1.0 / 0.0)
+    _f8,  # t0
+    _f8,  # t_bound
+    _vec,  # y0
+    _vec,  # params
+    _vec,  # rtol per component
+    _vec,  # atol per component
+    _f8,  # first step (0: automatic)
+    _f8,  # max step
+    _f8,  # fixed step (0: adaptive)
+    _i8,  # max steps
+    types.boolean,  # store the dense output
+)
+
+
+def _integrate(
+    rhs,
+    events,
+    n_events,
+    ev_dir,
+    ev_term,
+    t0,
+    t_bound,
+    y0,
+    params,
+    rtol,
+    atol,
+    first_step,
+    max_step,
+    fixed_step,
+    max_steps,
+    store_dense,
+):
+    """The compiled DOP853 loop; see :func:`solve` for the meaning of the arguments.
+
+    Returns ``(status, t_last, nfev, n_accepted, n_rejected, ts, ys, hs, F, ev_index, ev_t,
+    ev_y)`` with m accepted steps: the breakpoints ``ts`` (m+1,), the states ``ys`` ((m+1)·n,),
+    the step of each interpolant ``hs`` (m,), its coefficients ``F`` (m·7·n,; empty unless
+    ``store_dense``), and the events in the order they occurred (``ev_y`` flat, n per event).
+
+    This function allocates (and grows) the arrays; :func:`_advance` takes the steps.
+    """
+    n = y0.size
+    nF = INTERPOLATOR_POWER * n
+    direction = 1.0 if t_bound >= t0 else -1.0
+
+    # work arrays, allocated once
+    K = np.empty((N_STAGES_EXTENDED, n))  # K[0] is f(t, y) of the current step (FSAL)
+    Fc = np.empty((INTERPOLATOR_POWER, n))
+    y = y0.copy()
+    y_new = np.empty(n)
+    ytmp = np.empty(n)
+    yev = np.empty(n)
+    g_old = np.empty(n_events)
+    g_new = np.empty(n_events)
+    gtmp = np.empty(n_events)
+    act_k = np.empty(n_events, dtype=np.int64)
+    act_t = np.empty(n_events)
+    fstate = np.zeros(2)
+    istate = np.zeros(5, dtype=np.int64)
+
+    # output buffers, grown by doubling when _advance reports them full
+    cap = 1024
+    ts = np.empty(cap)
+    ys = np.empty(cap * n)
+    hs = np.empty(cap)
+    F = np.empty(cap * nF if store_dense else 0)
+    ev_idx = np.empty(max(8, n_events), dtype=np.int64)
+    ev_t = np.empty(ev_idx.size)
+    ev_y = np.empty(ev_idx.size * n)
+
+    ts[0] = t0
+    _put(y, ys, 0)
+    rhs(t0, y, params, K[0])
+    nfev = 1
+    h_abs = 0.0
+    if not _all_row_finite(K, 0):
+        status = NON_FINITE
+    elif t_bound == t0:
+        status = COMPLETED
+    else:
+        status = _RUNNING
+        if n_events > 0:
+            events(t0, y, params, g_old)
+        if fixed_step > 0.0:
+            h_abs = fixed_step
+        elif first_step > 0.0:
+            h_abs = first_step
+        else:
+            h_abs = _initial_step(
+                rhs, params, t0, y, K[0], t_bound, max_step, direction, rtol, atol, ytmp, K[1]
+            )
+            nfev += 1
+    fstate[_T], fstate[_H_ABS] = t0, h_abs
+    istate[_STATUS], istate[_NFEV] = status, nfev
+
+    while istate[_STATUS] == _RUNNING:
+        _advance(
+            rhs, events, n_events, ev_dir, ev_term, t_bound, params, rtol, atol, max_step,
+            fixed_step, max_steps, store_dense, K, Fc, y, y_new, ytmp, yev, g_old, g_new, gtmp,
+            act_k, act_t, ts, ys, hs, F, ev_idx, ev_t, ev_y, fstate, istate,
+        )  # fmt: skip
+        m, n_ev = istate[_M], istate[_N_EV]
+        if m + 2 > ts.size:
+            ts = _grow(ts, m + 2)
+        if m + 1 > hs.size:
+            hs = _grow(hs, m + 1)
+        if (m + 2) * n > ys.size:
+            ys = _grow(ys, (m + 2) * n)
+        if store_dense and (m + 1) * nF > F.size:
+            F = _grow(F, (m + 1) * nF)
+        if n_ev + n_events > ev_t.size:
+            ev_idx = _grow(ev_idx, n_ev + n_events)
+            ev_t = _grow(ev_t, n_ev + n_events)
+            ev_y = _grow(ev_y, (n_ev + n_events) * n)
+
+    status, m, n_rej, nfev, n_ev = istate[0], istate[1], istate[2], istate[3], istate[4]
     n_dense = m * nF if store_dense else 0
     return (
         status,
-        t,
+        fstate[_T],
         nfev,
         m,
         n_rej,
@@ -782,6 +879,15 @@ def _integrate(
         ev_t[:n_ev].copy(),
         ev_y[: n_ev * n].copy(),
     )
+
+
+# Compiled here, at import (the signature is explicit). Passing rhs and events on from the loop
+# that grows the buffers to _advance makes numba unify their function types, which it reports as
+# an experimental feature on every cold compile; first-class functions are what this module is
+# built on (see the module docstring), so the warning is noise.
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", numba.NumbaExperimentalFeatureWarning)
+    _integrate = numba.njit(_KERNEL_SIGNATURE, cache=True)(_integrate)
 
 
 @_njit_nort

@@ -32,6 +32,8 @@ import numpy as np
 from ._model import (
     Model,
     axis_theta,
+    cross3,
+    dot3,
     euler_from_vectors,
     lab_vectors,
     routh_d,
@@ -162,14 +164,14 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     out = euler_from_vectors(e, w, nu)
     L = Y[4:7]
     a = l * e - np.array([0.0, 0.0, R])[:, None]
-    wa = np.cross(w, a, axis=0)
+    wa = cross3(w, a)
     vz = -l * d[9]  # rate of the CM height R − l 3̂_z
-    rot = 0.5 * np.sum(w * L, axis=0)
+    rot = 0.5 * dot3(w, L)
     pot = m * g * (R - l * e[2])
     out["E"] = 0.5 * m * (Y[2] ** 2 + Y[3] ** 2 + vz**2) + rot + pot
-    out["E_mod"] = 0.5 * m * np.sum(wa * wa, axis=0) + rot + pot
-    out["lam"] = -np.sum(L * a, axis=0)
-    out["D"] = np.sum(L * e, axis=0) * np.sqrt(routh_d(e[2], m, R, l, I1, I3))
+    out["E_mod"] = 0.5 * m * dot3(wa, wa) + rot + pot
+    out["lam"] = -dot3(L, a)
+    out["D"] = dot3(L, e) * np.sqrt(routh_d(e[2], m, R, l, I1, I3))
     out["gn"] = np.asarray(d[10], dtype=float)
     out["x"], out["y"] = Y[0], Y[1]
     return out
