@@ -80,7 +80,8 @@ _PRESETS: dict[str, Preset] = {
             "The Maple/Poincaré paper (seed 000), Table 1 converted from CGS: I1 = 45 g cm² = 4.5e-6 "
             "kg m², I3 = 50 g cm² = 5.0e-6 kg m², m = 13 g, R = 1.3 cm (D = 2.6 cm is the diameter), "
             "g = 981 cm/s².",
-            "The paper gives no eccentricity: alpha (or a = αR) must be passed. Its μ is illegible; "
+            "The paper gives no eccentricity: alpha (or a = αR) must be passed. Its μ and its spin "
+            "β₁ (Table 2, an initial condition here: ω3 = β₁/I3) are illegible; "
             "μ = 0.3 s/m is our default. Caveat: I3 > m R², so this is not a physical top "
             "(a PhysicalityWarning is emitted). Inversion needs α > 0.1; the rational case is "
             "α = 0.5724.",

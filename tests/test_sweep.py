@@ -186,3 +186,14 @@ def test_cli_sweep_bad_grid(args, needle):
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert_one_line_error(res, needle)
+
+
+def test_cli_scheduler_without_dask_names_the_extra():
+    # hide distributed as if `mett[dask]` were not installed
+    code = (
+        "import sys; sys.modules['distributed'] = None; from mett.cli import main; "
+        "sys.exit(main(['sweep', '--preset', 'rutstam2013', '--grid', 'mu=0.1:0.2:2', "
+        "'--t-end', '1', '--scheduler', 'tcp://127.0.0.1:1']))"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert_one_line_error(res, "pip install 'mett[dask]'")
