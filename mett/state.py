@@ -60,6 +60,20 @@ class State:
             arr = np.broadcast_to(v, shape)
             object.__setattr__(self, name, float(arr) if arr.ndim == 0 else arr)
 
+    @classmethod
+    def _trusted(
+        cls, theta: float, thetadot: float, phidot: float, omega3: float, nu_x: float, nu_y: float
+    ) -> State:
+        """A scalar State from values already known to be valid (finite, θ in [0, π]).
+
+        Internal: skips validation, for states read off a finished integration (events are
+        evaluated at every solver step, where validating would cost more than the event).
+        """
+        obj = object.__new__(cls)
+        for name, value in zip(_FIELDS, (theta, thetadot, phidot, omega3, nu_x, nu_y), strict=True):
+            object.__setattr__(obj, name, float(value))
+        return obj
+
     @property
     def psidot(self) -> np.ndarray | float:
         """ψ̇ = ω3 − φ̇ cos θ."""

@@ -120,13 +120,9 @@ def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
 def _user_event(ev: Callable, model: Model, params: tuple) -> Callable:
     def wrapped(t: float, y: np.ndarray) -> float:
         s = model.derive(np.asarray(y, dtype=float).reshape(-1, 1), params)
-        state = State(
-            theta=float(np.clip(s["theta"][0], 0.0, math.pi)),
-            thetadot=float(s["thetadot"][0]),
-            phidot=float(s["phidot"][0]),
-            omega3=float(s["omega3"][0]),
-            nu_x=float(s["nu_x"][0]),
-            nu_y=float(s["nu_y"][0]),
+        state = State._trusted(
+            float(np.clip(s["theta"][0], 0.0, math.pi)),
+            *(float(s[k][0]) for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
         )
         return float(ev(t, state))
 
@@ -519,7 +515,7 @@ def _user_events_after_run(
     series = run.mdl.derive(dense.y.T, run.params)
     theta = np.clip(series["theta"], 0.0, math.pi)
     states = [
-        State(theta=th, thetadot=a, phidot=b, omega3=c, nu_x=d, nu_y=e)
+        State._trusted(th, a, b, c, d, e)
         for th, a, b, c, d, e in zip(
             theta.tolist(),
             *(series[k].tolist() for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
