@@ -35,6 +35,7 @@ scalar reference path.
 
 from __future__ import annotations
 
+import itertools
 import math
 from fractions import Fraction
 from typing import TYPE_CHECKING, NamedTuple
@@ -376,7 +377,7 @@ def _wells(w: _Well) -> list[float]:
         mins.insert(0, -1.0)
     # A root found at a pole where N does not vanish is really a hair inside (V = +inf at the pole).
     mins = [z if abs(z) < 1.0 or w.n_vanishes(z) else float(np.nextafter(z, 0.0)) for z in mins]
-    return sorted(set(mins))
+    return sorted({_snap_to_pole(w, z) for z in mins})
 
 
 def _turning_point(w: _Well, pole: float, zm: float) -> float:
@@ -396,7 +397,26 @@ def _turning_point(w: _Well, pole: float, zm: float) -> float:
         if pole == zm or w.P(pole) >= 0.0:
             return pole  # the wall (N ≈ 0, a vanishing spin) is within one ulp of the pole
     lo, hi = (pole, zm) if pole < zm else (zm, pole)
-    return optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+    root = optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+    return _polish_near_pole(w, root, pole, zm)
+
+
+def _polish_near_pole(w, root: float, pole: float, zm: float) -> float:
+    """Re-solve a turning point that lies next to a pole with the direct P.
+
+    The expansion about the bottom of the well is accurate to ~ε·max P in absolute terms, while
+    next to a pole both terms of P = (1 − z²)(E' − U) − C N² are tiny, so that is not enough there
+    (e.g. an unstable inverted start θ0 = π − 1e-4 has its turning point 5e-9 from the pole). The
+    direct form is accurate to ~ε of its small terms there. Used for a root in the quarter of
+    [pole, z_m] next to the pole, when the direct form brackets it.
+    """
+    if w.zr is None or getattr(w, "pole_ref", False) or abs(root - pole) > 0.25 * abs(zm - pole):
+        return root
+    mid = pole + 0.5 * (zm - pole)
+    if not (w.P_direct(pole) < 0.0 < w.P_direct(mid)):
+        return root
+    lo, hi = (pole, mid) if pole < mid else (mid, pole)
+    return optimize.brentq(w.P_direct, lo, hi, xtol=1e-300, rtol=4 * _EPS)
 
 
 def _conditioning(top: TippeTop, E, D, lam, depth):
@@ -410,21 +430,58 @@ def _conditioning(top: TippeTop, E, D, lam, depth):
     return 64.0 * _EPS * S / np.maximum(depth, 1e-300)
 
 
+def _steady_tolerance(top: TippeTop, E, D, lam, Es, gravity, kinetic):
+    """How close to the bottom of the well Ẽ may lie and still count as "steady".
+
+    Rounding of the inputs (E, D, λ) moves the depth by ~4εS, S = |Ẽ| + D²/(2 I1) + m λ²/(2 I1 I3),
+    and the depth itself is a sum of terms of size |E'|, m g R(1 ∓ αz), C N²/(1 − z²). At a pole
+    where N vanishes the last one is its finite limit 0, never N²/(1e-300).
+    """
+    S = np.abs(E) + D * D / (2.0 * top.I1) + top.m * lam * lam / (2.0 * top.I1 * top.I3)
+    # 8εS: twice the inputs' own rounding, no more: at 3e4 rad/s a real band is only ~30εS deep
+    return np.maximum(
+        64.0 * _EPS * np.maximum.reduce([np.abs(Es), gravity, kinetic]), 8.0 * _EPS * S
+    )
+
+
+def _kinetic_at(w, zm):
+    """C N(z_m)²/(1 − z_m²), with the limit 0 at a pole."""
+    zm = np.asarray(zm, dtype=float)
+    n = w.N(zm)
+    wz = 1.0 - zm * zm
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(wz > 0.0, w.C * n * n / np.where(wz > 0.0, wz, 1.0), 0.0)
+
+
+def _snap_to_pole(w, z: float) -> float:
+    """A minimum found within a few ulps of a pole where N vanishes is the pole itself."""
+    if 1.0 - abs(z) <= 64.0 * _EPS and abs(z) < 1.0 and w.n_vanishes(math.copysign(1.0, z)):
+        return math.copysign(1.0, z)
+    return z
+
+
 def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
     w = _Well(top, E, D, lam)
     mins = _wells(w)
     candidates = []
     for zm in mins:
         depth = w.excess(zm)
-        tol = 64 * _EPS * max(w.scale(zm) / max(1.0 - zm * zm, 1e-300), abs(w.Es), w.mgR)
+        tol = float(
+            _steady_tolerance(top, E, D, lam, w.Es, float(w.gravity(zm)), float(_kinetic_at(w, zm)))
+        )
         if depth < -tol:
             candidates.append(Band("none", math.nan, math.nan, zm, depth))
         elif depth <= tol:
             candidates.append(Band("steady", zm, zm, zm, max(depth, 0.0)))
         else:
             w.set_reference(zm)
-            z_low = _turning_point(w, -1.0, zm) if zm > -1.0 else -1.0
-            z_high = _turning_point(w, 1.0, zm) if zm < 1.0 else 1.0
+            try:
+                z_low = _turning_point(w, -1.0, zm) if zm > -1.0 else -1.0
+                z_high = _turning_point(w, 1.0, zm) if zm < 1.0 else 1.0
+            except ValueError:
+                # no sign change between the bottom and a pole: the band is below rounding
+                candidates.append(Band("steady", zm, zm, zm, depth))
+                continue
             candidates.append(Band("nutation", z_low, z_high, zm, depth))
     live = [b for b in candidates if b.kind != "none"]
     if z0 is not None:
@@ -488,6 +545,12 @@ def _map(fn, E, D, lam, z0):
     return arr.reshape(E.shape + arr.shape[1:])
 
 
+def _near_pole_root(z_t, z_m):
+    """Turning points in the quarter of [pole, z_m] next to a pole (see _polish_near_pole)."""
+    pole = np.copysign(1.0, z_t)
+    return np.abs(z_t - pole) <= 0.25 * np.abs(z_m - pole)
+
+
 def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
     """Turning point z_t as the offset z_t − z_r from the reference, refined on P_offset.
 
@@ -501,6 +564,11 @@ def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
     x0 = z_t - w.zr
     if abs(z_t) == 1.0:
         return x0, True  # a pole reached by the band (N vanishes there): a turning point exactly
+    if not w.pole_ref and _near_pole_root(z_t, z_m):
+        return (
+            x0,
+            True,
+        )  # solved with the direct P (_polish_near_pole); the expansion is worse there
     inward = 1.0 if z_m > z_t else -1.0
     step = _OFFSET_STEP
     for _ in range(_OFFSET_TRIES):
@@ -525,6 +593,75 @@ def _gauss_sum(values):
     return np.sum(values * _U_WEIGHTS, axis=-1)
 
 
+# A turning point closer than this fraction of the band's half-width to a pole has a boundary layer.
+_POLE_LAYER = 1e-3
+_LAYER_MIN = 1e4 * _EPS
+_LAYER_NODES = np.polynomial.legendre.leggauss(32)
+
+
+def _pole_layer(b: Band) -> tuple[float, float]:
+    """Distances (relative to the half-width) from each turning point to its pole, if in a layer.
+
+    A turning point δ from a pole where N does not vanish sits against a steep wall of V: R changes
+    by O(1) over ~δ, which a fixed Gauss rule over the whole band cannot resolve when δ ≪ h.
+    Returns (s_a, s_b); 0 where there is no layer (or the band ends at the pole itself).
+    """
+    h = 0.5 * (b.z_high - b.z_low)
+    if not h > 0.0:  # steady (or no) motion: no band, no layer
+        return 0.0, 0.0
+    # a wall within ~1e4 ulps of the pole (a vanishing spin) is below any resolvable layer
+    s_a = (b.z_low + 1.0) / h if b.z_low + 1.0 > _LAYER_MIN else 0.0
+    s_b = (1.0 - b.z_high) / h if 1.0 - b.z_high > _LAYER_MIN else 0.0
+    return (s_a if s_a < _POLE_LAYER else 0.0), (s_b if s_b < _POLE_LAYER else 0.0)
+
+
+def _graded_quadrature(top: TippeTop, b: Band, w: _Well, weight_fn, layers) -> tuple[float, float]:
+    """The period integral for a band with a boundary layer next to a pole (see :func:`_pole_layer`).
+
+    T = 2∫ √(g/R) dv over v ∈ [0, π], z = z_a + h(1 − cos v), with R = P/((z − z_a)(z_b − z)) from
+    the direct P, which is accurate next to the poles (its terms are small there). Nodes are placed
+    as offsets from their own turning point (1 ∓ cos v = 2 sin²(v/2), 2 cos²(v/2)) and R divides by
+    the distances recomputed exactly from the rounded z, so no node loses digits to rounding. The
+    Gauss–Legendre panels are graded geometrically from the layer scale at each such end.
+    """
+    za, zb = b.z_low, b.z_high
+    h = 0.5 * (zb - za)
+    # Within ~1e4 ulps of an end R is constant to rounding: [0, v_min] is done analytically below.
+    v_min_a = 2.0 * math.asin(math.sqrt(0.5 * min(1e4 * np.spacing(abs(za) + 1.0) / h, 1e-3)))
+    v_min_b = 2.0 * math.asin(math.sqrt(0.5 * min(1e4 * np.spacing(abs(zb) + 1.0) / h, 1e-3)))
+    cuts = [v_min_a, math.pi - v_min_b]
+    for scale, at_a in zip(layers, (True, False), strict=True):
+        r = scale
+        while 0.0 < r < 0.5:
+            v = 2.0 * math.asin(math.sqrt(0.5 * r))  # where the distance to the end is r h
+            cuts.append(v if at_a else math.pi - v)
+            r *= 10.0
+    cuts.append(0.5 * math.pi)
+    cuts = np.unique(np.clip(np.array(cuts), v_min_a, math.pi - v_min_b))
+    x, wt = _LAYER_NODES
+    T = integral = 0.0
+    for v0, v1 in itertools.pairwise(cuts):
+        v = 0.5 * (v1 - v0) * x + 0.5 * (v1 + v0)
+        near_a = v <= 0.5 * math.pi
+        z = np.where(
+            near_a, za + h * 2.0 * np.sin(0.5 * v) ** 2, zb - h * 2.0 * np.cos(0.5 * v) ** 2
+        )
+        d_a, d_b = z - za, zb - z  # exact (Sterbenz) for nodes next to their own end
+        R = w.P_direct(z) / (d_a * d_b)
+        f = 2.0 * np.sqrt(g(top, z) / R)
+        T += 0.5 * (v1 - v0) * float(np.dot(wt, f))
+        if weight_fn is not None:
+            integral += 0.5 * (v1 - v0) * float(np.dot(wt, f * weight_fn(z)))
+    for v_end, z_end in ((v_min_a, za + h * 2.0 * math.sin(0.5 * v_min_a) ** 2),
+                         (v_min_b, zb - h * 2.0 * math.sin(0.5 * v_min_b) ** 2)):  # fmt: skip
+        R = float(w.P_direct(z_end)) / ((z_end - za) * (zb - z_end))
+        f_end = 2.0 * math.sqrt(float(g(top, z_end)) / R)
+        T += v_end * f_end
+        if weight_fn is not None:
+            integral += v_end * f_end * float(weight_fn(z_end))
+    return T, (integral if weight_fn is not None else math.nan)
+
+
 def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
     """(T, ∮ weight dt) over one period, by Gauss–Legendre in u after z = c + h sin u.
 
@@ -536,6 +673,9 @@ def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float
     (worst at the bottom of the well, where the whole band is tiny). ``weight_fn`` gets z.
     """
     nodes = _U_NODES
+    layers = _pole_layer(b)
+    if any(layers):
+        return _graded_quadrature(top, b, w, weight_fn, layers)
     if w.zr is None:
         c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
         z = c + h * np.sin(nodes)
@@ -925,6 +1065,12 @@ def _locate_wells(W: _Wells) -> tuple[np.ndarray, np.ndarray]:
     if k.size:
         hair = ~W.sub(k).n_vanishes(zm[k])
         zm[k[hair]] = np.nextafter(zm[k[hair]], 0.0)
+    # ... and one found within a few ulps of a pole where N vanishes is the pole itself
+    k = np.flatnonzero(single & (np.abs(zm) < 1.0) & (1.0 - np.abs(zm) <= 64.0 * _EPS))
+    if k.size:
+        poles = np.copysign(1.0, zm[k])
+        snap = W.sub(k).n_vanishes(poles)
+        zm[k[snap]] = poles[snap]
     return zm, single
 
 
@@ -951,6 +1097,18 @@ def _turning_points_vec(W: _Wells, pole: float, zm) -> tuple[np.ndarray, np.ndar
         lambda x, j: W.sub(k[j]).P(x), np.minimum(end[k], zm[k]), np.maximum(end[k], zm[k])
     )
     out[k], ok[k] = root, good
+    # polish roots next to the pole with the direct P (see _polish_near_pole)
+    if not W.pole_ref:
+        k = np.flatnonzero(ok & ~np.isnan(out) & (np.abs(out - pole) <= 0.25 * np.abs(zm - pole)))
+        if k.size:
+            Wk = W.sub(k)
+            mid = pole + 0.5 * (zm[k] - pole)
+            brk = (Wk.P_direct(np.full(k.size, pole)) < 0.0) & (Wk.P_direct(mid) > 0.0)
+            j = np.flatnonzero(brk)
+            if j.size:
+                lo, hi = np.minimum(pole, mid[j]), np.maximum(pole, mid[j])
+                r, g_ok = _brentq(lambda x, i: Wk.sub(j[i]).P_direct(x), lo, hi)
+                out[k[j[g_ok]]] = r[g_ok]
     return out, ok
 
 
@@ -958,7 +1116,7 @@ def _offset_roots(W: _Wells, z_t, z_m) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_offset_root` for every element of W: (offsets, is_root)."""
     x0 = z_t - W.zr
     out = x0.copy()
-    found = np.abs(z_t) == 1.0
+    found = (np.abs(z_t) == 1.0) | (_near_pole_root(z_t, z_m) & (not W.pole_ref))
     inward = np.where(z_m > z_t, 1.0, -1.0)
     room = np.abs(z_m - z_t)
     lo, hi = np.zeros_like(x0), np.zeros_like(x0)
@@ -1064,9 +1222,7 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
     Wv = W.sub(v)
     zmv = zm[v]
     dep = Wv.excess(zmv)
-    with np.errstate(over="ignore"):
-        size = Wv.scale(zmv) / np.maximum(1.0 - zmv * zmv, 1e-300)
-    tol = 64 * _EPS * np.maximum(np.maximum(size, np.abs(Wv.Es)), Wv.mgR)
+    tol = _steady_tolerance(top, E[v], D[v], lam[v], Wv.Es, Wv.gravity(zmv), _kinetic_at(Wv, zmv))
     kv = np.where(dep < -tol, _NONE, np.where(dep <= tol, _STEADY, _NUTATION))
     kind[v], z_min[v], depth[v] = kv, zmv, dep
     steady = v[kv == _STEADY]
@@ -1089,6 +1245,13 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
             j = np.flatnonzero(zm[k] != pole)
             zt[j], ok = _turning_points_vec(Wk.sub(j), pole, zm[k][j])
             good[j[~ok]] = False
+        # bands ending in a boundary layer next to a pole go to the graded quadrature (scalar)
+        half = 0.5 * (zh - zl)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            layer = ((zl + 1.0 > _LAYER_MIN) & ((zl + 1.0) / half < _POLE_LAYER)) | (
+                (1.0 - zh > _LAYER_MIN) & ((1.0 - zh) / half < _POLE_LAYER)
+            )
+        good &= ~layer
         vec[k[~good]] = False
         z_low[k], z_high[k] = zl, zh
         if quantity is not None and np.any(good):

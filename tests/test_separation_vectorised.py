@@ -192,8 +192,11 @@ def test_bands_equal_scalar_reference(name, top, E, D, lam):
     S = np.abs(E) + D * D / (2 * top.I1) + top.m * lam * lam / (2 * top.I1 * top.I3)
     assert np.all(np.abs(b.depth - ref.depth) <= RTOL * S)
     np.testing.assert_array_equal(mett.classify_motion(top, E, D, lam), ref.kind)
-    # the common cases never need the scalar path
-    assert sep._solve(top, E, D, lam, None).scalar.sum() == 0
+    # only bands ending in a boundary layer next to a pole (graded quadrature) leave the array path
+    sol = sep._solve(top, E, D, lam, None)
+    layer = [any(sep._pole_layer(sep._reference_band(top, e, d, la))) for e, d, la in zip(
+        E[sol.scalar], D[sol.scalar], lam[sol.scalar], strict=True)]  # fmt: skip
+    assert all(layer)
 
 
 @pytest.mark.parametrize(("name", "top", "E", "D", "lam"), CASES, ids=IDS)
@@ -353,7 +356,11 @@ def test_elements_passed_to_the_scalar_path_give_the_same_results(monkeypatch):
     T_vec = mett.nutation_period(top, E, D, lam)
     monkeypatch.setattr(sep, "_locate_wells", half)
     sol = sep._solve(top, E, D, lam, None, "period")
-    assert sol.scalar.sum() == (E.size + 1) // 2
+    assert sol.scalar[::2].all()  # forced; the others only for pole-layer bands
+    assert sol.scalar.sum() <= (E.size + 1) // 2 + sum(
+        any(sep._pole_layer(sep._reference_band(top, e, d, la)))
+        for e, d, la in zip(E, D, lam, strict=True)
+    )
     np.testing.assert_array_equal(sol.value, T_vec)
     np.testing.assert_array_equal(
         mett.turning_points(top, E, D, lam), sep._reference_turning_points(top, E, D, lam)
