@@ -35,12 +35,19 @@ from .top import TippeTop
 __version__ = "0.1.0.dev0"
 
 
+_LAZY_MODULES = ("plotting", "gallery", "symbolic", "sweeps", "cli")
+
+
 def __getattr__(name: str):
-    # Lazy: sweeps need pandas, which `import mett` should not pay for.
+    # Lazy: sweeps need pandas, plotting matplotlib, symbolic sympy; `import mett` pays for none.
     if name == "sweep":
         from .sweeps import sweep
 
         return sweep
+    if name in _LAZY_MODULES:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'mett' has no attribute {name!r}")
 
 

@@ -43,7 +43,7 @@ def _minima(top: TippeTop, D: float, lam: float) -> list[float]:
 
 
 def potential_minimum(top: TippeTop, D: float, lam: float) -> float:
-    """z = cos θ of the global minimum of V(·, D, λ) on [−1, 1].
+    """z = cos θ of the global minimum of V(·, D, λ) on [−1, 1] (scalar D and λ).
 
     Found from the sign changes of the regular numerator (1 − z²)² ∂V/∂z, so a pole is returned
     when V decreases towards it (possible only when N vanishes there, D = D0 or D1).
@@ -67,7 +67,7 @@ class Convexity(NamedTuple):
 
 
 def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Convexity:
-    """Check that V(·, D, λ) is convex on (−1, 1) with a single minimum (RR14 §3; theory.md §8).
+    """Check that V(·, D, λ) is convex on (−1, 1) with a single minimum (scalar D, λ; RR14 §3).
 
     V'' is sampled at ``samples`` Chebyshev points inside (−1, 1), denser towards the poles.
     """
@@ -79,7 +79,7 @@ def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Co
 
 
 def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:
-    """Period 2π/ω_θ of small θ-oscillations about the minimum of V (gravity included, theory.md §8).
+    """Period 2π/ω_θ of small θ-oscillations about the minimum of V (scalar D, λ; theory.md §8).
 
     ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)) with z_m = :func:`potential_minimum`; at a spinning pole
     (z_m = ±1) ω_θ² = 2|V'(±1)|/g(±1).

@@ -120,8 +120,8 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
     Raises
     ------
     ValueError
-        If the state's Jellett integral is not positive, or the upright spin is not unstable
-        (λ <= λ_0), so that no escape is predicted.
+        If the state's Jellett integral is not positive, the upright spin is not unstable
+        (λ <= λ_0), or the state is not near it (no unstable component, or one of size >= 1).
     """
     from .dynamics import MODELS
     from .integrals import jellett
@@ -144,4 +144,14 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
     # 3̂_x, 3̂_y rows of the unstable part: its size is sin θ of the unstable component.
     u = vecs[4:6][:, unstable] * coef[unstable]
     amplitude = float(np.sqrt(np.sum(np.abs(u) ** 2)))
+    if amplitude == 0.0:
+        raise ValueError(
+            "the state has no component in the unstable modes (e.g. exactly upright): "
+            "the linear prediction never leaves the spin"
+        )
+    if amplitude >= 1.0:
+        raise ValueError(
+            f"the state is not near the upright spin (unstable-mode amplitude {amplitude:.3g} "
+            ">= 1): the linear escape prediction does not apply"
+        )
     return EscapeEstimate(math.log(1.0 / amplitude) / sigma, sigma, amplitude)

@@ -181,3 +181,11 @@ def test_phase_diagram_draws_points_by_end_state_and_the_thresholds():
     top = mett.TippeTop(m=0.02, R=0.02, alpha=0.3, I1=g[200] * 3.2e-6, I3=3.2e-6)
     assert x[200] == pytest.approx(top.lambda_0 / top.lambda_thres, rel=1e-12)
     assert any(ln.get_label() == "λ = λ_thres" for ln in ax.lines)
+
+
+def test_docs_example_reaches_plotting_through_the_package():
+    import subprocess
+    import sys
+
+    code = "import mett, sys; mett.plotting.plot_phase_diagram; assert 'matplotlib' in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -73,3 +73,10 @@ def test_euler_form_stops_when_a_step_jumps_across_the_pole():
     traj = mett.simulate(TOP0, mett.State(theta=0.3), 2.0, model="gliding-euler")
     assert traj.status == "failed" and "singular" in traj.message
     assert np.all(traj.theta >= 0)
+
+
+@pytest.mark.parametrize("model", ["gliding-euler", "frictionless-routhian"])
+@pytest.mark.parametrize("theta", [1e-8, np.pi - 1e-8, np.pi])
+def test_euler_angle_forms_refuse_a_start_inside_their_pole_guard(model, theta):
+    traj = mett.simulate(TOP0, mett.State(theta=theta, thetadot=0.5, omega3=50.0), 0.3, model=model)
+    assert traj.status == "failed" and "singular" in traj.message and traj.t[-1] == 0.0

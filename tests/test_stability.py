@@ -110,3 +110,15 @@ def test_no_escape_predicted_for_a_stable_upright_spin(thesis_top):
     slow = mett.State(theta=0.1, omega3=0.5 * mett.min_spin_for_inversion(thesis_top, 0.1) * 0.3)
     with pytest.raises(ValueError, match="upright spin is stable"):
         escape_time(thesis_top, slow)
+
+
+@pytest.mark.parametrize(
+    ("state", "message"),
+    [
+        (mett.State(theta=0.0, omega3=155.0), "no component in the unstable modes"),
+        (mett.State(theta=2.0, omega3=-155.0), "not near the upright spin"),
+    ],
+)
+def test_escape_time_refuses_states_outside_the_linear_regime(thesis_top, state, message):
+    with pytest.raises(ValueError, match=message):
+        escape_time(thesis_top, state)

@@ -293,6 +293,9 @@ def simulate(
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
+    for guard, _direction, message in mdl.guards:  # a start already past a guard (e.g. a pole)
+        if float(guard(0.0, y0, params)) <= 0.0:
+            return run.at_start("failed", message)
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
