@@ -16,11 +16,11 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numba
 import numpy as np
+from _timing import best_of
 
 N_PENDULA = 6
 RTOL = ATOL = 1e-10
@@ -41,15 +41,6 @@ def ring_rhs(t, y, p, out):
 
 PARAMS = np.array([0.7])
 Y0 = np.concatenate([np.linspace(0.3, 1.2, N_PENDULA), np.zeros(N_PENDULA)])
-
-
-def _best(fn, repeat: int) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def _fresh_process_first_call(env: dict[str, str] | None = None) -> float:
@@ -89,11 +80,11 @@ def main() -> None:
         )
 
     ours(True)  # compile the RHS for the integrator's signature (or load it from the cache)
-    t_sp, r_sp = _best(lambda: theirs(False), 3)
-    t_spd, r_spd = _best(lambda: theirs(True), 3)
-    t_us, r_us = _best(lambda: ours(False), 20)
-    t_usd, r_usd = _best(lambda: ours(True), 20)
-    t_tiny, _ = _best(
+    t_sp, r_sp = best_of(lambda: theirs(False), 3)
+    t_spd, r_spd = best_of(lambda: theirs(True), 3)
+    t_us, r_us = best_of(lambda: ours(False), 20)
+    t_usd, r_usd = best_of(lambda: ours(True), 20)
+    t_tiny, _ = best_of(
         lambda: dop853.solve(ring_rhs, (0.0, 1e-6), Y0, PARAMS, dense_output=False), 50
     )
     n_rhs = 200_000
@@ -105,7 +96,7 @@ def main() -> None:
             ring_rhs(0.0, y, p, out)
 
     rhs_loop(y, PARAMS, out, 1)
-    t_rhs, _ = _best(lambda: rhs_loop(y, PARAMS, out, n_rhs), 5)
+    t_rhs, _ = best_of(lambda: rhs_loop(y, PARAMS, out, n_rhs), 5)
 
     print(f"problem: ring of {N_PENDULA} pendula (n = {Y0.size}), t in [0, {T_END}], "
           f"rtol = atol = {RTOL:g}")  # fmt: skip

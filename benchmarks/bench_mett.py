@@ -10,9 +10,9 @@ on those 200 elements. Numbers only: nothing is asserted.
 from __future__ import annotations
 
 import sys
-import time
 
 import numpy as np
+from _timing import best_of
 
 import mett
 from mett import separation
@@ -29,15 +29,6 @@ def _states(n: int, seed: int = 5):
     return top, mett.energy(top, s), mett.routh(top, s), mett.jellett(top, s)
 
 
-def _best_of(fn, repeat: int = 3) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
-
 def main(n: int = 10_000, n_scalar: int = 200) -> None:
     top, E, D, lam = _states(n)
     separation.nutation_period(top, E[:10], D[:10], lam[:10])  # warm-up (imports, caches)
@@ -45,10 +36,10 @@ def main(n: int = 10_000, n_scalar: int = 200) -> None:
     for name in ("nutation_period", "turning_points"):
         vec = getattr(separation, name)
         ref = getattr(separation, f"_reference_{name}")
-        t_vec, out = _best_of(lambda vec=vec: vec(top, E, D, lam))
+        t_vec, out = best_of(lambda vec=vec: vec(top, E, D, lam))
         k = slice(0, n_scalar)
         sub = (top, E[k], D[k], lam[k])
-        t_ref, out_ref = _best_of(lambda ref=ref, sub=sub: ref(*sub), repeat=1)
+        t_ref, out_ref = best_of(lambda ref=ref, sub=sub: ref(*sub), repeat=1)
         t_ref_n = t_ref * n / n_scalar
         diff = np.max(np.abs(np.asarray(out)[k] - out_ref) / np.abs(out_ref))
         rows.append((name, t_vec, t_ref_n, t_ref_n / t_vec, diff))
