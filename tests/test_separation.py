@@ -160,6 +160,25 @@ def test_theory_example_period_and_band_from_mett_and_from_reference():
 # --- the high-spin precision problem ---------------------------------------------------------
 
 
+def _mp_P(top, E, D, lam):
+    """P(z) = (1 − z²)(E − D²/(2I1) + mλ²/(2I1I3) − mgR(1 − αz)) − I3 N²/(2 I1² R²) in mpmath.
+
+    Call inside ``mpmath.workdps``: the parameters are converted at the working precision.
+    """
+    mp = mpmath.mpf
+    m, R, al, I1, I3, gr = (mp(v) for v in (top.m, top.R, top.alpha, top.I1, top.I3, top.g))
+    E, D, lam = mp(E), mp(D), mp(lam)
+    gam, sig = I1 / I3, m * R**2 / I3
+    Es = E - D**2 / (2 * I1) + m * lam**2 / (2 * I1 * I3)
+
+    def P(z):
+        n = lam * mpmath.sqrt(gam + sig * (al - z) ** 2 + sig * gam * (1 - z * z))
+        n += R * D * (al - z)
+        return (1 - z * z) * (Es - m * gr * R * (1 - al * z)) - I3 * n * n / (2 * I1**2 * R**2)
+
+    return P
+
+
 def _mp_band_and_period(top, E, D, lam, z_guess, dps=40):
     """Turning points and period from theory.md §4 in mpmath (independent of mett's code).
 
@@ -168,15 +187,8 @@ def _mp_band_and_period(top, E, D, lam, z_guess, dps=40):
     """
     with mpmath.workdps(dps):
         mp = mpmath.mpf
-        m, R, al, I1, I3, gr = (mp(v) for v in (top.m, top.R, top.alpha, top.I1, top.I3, top.g))
-        E, D, lam = mp(E), mp(D), mp(lam)
-        gam, sig = I1 / I3, m * R**2 / I3
-        Es = E - D**2 / (2 * I1) + m * lam**2 / (2 * I1 * I3)
-
-        def P(z):
-            n = lam * mpmath.sqrt(gam + sig * (al - z) ** 2 + sig * gam * (1 - z * z))
-            n += R * D * (al - z)
-            return (1 - z * z) * (Es - m * gr * R * (1 - al * z)) - I3 * n * n / (2 * I1**2 * R**2)
+        m, R, al, I1 = (mp(v) for v in (top.m, top.R, top.alpha, top.I1))
+        P = _mp_P(top, E, D, lam)
 
         def gfun(z):
             return (I1 + m * R**2 * (1 + al**2 - 2 * al * z)) / 2
@@ -221,16 +233,11 @@ def _mp_f(top, z, E, D, lam, dps=40):
     out = []
     with mpmath.workdps(dps):
         mp = mpmath.mpf
-        m, R, al, I1, I3, gr = (mp(v) for v in (top.m, top.R, top.alpha, top.I1, top.I3, top.g))
-        E, D, lam = mp(E), mp(D), mp(lam)
-        gam, sig = I1 / I3, m * R**2 / I3
-        Es = E - D**2 / (2 * I1) + m * lam**2 / (2 * I1 * I3)
+        m, R, al, I1 = (mp(v) for v in (top.m, top.R, top.alpha, top.I1))
+        P = _mp_P(top, E, D, lam)
         for zz in np.asarray(z, dtype=float):
             zz = mp(zz)
-            n = lam * mpmath.sqrt(gam + sig * (al - zz) ** 2 + sig * gam * (1 - zz * zz))
-            n += R * D * (al - zz)
-            P = (1 - zz * zz) * (Es - m * gr * R * (1 - al * zz)) - I3 * n * n / (2 * I1**2 * R**2)
-            out.append(float(P / ((I1 + m * R**2 * (1 + al**2 - 2 * al * zz)) / 2)))
+            out.append(float(P(zz) / ((I1 + m * R**2 * (1 + al**2 - 2 * al * zz)) / 2)))
     return np.array(out)
 
 
