@@ -117,6 +117,14 @@ class TippeTop:
         return "II"
 
     @property
+    def subgroup(self) -> str:
+        """Class by the stability of the steady states: Ia, Ib, IIa, IIb, IIc or III
+        (:func:`mett.classification.subgroup`; Ciocci & Langerock 2007)."""
+        from .classification import subgroup
+
+        return subgroup(self)
+
+    @property
     def lambda_thres(self) -> float:
         """Jellett threshold above which the inverted spin is asymptotically stable (theory.md §7)."""
         from .thresholds import lambda_thres
