@@ -378,3 +378,41 @@ def test_bistable_candidates_are_reached_from_their_own_side(gamma, ratio, theta
     end = traj.at(30.0)
     assert abs(end.theta - target.theta) < 2e-3
     assert end.omega3 == pytest.approx(target.omega3, rel=2e-3)
+
+
+# sample points of the (α, γ) diagram: (class, λ in units of min(λ_0, λ_thres), θ0, t_end, end kind)
+SAMPLES = [
+    ("Ia", 0.7, 0.1, 300.0, "upright"),
+    ("Ia", 1.5, 0.1, 300.0, "upright"),
+    ("Ia", 1.5, math.pi - 0.1, 300.0, "inverted"),
+    ("Ib", 0.7, math.pi - 0.1, 30.0, "tumbling"),
+    ("Ib", 1.5, math.pi - 0.1, 30.0, "inverted"),
+    ("IIa", 1.5, 0.1, 30.0, "tumbling"),
+    ("IIa", 3.0, 0.1, 30.0, "inverted"),
+    ("IIb", 0.7, 0.1, 30.0, "upright"),
+    ("IIb", 0.7, math.pi - 0.1, 200.0, "tumbling"),
+    ("IIb", 1.5, 0.1, 100.0, "inverted"),
+    ("IIc", 1.5, 0.1, 1500.0, "upright"),
+    ("IIc", 1.5, math.pi - 0.1, 1500.0, "inverted"),
+    ("III", 0.7, 0.1, 30.0, "upright"),
+    ("III", 3.0, 0.1, 30.0, "tumbling"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("name", "ratio", "theta0", "t_end", "kind"),
+    [pytest.param(*s, marks=[pytest.mark.ci] if s[0] == "IIb" else []) for s in SAMPLES],
+)
+def test_sample_points_end_in_a_predicted_state(name, ratio, theta0, t_end, kind):
+    top = CLASS_TOPS[name]
+    lam = ratio * min(top.lambda_0, top.lambda_thres)
+    pred = mett.asymptotic_state(top, lam)
+    (target,) = [c for c in pred.candidates if c.kind == kind]
+    omega3 = lam / (top.R * top.I3 * (math.cos(theta0) - top.alpha))
+    traj = mett.simulate(top, mett.State(theta=theta0, omega3=omega3), t_end=t_end)
+    assert traj.status == "completed"
+    end = traj.at(t_end)
+    assert abs(end.theta - target.theta) < 2e-3
+    assert end.omega3 == pytest.approx(target.omega3, rel=2e-3)
+    assert traj.lam[-1] == pytest.approx(lam, rel=1e-7)
