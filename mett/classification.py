@@ -23,26 +23,19 @@ exactly where λ'(θ_t) does (checked in ``tests/test_classification.py`` agains
 linearisation of the Euler-angle form and against simulations started next to tumbling states).
 
 S is a concave quadratic in z whose vertex z = α/u lies outside [−1, 1] for group II, so the
-tumbling family is monotone or has a single fold. That gives six classes (Ciocci & Langerock 2007
-list six groups Ia–III from the existence and stability of the steady states; their letters are
-matched here to the cases below by that criterion):
+tumbling family is monotone or has a single fold. That gives six classes, as many as the six groups
+Ia–III that Ciocci & Langerock (2007) derive from the existence and stability of the steady
+states; the criteria below are derived here, and which letter a, b, c names which case is our
+assignment, not checked against their text:
 
-====== ======================= ===============================================================
-class  where                   tumbling family λ(θ_t) and end states
-====== ======================= ===============================================================
-Ia     γ ≤ 1 − α, S(−1) ≥ 0    falls from ∞ (θ_f) to λ_thres (π); every tumbling state unstable;
-                               upright always stable, inverted too for λ ≥ λ_thres (bistable)
-Ib     γ ≤ 1 − α, S(−1) < 0    falls from ∞ to a minimum λ_min < λ_thres, then rises to λ_thres:
-                               stable tumbling near π for λ_min < λ < λ_thres, next to the
-                               upright spin (bistable for every λ > λ_min)
-IIa    II, S(1) ≤ 0            rises from λ_0 to λ_thres: upright, tumbling, inverted in turn
-IIb    II, S(1) > 0 > S(−1)    folds: falls from λ_0 to λ_min, rises to λ_thres; bistable for
-                               λ_min < λ < λ_0 (upright with tumbling, and with inverted where
-                               λ_0 > λ_thres, i.e. γ < (1 − α²)(1 + 3α²)/(1 + 6α² + α⁴))
-IIc    II, S(−1) ≥ 0           falls from λ_0 to λ_thres: every tumbling state unstable; both
-                               spins stable for λ_thres ≤ λ ≤ λ_0
-III    γ ≥ 1 + α               rises from λ_0 to ∞ at θ_f: upright, then tumbling below θ_f
-====== ======================= ===============================================================
+| class | where | tumbling family λ(θ_t) and stable states |
+| --- | --- | --- |
+| Ia | γ ≤ 1 − α, S(−1) ≥ 0 | falls from ∞ (θ_f) to λ_thres (π), every tumbling state unstable; upright always stable, inverted too for λ ≥ λ_thres (bistable) |
+| Ib | γ ≤ 1 − α, S(−1) < 0 | falls from ∞ to a fold λ_min < λ_thres, then rises to λ_thres: stable tumbling near π for λ_min < λ < λ_thres next to the upright spin (bistable for every λ > λ_min) |
+| IIa | group II, S(1) ≤ 0 | rises from λ_0 to λ_thres: upright, tumbling, inverted in turn |
+| IIb | group II, S(1) > 0 > S(−1) | falls from λ_0 to λ_min, rises to λ_thres; bistable for λ_min < λ < λ_0 (upright with tumbling, and with inverted where λ_0 > λ_thres, i.e. γ < (1 − α²)(1 + 3α²)/(1 + 6α² + α⁴)) |
+| IIc | group II, S(−1) ≥ 0 | falls from λ_0 to λ_thres, every tumbling state unstable; both spins stable for λ_thres ≤ λ ≤ λ_0 |
+| III | γ ≥ 1 + α | rises from λ_0 to ∞ at θ_f: upright, then tumbling below θ_f |
 
 (group II is 1 − α < γ < 1 + α; θ_f = arccos(α/(1 − γ)).) Ia and IIc exist only for
 α < 7 − 4√3 ≈ 0.0718, in wedges either side of γ = 1 − α; for γ ≥ 1 every group-II top is IIa.
@@ -66,6 +59,7 @@ if TYPE_CHECKING:
     from .top import TippeTop
 
 __all__ = [
+    "SAMPLE_POINTS",
     "SUBGROUPS",
     "SubgroupBoundaries",
     "amended_potential",
@@ -83,6 +77,16 @@ __all__ = [
 
 SUBGROUPS = ("Ia", "Ib", "IIa", "IIb", "IIc", "III")
 """The six classes, in the order of the module table."""
+
+SAMPLE_POINTS = {
+    "Ia": (0.02, 0.8),
+    "Ib": (0.3, 0.6),
+    "IIa": (0.3, 0.9357),
+    "IIb": (0.3, 0.75),
+    "IIc": (0.02, 0.981),
+    "III": (0.3, 1.4),
+}
+"""One (α, γ) per class, simulated in ``tests/test_classification.py`` and marked on the diagram."""
 
 ALPHA_WEDGE = 7.0 - 4.0 * math.sqrt(3.0)
 """α below which the classes Ia and IIc exist: S(−1) = 0 has real roots iff 1 − 6α + α² >= 8α."""
@@ -138,6 +142,10 @@ def tumbling_is_stable(top: TippeTop, theta: ArrayLike) -> np.ndarray:
 # --- classes in the (α, γ) plane ------------------------------------------------------------
 
 
+def _span(x: np.ndarray) -> str:
+    return repr(float(x)) if x.ndim == 0 else f"values in [{x.min():g}, {x.max():g}]"
+
+
 def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     """Class (``"Ia"`` … ``"III"``) of tops with eccentricity ``alpha`` and γ = I1/I3 = ``gamma``.
 
@@ -152,9 +160,9 @@ def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     a = _validate.as_finite_array("alpha", alpha)
     g = _validate.as_finite_array("gamma", gamma)
     if np.any((a <= 0.0) | (a >= 1.0)):
-        raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")
+        raise ValueError(f"alpha must lie in (0, 1); got {_span(a)}")
     if np.any(g <= 0.0):
-        raise ValueError(f"gamma must lie in (0, inf); got {gamma!r}")
+        raise ValueError(f"gamma must lie in (0, inf); got {_span(g)}")
     a, g = np.broadcast_arrays(a, g)
     s_up, s_inv = _S(a, g, 1.0), _S(a, g, -1.0)
     out = np.where(
@@ -203,7 +211,7 @@ def subgroup_boundaries(alpha: ArrayLike) -> SubgroupBoundaries:
     """
     a = _validate.as_finite_array("alpha", alpha)
     if np.any((a <= 0.0) | (a >= 1.0)):
-        raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")
+        raise ValueError(f"alpha must lie in (0, 1); got {_span(a)}")
     bp = 1.0 + 6.0 * a + a * a
     bm = 1.0 - 6.0 * a + a * a
     # bp² − 64α² = (bp − 8α)(bp + 8α) = (1 − α)² (bp + 8α) >= 0: factored to keep it exact.
@@ -468,65 +476,88 @@ _CLASS_COLORS = {
 }
 
 
+def _draw_classes(ax, alpha, gamma, n, labels) -> None:
+    from matplotlib.colors import ListedColormap
+
+    def centres(lo: float, hi: float) -> np.ndarray:
+        edges = np.linspace(lo, hi, n + 1)
+        return 0.5 * (edges[1:] + edges[:-1])
+
+    A, G = np.meshgrid(centres(*alpha), centres(*gamma))
+    names = classify(A, G)
+    code = np.zeros(A.shape)
+    for i, name in enumerate(SUBGROUPS):
+        code[names == name] = i
+    cmap = ListedColormap([_CLASS_COLORS[c] for c in SUBGROUPS])
+    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(SUBGROUPS) - 0.5, shading="auto")
+    a = np.linspace(max(alpha[0], 1e-4), alpha[1], 2000)
+    b = subgroup_boundaries(a)
+    for curve, style in ((b.group_I, "k-"), (b.group_III, "k-"), (b.IIa, "k--"), (b.IIc, "k:"),
+                         (b.Ia, "k:")):  # fmt: skip
+        ax.plot(a, curve, style, lw=1.0)
+    ax.plot(a, b.spins_equal, color="0.25", lw=1.0, ls="-.", label="λ₀ = λ_thres")
+    for name, (x, y) in labels.items():
+        ax.text(x, y, name, ha="center", va="center", fontsize=10, weight="bold")
+    ax.set_xlim(*alpha)
+    ax.set_ylim(*gamma)
+
+
 def plot_subgroups(
     *,
-    alpha: tuple[float, float] = (0.005, 0.6),
-    gamma: tuple[float, float] = (0.5, 1.6),
-    n: int = 600,
     points: dict[str, tuple[float, float]] | None = None,
+    samples: list[tuple[float, float]] | None = None,
+    n: int = 500,
     ax=None,
 ) -> Figure:
-    """The (α, γ) plane coloured by class (Ia … III), with the boundary curves and the λ_0 = λ_thres
-    curve (both spins stable below it in group II).
+    """The (α, γ) plane coloured by class (Ia … III), with its boundary curves.
+
+    Solid: γ = 1 ∓ α (groups I | II | III); dashed: lower edge of IIa (S(1) = 0); dotted: the
+    S(−1) = 0 edges of the wedges Ia and IIc (α < 7 − 4√3, magnified in the inset); dash-dotted:
+    λ_0 = λ_thres, below which (in group II) both spins are stable for λ_thres < λ < λ_0. The grey
+    line γ = 1/2 is the rigid-body bound I3 <= 2 I1.
 
     Parameters
     ----------
-    alpha, gamma : (float, float)
-        Plotted ranges (α within (0, 1), γ > 0).
-    n : int
-        Grid size per axis.
     points : dict, optional
-        Labelled (α, γ) points to mark, e.g. presets or simulated samples.
+        Labelled (α, γ) points to mark, e.g. the presets.
+    samples : list of (float, float), optional
+        (α, γ) of simulated sample points, drawn as triangles.
+    n : int
+        Grid size per axis of the colour map.
     ax : matplotlib Axes, optional
     """
     import matplotlib.pyplot as plt
-    from matplotlib.colors import ListedColormap
 
     if ax is None:
-        fig = plt.figure(figsize=(7.2, 5.4), layout="constrained")
+        fig = plt.figure(figsize=(7.6, 5.6), layout="constrained")
         ax = fig.add_subplot()
     fig = ax.figure
-    A, G = np.meshgrid(np.linspace(*alpha, n), np.linspace(*gamma, n))
-    labels_grid = classify(A, G)
-    code = np.zeros(A.shape)
-    for i, name in enumerate(SUBGROUPS):
-        code[labels_grid == name] = i
-    cmap = ListedColormap([_CLASS_COLORS[c] for c in SUBGROUPS])
-    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(SUBGROUPS) - 0.5, shading="auto")
-    a = np.linspace(alpha[0], alpha[1], 800)
-    b = subgroup_boundaries(a)
-    ax.plot(a, b.group_I, "k-", lw=1.2)
-    ax.plot(a, b.group_III, "k-", lw=1.2)
-    ax.plot(a, b.IIa, "k--", lw=1.0)
-    ax.plot(a, b.IIc, "k:", lw=1.0)
-    ax.plot(a, b.Ia, "k:", lw=1.0)
-    ax.plot(a, b.spins_equal, color="0.3", lw=1.0, ls="-.", label="λ₀ = λ_thres")
-    ax.axhline(0.5, color="0.4", lw=0.8)
-    ax.text(alpha[1] * 0.98, 0.51, "γ = 1/2 (I3 = 2 I1)", ha="right", va="bottom", fontsize=7)
-    labels = {"Ia": (0.035, 0.85), "Ib": (0.45, 0.62), "IIa": (0.3, 1.05),
-              "IIb": (0.42, 0.75), "III": (0.15, 1.45)}  # fmt: skip
-    for name, (x, y) in labels.items():
-        if alpha[0] <= x <= alpha[1] and gamma[0] <= y <= gamma[1]:
-            ax.text(x, y, name, ha="center", va="center", fontsize=11, weight="bold")
+    labels = {"Ib": (0.4, 0.56), "IIa": (0.32, 1.02), "IIb": (0.5, 0.62), "III": (0.15, 1.45)}
+    _draw_classes(ax, (0.0, 0.6), (0.45, 1.7), n, labels)
+    ax.axhline(0.5, color="0.45", lw=0.8)
+    ax.text(0.01, 0.49, "γ = 1/2 (I3 = 2 I1)", ha="left", va="top", fontsize=7)
     for name, (x, y) in (points or {}).items():
-        ax.plot(x, y, "o", ms=5, mfc="white", mec="black")
-        ax.annotate(name, (x, y), xytext=(4, 3), textcoords="offset points", fontsize=7)
+        ax.plot(x, y, "o", ms=4, mfc="white", mec="black")
+        ax.annotate(name, (x, y), xytext=(4, 2), textcoords="offset points", fontsize=7)
+    if samples:
+        sa, sg = np.asarray(samples, dtype=float).T
+        ax.plot(sa, sg, "^", ms=5, color="black", ls="none", label="simulated samples")
+    ax.legend(loc="upper left", fontsize=8)
     handles = [plt.Rectangle((0, 0), 1, 1, color=_CLASS_COLORS[c]) for c in SUBGROUPS]
-    leg = ax.legend(handles, SUBGROUPS, loc="upper right", fontsize=8, title="class")
-    ax.add_artist(leg)
-    ax.legend(loc="lower right", fontsize=8)
-    ax.set_xlim(*alpha)
-    ax.set_ylim(*gamma)
+    ax.figure.legend(handles, SUBGROUPS, loc="outside right upper", fontsize=8, title="class")
+    ins = ax.inset_axes((0.56, 0.5, 0.42, 0.46))
+    _draw_classes(ins, (0.0, 0.08), (0.88, 1.01), n, {"Ia": (0.012, 0.95), "IIc": (0.025, 0.983),
+                                                        "IIb": (0.071, 0.966), "Ib": (0.06, 0.905),
+                                                        "IIa": (0.02, 1.004)})  # fmt: skip
+    for x, y in (points or {}).values():
+        if x <= 0.08 and 0.88 <= y <= 1.01:
+            ins.plot(x, y, "o", ms=4, mfc="white", mec="black")
+    for x, y in samples or ():
+        if x <= 0.08 and 0.88 <= y <= 1.01:
+            ins.plot(x, y, "^", ms=5, color="black")
+    ins.tick_params(labelsize=7)
+    ins.set_title("α < 0.08", fontsize=8)
+    ax.indicate_inset_zoom(ins, edgecolor="0.3")
     ax.set_xlabel("α (CM offset / R)")
     ax.set_ylabel("γ = I1/I3")
     ax.set_title("Classes of tippe tops by their steady states (gliding model)")

@@ -71,6 +71,16 @@ def _f(ctx: _Context):
     return plotting.plot_f(*ctx.rolling)
 
 
+def _subgroups(ctx: _Context):
+    import mett
+
+    from .classification import SAMPLE_POINTS, plot_subgroups
+
+    presets = {n: mett.presets.get(n) for n in ("rutstam2013", "cohen1977", "ueda2005")}
+    points = {n: (t.alpha, t.gamma) for n, t in presets.items()}
+    return plot_subgroups(points=points, samples=list(SAMPLE_POINTS.values()))
+
+
 FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "thesis_fig4a_theta": ("θ(t) of the thesis run (thesis fig. 4a)", _thesis("plot_theta")),
     "thesis_fig4bc_psidot_phidot": (
@@ -96,6 +106,7 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "paper1_V_surface": ("V(cos θ, D, λ) over D ∈ [D1, D0] (Rutstam 2012)", _surface),
     "potential_slice": ("V(z) of a rolling top with Ẽ and the turning points", _slice),
     "separation_f": ("f(z) of ż² = f(z) with its roots", _f),
+    "subgroups": ("the classes Ia–III of tops in the (α, γ) plane", _subgroups),
 }
 """Name → (description, maker). Each maker returns a matplotlib Figure."""
 

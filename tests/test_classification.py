@@ -26,15 +26,8 @@ def top_with(gamma: float, alpha: float = 0.3) -> mett.TippeTop:
     return mett.TippeTop(I1=gamma * 3.2e-6, **{**BASE, "alpha": alpha})
 
 
-# one top per class (the Ia/IIc wedges need a small α)
-CLASS_TOPS = {
-    "Ia": top_with(0.8, alpha=0.02),
-    "Ib": top_with(0.6),
-    "IIa": top_with(0.9357),
-    "IIb": top_with(0.75),
-    "IIc": top_with(0.981, alpha=0.02),
-    "III": top_with(1.4),
-}
+# one top per class at the diagram's sample points (the Ia/IIc wedges need a small α)
+CLASS_TOPS = {name: top_with(g, alpha=a) for name, (a, g) in C.SAMPLE_POINTS.items()}
 
 
 # --- amended potential ------------------------------------------------------------------------
@@ -416,3 +409,23 @@ def test_sample_points_end_in_a_predicted_state(name, ratio, theta0, t_end, kind
     assert abs(end.theta - target.theta) < 2e-3
     assert end.omega3 == pytest.approx(target.omega3, rel=2e-3)
     assert traj.lam[-1] == pytest.approx(lam, rel=1e-7)
+
+
+def test_subgroup_figure_colours_each_cell_by_its_class():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = C.plot_subgroups(points={"thesis": (0.3, 0.9357)}, samples=[(0.3, 0.75)], n=40)
+    try:
+        ax = fig.axes[0]
+        mesh = ax.collections[0]
+        codes = np.asarray(mesh.get_array()).reshape(40, 40)
+        edges_a, edges_g = np.linspace(0.0, 0.6, 41), np.linspace(0.45, 1.7, 41)
+        a = 0.5 * (edges_a[1:] + edges_a[:-1])
+        g = 0.5 * (edges_g[1:] + edges_g[:-1])
+        for i, j in [(0, 5), (10, 20), (25, 30), (39, 39), (5, 1)]:
+            assert C.SUBGROUPS[int(codes[i, j])] == C.classify(a[j], g[i])
+    finally:
+        plt.close(fig)
