@@ -149,18 +149,19 @@ def _span(x: np.ndarray) -> str:
 def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     """Class (``"Ia"`` … ``"III"``) of tops with eccentricity ``alpha`` and γ = I1/I3 = ``gamma``.
 
-    Vectorised over broadcast ``alpha``, ``gamma``; the criteria are those of the module table.
-    Returns a str array (0-d for scalar input).
+    Vectorised over broadcast ``alpha``, ``gamma``; the criteria are those of the module table,
+    which do not need α < 1 (a top resting on its stem has its CM outside the stem sphere, α > 1:
+    :mod:`mett.stem`). Returns a str array (0-d for scalar input).
 
     Raises
     ------
     ValueError
-        If alpha is not in (0, 1) or gamma not positive and finite.
+        If alpha or gamma is not positive and finite.
     """
     a = _validate.as_finite_array("alpha", alpha)
     g = _validate.as_finite_array("gamma", gamma)
-    if np.any((a <= 0.0) | (a >= 1.0)):
-        raise ValueError(f"alpha must lie in (0, 1); got {_span(a)}")
+    if np.any(a <= 0.0):
+        raise ValueError(f"alpha must lie in (0, inf); got {_span(a)}")
     if np.any(g <= 0.0):
         raise ValueError(f"gamma must lie in (0, inf); got {_span(g)}")
     a, g = np.broadcast_arrays(a, g)

@@ -12,8 +12,12 @@ import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from . import _validate
+
+if TYPE_CHECKING:
+    from .stem import StemmedTop
 
 __all__ = ["TippeTop"]
 
@@ -152,6 +156,16 @@ class TippeTop:
         gam, a = self.gamma, self.alpha
         den = gam + a * a - 1.0
         return (1.0 - gam) / den if den != 0 else math.inf
+
+    def with_stem(self, radius: float, distance: float) -> StemmedTop:
+        """This top with a stem: a sphere of radius ``radius`` (m) whose centre lies on the symmetry
+        axis ``distance`` (m) from the ball's centre, on the side away from the centre of mass.
+
+        See :class:`mett.stem.StemmedTop` (touchdown angle, the equivalent top on the stem).
+        """
+        from .stem import StemmedTop
+
+        return StemmedTop(self, radius, distance)
 
     # --- constructors -------------------------------------------------------------------
     def replace(self, **fields: float) -> TippeTop:

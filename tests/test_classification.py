@@ -152,7 +152,7 @@ def test_boundaries_separate_the_classes():
 
 def test_classify_refuses_bad_input():
     with pytest.raises(ValueError, match="alpha must lie in"):
-        C.classify(1.2, 0.9)
+        C.classify(-0.2, 0.9)
     with pytest.raises(ValueError, match="gamma must lie in"):
         C.classify(0.3, -1.0)
     with pytest.raises(ValueError, match="alpha"):
