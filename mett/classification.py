@@ -115,7 +115,9 @@ def amended_potential(top: TippeTop, lam: float, theta: ArrayLike) -> np.ndarray
     th = _validate.theta(theta)
     c, s = np.cos(th), np.sin(th)
     Q = top.I1 * s * s + top.I3 * (c - top.alpha) ** 2
-    return lam**2 / (2.0 * top.R**2 * Q) + top.m * top.g * top.R * (1.0 - top.alpha * c)
+    with np.errstate(over="ignore"):  # λ ≳ 1e154: the energy overflows to inf, correctly rounded
+        kinetic = np.square(np.float64(lam) / top.R) / (2.0 * Q)
+    return kinetic + top.m * top.g * top.R * (1.0 - top.alpha * c)
 
 
 def _S(alpha: ArrayLike, gamma: ArrayLike, z: ArrayLike) -> np.ndarray:
@@ -270,6 +272,16 @@ def _state_at(top: TippeTop, th: float) -> TumblingState:
     return TumblingState(float(th), phidot, phidot * (math.cos(th) - a))
 
 
+def _state_from_lambda(top: TippeTop, th: float, lam: float) -> TumblingState:
+    """The tumbling state at θ_t = ``th`` with its precession from λ = R φ̇ [I1 sin²θ + I3 (cos θ − α)²]
+    (for θ_t within rounding of θ_f, where the closed form of φ̇ has lost every digit)."""
+    from .thresholds import TumblingState
+
+    c, s = math.cos(th), math.sin(th)
+    phidot = lam / (top.R * (top.I1 * s * s + top.I3 * (c - top.alpha) ** 2))
+    return TumblingState(float(th), phidot, phidot * (c - top.alpha))
+
+
 def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
     """Every tumbling state with Jellett integral ``lam``, by increasing θ_t (0, 1 or 2 of them).
 
@@ -309,11 +321,18 @@ def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
             if r_fin >= 0.0:
                 continue
             t = t_fin
-            for k in range(1, 80):
-                t = t_inf + (t_fin - t_inf) * 2.0**-k
+            for k in range(1, 1100):
+                t_next = t_inf + (t_fin - t_inf) * 2.0**-k
+                if t_next == t_inf:
+                    break
+                t = t_next
                 if resid(t) > 0.0:
                     break
-            else:  # pragma: no cover - λ grows like 1/√(θ − θ_f): reached long before 2⁻⁸⁰
+            else:  # pragma: no cover - 2⁻¹¹⁰⁰ underflows: the loop always breaks above
+                pass
+            if not resid(t) > 0.0:
+                # θ_t(lam) lies closer to θ_f than the spacing of doubles: the nearest θ it is
+                out.append(_state_from_lambda(top, t, lam))
                 continue
             a, b = (t, t_fin) if t_inf == a else (t_fin, t)
             ra, rb = resid(a), resid(b)
@@ -450,6 +469,11 @@ def tumbling_eigenvalues(top: TippeTop, theta: float) -> np.ndarray:
         raise ValueError(
             f"theta must lie inside the tumbling family's domain ({lo:.6g}, {hi:.6g}) without the "
             f"poles 0 and pi; got {theta!r}"
+        )
+    if math.sin(th) < 1e-8:
+        raise ValueError(
+            f"theta must be at least 1e-8 rad from the poles 0 and pi (the tumbling state merges into "
+            f"the spin there: use mett.spin_eigenvalues); got {theta!r}"
         )
     y, st, F, jellett, turn = _rotating_system(top, th)
     Lmag = float(np.linalg.norm(y[2:5]))

@@ -429,3 +429,31 @@ def test_subgroup_figure_colours_each_cell_by_its_class():
             assert C.SUBGROUPS[int(codes[i, j])] == C.classify(a[j], g[i])
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("name", list(CLASS_TOPS))
+@pytest.mark.parametrize("lam", [1e-300, 1e-20, 1.0, 1e30, 1e300])
+def test_extreme_lambdas_give_a_clean_answer(name, lam):
+    import warnings
+
+    top = CLASS_TOPS[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        st = mett.asymptotic_state(top, lam)
+        U = C.amended_potential(top, lam, [0.0, 1.5, math.pi])
+    assert st.candidates
+    assert not np.any(np.isnan(U))
+    if st.kind != "bistable":
+        assert math.isfinite(st.theta) and not math.isnan(st.omega3)
+    if name == "III" and lam >= 1.0:  # θ_t within rounding of θ_f; ω3 from λ, not from 1/0
+        assert st.kind == "tumbling"
+        assert st.theta == pytest.approx(math.acos(top.alpha / (1 - top.gamma)), abs=1e-9)
+        s = mett.State(
+            theta=st.theta, omega3=st.omega3, phidot=st.omega3 / (math.cos(st.theta) - top.alpha)
+        )
+        assert float(mett.jellett(top, s)) == pytest.approx(lam, rel=1e-9)
+
+
+def test_tumbling_eigenvalues_refuse_the_immediate_neighbourhood_of_a_pole():
+    with pytest.raises(ValueError, match="1e-8 rad from the poles"):
+        C.tumbling_eigenvalues(mett.presets.get("rutstam2013"), 1e-12)
