@@ -273,8 +273,9 @@ def _state_at(top: TippeTop, th: float) -> TumblingState:
 
 
 def _state_from_lambda(top: TippeTop, th: float, lam: float) -> TumblingState:
-    """The tumbling state at θ_t = ``th`` with its precession from λ = R φ̇ [I1 sin²θ + I3 (cos θ − α)²]
-    (for θ_t within rounding of θ_f, where the closed form of φ̇ has lost every digit)."""
+    """The tumbling state at θ_t = ``th`` with its precession from λ = R φ̇ [I1 sin²θ + I3 (cos θ − α)²],
+    so that its Jellett integral is ``lam`` to rounding even where λ(θ_t) is steep (near θ_f the
+    closed form of φ̇ at the rounded θ_t is off by λ'(θ_t)·ulp(θ_t))."""
     from .thresholds import TumblingState
 
     c, s = math.cos(th), math.sin(th)
@@ -343,7 +344,7 @@ def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
         if ra * rb < 0.0:
             th = optimize.brentq(resid, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
             if 0.0 < th < math.pi:
-                out.append(_state_at(top, th))
+                out.append(_state_from_lambda(top, th, lam))
     return sorted(out, key=lambda s: s.theta)
 
 
