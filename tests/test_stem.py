@@ -113,6 +113,10 @@ def test_stem_phase_ends_in_the_predicted_state_with_jellett_conserved():
     assert np.max(np.abs(traj.lam - lam)) < 1e-9 * lam
     assert abs(traj.theta[-1] - math.pi) < 1e-6
     assert traj.omega3[-1] == pytest.approx(pred.omega3, rel=1e-8)
+    # the METT holds on the stem: Ẽ = g(z) θ̇² + V(z, D, λ_s) with the stem sphere's geometry
+    z = np.cos(traj.theta)
+    res = traj.E_mod - (mett.g(s, z) * traj.thetadot**2 + mett.V(s, z, traj.D, traj.lam))
+    assert np.max(np.abs(res)) < 1e-9 * np.max(np.abs(traj.E_mod))
 
 
 @pytest.mark.parametrize(
