@@ -155,8 +155,10 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
 
     Solves λ(θ_t) = lam on the family's domain. For an admissible top (1 − α < γ < 1 + α) the
     family joins λ_0 (θ_t → 0) to λ_thres (θ_t → π); for group III it runs from λ_0 to ∞ as θ_t
-    approaches θ_f = arccos(α/(1 − γ)). Where several θ_t share the same λ, the one closest to the
-    upright end (reached first by a top started near θ = 0) is returned.
+    approaches θ_f = arccos(α/(1 − γ)). Where several θ_t share the same λ (a folded family,
+    classes Ib and IIb of :mod:`mett.classification`), the one closest to the upright end is
+    returned, stable or not; :func:`mett.classification.tumbling_states` lists them all and
+    :func:`mett.classification.tumbling_is_stable` tells which are stable.
 
     Raises
     ------

@@ -108,3 +108,12 @@ def test_end_state_needs_positive_jellett(thesis_top, lam):
         asymptotic_state(thesis_top, lam)
     with pytest.raises(ValueError, match="lam must"):
         tumbling_state(thesis_top, lam)
+
+
+@pytest.mark.parametrize("gamma", [0.75, 0.85])
+def test_asymptotic_state_at_lambda_thres_of_a_folded_family(thesis_top, gamma):
+    # regression: the sweeps example asked for γ = 0.75, 0.85 at λ = λ_thres and got a RuntimeError
+    top = thesis_top.replace(I1=gamma * thesis_top.I3)
+    st = asymptotic_state(top, top.lambda_thres)
+    assert st.kind == "inverted" and st.theta == math.pi
+    assert st.omega3 == pytest.approx(-top.lambda_thres / (top.R * top.I3 * (1 + top.alpha)))
