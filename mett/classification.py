@@ -588,3 +588,54 @@ def plot_subgroups(
     ax.set_ylabel("γ = I1/I3")
     ax.set_title("Classes of tippe tops by their steady states (gliding model)")
     return fig
+
+
+def plot_tumbling_families(*, ax=None) -> Figure:
+    """Bifurcation diagrams of the six classes: the steady states in the (θ, λ) plane.
+
+    One panel per class at its :data:`SAMPLE_POINTS` (α, γ): the tumbling family λ(θ_t), solid
+    where stable (λ'(θ_t) > 0) and dashed where unstable, and the spins on the edges θ = 0
+    (stable for λ <= λ_0) and θ = π (stable for λ >= λ_thres). λ is in units of min(λ_0, λ_thres).
+    A horizontal line λ = const meets the solid lines in the candidates of
+    :func:`mett.asymptotic_state`.
+
+    Parameters
+    ----------
+    ax : array of 6 matplotlib Axes, optional
+    """
+    import matplotlib.pyplot as plt
+
+    from .thresholds import tumbling_lambda
+    from .top import TippeTop
+
+    if ax is None:
+        fig, axes = plt.subplots(2, 3, figsize=(9.6, 5.8), layout="constrained", sharex=True)
+    else:
+        axes = np.asarray(ax)
+        fig = axes.flat[0].figure
+    ymax = 3.0
+    for a_, (name, (alpha, gamma)) in zip(axes.flat, SAMPLE_POINTS.items(), strict=True):
+        top = TippeTop(m=0.02, R=0.02, alpha=alpha, I1=gamma * 3.2e-6, I3=3.2e-6)
+        scale = min(top.lambda_0, top.lambda_thres)
+        lo, hi = _domain(top)
+        th = np.linspace(lo, hi, 3001)[1:-1]
+        lam = tumbling_lambda(top, th) / scale
+        stable = tumbling_is_stable(top, th)
+        a_.plot(th, np.where(stable, lam, np.nan), "C0-", lw=1.8, label="stable")
+        a_.plot(th, np.where(stable, np.nan, lam), "C3--", lw=1.2, label="unstable")
+        lam0, lamt = top.lambda_0 / scale, top.lambda_thres / scale
+        a_.plot([0, 0], [0, min(lam0, ymax)], "C0-", lw=5, solid_capstyle="butt")
+        a_.plot([0, 0], [min(lam0, ymax), ymax], "C3-", lw=2)
+        a_.plot([math.pi, math.pi], [min(lamt, ymax), ymax], "C0-", lw=5, solid_capstyle="butt")
+        a_.plot([math.pi, math.pi], [0, min(lamt, ymax)], "C3-", lw=2)
+        a_.set_ylim(0, ymax)
+        a_.set_xlim(-0.08, math.pi + 0.08)
+        a_.set_title(f"{name}: α = {alpha:g}, γ = {gamma:g}", fontsize=9)
+        a_.tick_params(labelsize=8)
+    for a_ in axes[-1]:
+        a_.set_xlabel("θ (rad)")
+    for a_ in axes[:, 0]:
+        a_.set_ylabel("λ / min(λ₀, λ_thres)")
+    axes.flat[0].legend(fontsize=7, loc="upper center")
+    fig.suptitle("Steady states of the gliding top: tumbling family and spins (thick: stable)")
+    return fig

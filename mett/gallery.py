@@ -81,6 +81,12 @@ def _subgroups(ctx: _Context):
     return plot_subgroups(points=points, samples=list(SAMPLE_POINTS.values()))
 
 
+def _families(ctx: _Context):
+    from .classification import plot_tumbling_families
+
+    return plot_tumbling_families()
+
+
 FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "thesis_fig4a_theta": ("θ(t) of the thesis run (thesis fig. 4a)", _thesis("plot_theta")),
     "thesis_fig4bc_psidot_phidot": (
@@ -107,6 +113,10 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "potential_slice": ("V(z) of a rolling top with Ẽ and the turning points", _slice),
     "separation_f": ("f(z) of ż² = f(z) with its roots", _f),
     "subgroups": ("the classes Ia–III of tops in the (α, γ) plane", _subgroups),
+    "tumbling_families": (
+        "steady states of each class in the (θ, λ) plane, stable and unstable",
+        _families,
+    ),
 }
 """Name → (description, maker). Each maker returns a matplotlib Figure."""
 

@@ -457,3 +457,21 @@ def test_extreme_lambdas_give_a_clean_answer(name, lam):
 def test_tumbling_eigenvalues_refuse_the_immediate_neighbourhood_of_a_pole():
     with pytest.raises(ValueError, match="1e-8 rad from the poles"):
         C.tumbling_eigenvalues(mett.presets.get("rutstam2013"), 1e-12)
+
+
+def test_tumbling_family_figure_draws_each_class():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = C.plot_tumbling_families()
+    try:
+        titles = [a.get_title().split(":")[0] for a in fig.axes]
+        assert titles == list(C.SUBGROUPS)
+        # first panel's solid (stable) family line is all NaN for Ia: no stable tumbling state
+        stable_line = fig.axes[0].lines[0]
+        assert np.all(np.isnan(stable_line.get_ydata()))
+        assert np.any(np.isfinite(fig.axes[2].lines[0].get_ydata()))  # IIa: all stable
+    finally:
+        plt.close(fig)
