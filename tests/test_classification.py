@@ -475,3 +475,22 @@ def test_tumbling_family_figure_draws_each_class():
         assert np.any(np.isfinite(fig.axes[2].lines[0].get_ydata()))  # IIa: all stable
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("name", list(CLASS_TOPS))
+def test_spin_candidates_follow_the_spin_linearisation(name):
+    # stable_states counts the upright spin for λ <= λ_0 and the inverted one for λ >= λ_thres:
+    # the linearisation at the poles (mett.spin_eigenvalues) agrees in every class
+    from mett.stability import spin_eigenvalues
+
+    top = CLASS_TOPS[name]
+    for pole, lam_x in (("upright", top.lambda_0), ("inverted", top.lambda_thres)):
+        if math.isinf(lam_x):
+            lam_probe = [0.3 * min(top.lambda_0, top.lambda_thres), 5 * max(top.lambda_0, 1e-9)]
+            lam_probe = [x for x in lam_probe if math.isfinite(x)]
+        else:
+            lam_probe = [0.97 * lam_x, 1.03 * lam_x]
+        for lam in lam_probe:
+            kinds = [c.kind for c in C.stable_states(top, lam)]
+            growth = spin_eigenvalues(top, lam, pole)[0].real
+            assert (pole in kinds) == (growth < 0), (pole, lam, kinds, growth)
