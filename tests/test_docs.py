@@ -150,8 +150,8 @@ def test_anchor_helpers():
 
 # --- nothing user-visible cites private notes or machine paths -------------------------------
 
-_PRIVATE = ["theory" + ".md", "design" + ".md", "style" + ".md", "seed" + "000", "seed 000",
-            "seed-000", "/wo" + "rk/"]  # fmt: skip
+_PRIVATE = ["theory" + ".md", "design" + ".md", "style" + ".md", "seed" + "000", "seed" + " 000",
+            "seed" + "-000", "/wo" + "rk/"]  # fmt: skip
 
 
 def _hits(files: list[Path]) -> list[str]:

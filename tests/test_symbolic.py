@@ -120,7 +120,7 @@ def test_euler_equations_use_the_documented_symbols():
 
 
 def test_euler_equations_equal_formula_sheet_symbolically():
-    """Implicit form (g_n a symbol) and the normal force are identical to theory.md §2.2."""
+    """Implicit form (g_n a symbol) and the normal force are identical to docs/theory/equations.md#euler-form."""
     eq = sym.gliding_euler_equations(explicit=False)
     sheet = sheet_euler(S.g_n)
     for k in KEYS:
@@ -165,7 +165,7 @@ def _time_derivative(expr: sp.Expr, eq: dict[str, sp.Expr]) -> sp.Expr:
 
 
 def test_derived_equations_conserve_jellett_and_dissipate_energy():
-    """λ̇ = 0 (for any g_n) and Ė = −μ g_n |ν|² along the derived equations (theory.md §2.3, §3)."""
+    """λ̇ = 0 (for any g_n) and Ė = −μ g_n |ν|² along the derived equations (docs/theory/equations.md#dissipation, docs/theory/equations.md#integrals)."""
     eq = sym.gliding_euler_equations(explicit=False)
     ints = sym.integrals()
     assert trig_reduce(_time_derivative(ints["lam"], eq)) == 0
@@ -175,7 +175,7 @@ def test_derived_equations_conserve_jellett_and_dissipate_energy():
 
 
 def test_routh_rate_matches_theory():
-    """Ḋ = −μ g_n R ν_y sin θ √d + σ ω3 θ̇ sin θ [I3(α − z) + I1 z]/√d (theory.md §3)."""
+    """Ḋ = −μ g_n R ν_y sin θ √d + σ ω3 θ̇ sin θ [I3(α − z) + I1 z]/√d (docs/theory/equations.md#integrals)."""
     eq = sym.gliding_euler_equations(explicit=False)
     ints = sym.integrals()
     m, R, al, I1, I3, mu, g = PARAMS
@@ -222,7 +222,7 @@ def test_mett_has_no_linear_term_and_g_is_half_I1_plus_m_a_squared():
 
 
 def _sheet_V() -> sp.Expr:
-    """Completed-square V of theory.md §4."""
+    """Completed-square V of docs/theory/mett.md#the-main-equation."""
     m, R, al, I1, I3, g = S.m, S.R, S.alpha, S.I1, S.I3, S.g
     z, D, lam = S.z, S.D, S.lam
     N = lam * sp.sqrt(sym.d_expr()) + R * D * (al - z)
@@ -271,7 +271,7 @@ def test_rational_condition_makes_d_a_perfect_square():
 
 
 def test_rational_condition_reproduces_thesis_inertia_exactly():
-    """σ = 5/2, α = 3/10 gives I1 = 131/350 m R² (theory.md §5) in exact arithmetic."""
+    """σ = 5/2, α = 3/10 gives I1 = 131/350 m R² (docs/theory/mett.md#rational) in exact arithmetic."""
     m, R = sp.Rational(1, 50), sp.Rational(1, 50)
     vals = {S.m: m, S.R: R, S.alpha: sp.Rational(3, 10), S.I3: sp.Rational(2, 5) * m * R**2}
     rat = sym.rational_potential()
@@ -394,7 +394,7 @@ def test_printed_eq14_topples_a_nonspinning_top():
 
 
 def _maple_from_thesis(y: np.ndarray, phi: np.ndarray, top: mett.TippeTop) -> dict:
-    """The Maple paper's velocities (ψ̇, ẋ, ẏ) of a thesis state, for a given φ (ν inverted, theory.md §1)."""
+    """The Maple paper's velocities (ψ̇, ẋ, ẏ) of a thesis state, for a given φ (ν inverted, docs/theory/model.md#conventions)."""
     th, thd, phd, w3, nux, nuy = y
     a, R = top.alpha * top.R, top.R
     psidot = w3 - phd * np.cos(th)
