@@ -5,7 +5,7 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, presets
-from ._validate import MettWarning, PhysicalityWarning
+from ._validate import MettDeprecationWarning, MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
 from .classification import subgroup, tumbling_eigenvalues
 from .dynamics import Trajectory, simulate
@@ -56,6 +56,7 @@ __all__ = [
     "AsymptoticState",
     "Band",
     "HighSpin",
+    "MettDeprecationWarning",
     "MettWarning",
     "PhysicalityWarning",
     "State",

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "MettDeprecationWarning",
     "MettWarning",
     "PhysicalityWarning",
     "as_finite_array",
@@ -29,6 +30,10 @@ class MettWarning(UserWarning):
 
 class PhysicalityWarning(MettWarning):
     """Legal but physically suspicious input (e.g. I3 > m R², as in the seed-000 table)."""
+
+
+class MettDeprecationWarning(MettWarning, DeprecationWarning):
+    """A deprecated name was used; the message names its replacement."""
 
 
 def _fmt(value: Any) -> str:

@@ -28,6 +28,7 @@ __all__ = [
     "mett_residual",
     "minimum_track",
     "period_comparison",
+    "theta_extrema",
     "turning_points",
 ]
 
@@ -87,12 +88,21 @@ def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarra
 
 
 class TurningPoints(NamedTuple):
-    """Times and angles at which θ̇ = 0 along a trajectory."""
+    """Times and angles at which θ̇ = 0 along a trajectory (the extrema of θ(t)).
+
+    ``kind`` is ``MAX`` (+1) where θ has a maximum (θ̇ goes from + to −) and ``MIN`` (−1) where
+    it has a minimum, so ``tp.t[tp.kind == TurningPoints.MAX]`` are the times of the maxima.
+    """
 
     t: np.ndarray
+    """Times of θ̇ = 0 (s)."""
     theta: np.ndarray
+    """θ at those times (rad)."""
     kind: np.ndarray
-    """+1 at a maximum of θ, −1 at a minimum."""
+    """+1 (``TurningPoints.MAX``) at a maximum of θ, −1 (``TurningPoints.MIN``) at a minimum."""
+
+    MAX = 1
+    MIN = -1
 
 
 def _illinois(fn, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.ndarray, tol: float):
@@ -119,8 +129,11 @@ def _illinois(fn, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.nda
     return x
 
 
-def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
-    """Turning points of θ(t): zeros of θ̇ located on the dense output.
+def theta_extrema(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
+    """Extrema of θ(t) along a simulated trajectory: zeros of θ̇ located on the dense output.
+
+    Not to be confused with :func:`mett.turning_points`, the roots z_a < z_b of the rolling
+    separation equation for given (Ẽ, D, λ); these are the times at which the simulated θ turns.
 
     Each interval between output samples is cut into ``subdivision`` pieces to bracket the sign
     changes of θ̇ (with the solver's own steps as samples, the default of :func:`mett.simulate`,
@@ -139,6 +152,21 @@ def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
     )  # fmt: skip
     kinds = np.where(thd[idx] > 0, 1, -1)
     return TurningPoints(times, traj.theta_at(times), kinds)
+
+
+def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
+    """Deprecated name of :func:`theta_extrema` (warns with ``MettDeprecationWarning``)."""
+    import warnings
+
+    from ._validate import MettDeprecationWarning
+
+    warnings.warn(
+        "mett.analysis.turning_points is deprecated: use mett.analysis.theta_extrema (the extrema "
+        "of a simulated θ(t)); mett.turning_points is the rolling separation equation's roots",
+        MettDeprecationWarning,
+        stacklevel=2,
+    )
+    return theta_extrema(traj, subdivision=subdivision)
 
 
 class PeriodComparison(NamedTuple):
@@ -167,8 +195,8 @@ def period_comparison(traj: Trajectory) -> PeriodComparison:
     at the end (tests/test_analysis.py has the numbers). A nutation whose θ̇ does not reach zero
     (a shoulder in θ instead of a maximum) merges two periods into one observed interval.
     """
-    tp = turning_points(traj)
-    tmax = tp.t[tp.kind == 1]
+    tp = theta_extrema(traj)
+    tmax = tp.t[tp.kind == TurningPoints.MAX]
     mids = 0.5 * (tmax[1:] + tmax[:-1])
     observed = np.diff(tmax)
     s = traj.at(mids)

@@ -6,7 +6,7 @@ the effective force F0 = m g R α + I3 K0 φ̇0 ω3, to leading order in 1/ω3
 
 * band width (in z):  Δ = 2 d0 (1 − z0²) F0 / (I3 K0² ω3²)   (z moves from z0 to z0 + Δ),
 * depth of the well:  Ẽ − V_min = F0² d0 (1 − z0²) / (2 I3 K0² ω3²),
-* nutation frequency: ω_n = |ω3| K0 / √(d0 G0),
+* nutation angular frequency (rad/s): ω_n = |ω3| K0 / √(d0 G0), period 2π/ω_n,
 * mean precession:    ⟨φ̇⟩ = −m g R α / (I3 K0 ω3)   (independent of φ̇0).
 
 Accuracy, measured against direct rolling integrations (tests/test_asymptotics.py): with φ̇0 = 0
