@@ -498,8 +498,20 @@ def plot_potential_slices(
     if Ds.size == 0:
         raise ValueError("Ds must hold at least one value of D (kg m²/s)")
     fig, ax = _axes(ax)
+    lines = []
     for D, color in zip(Ds, _sequential_colors(Ds.size, cmap), strict=True):
         plot_potential(top, float(D), lam, color=color, ax=ax)
+        lines.append(ax.lines[-1])
+    # one view for all: every floor, and the walls of the highest well
+    floors = [float(np.min(ln.get_ydata())) for ln in lines]
+    lo = min(floors)
+    depth = 2.0 * top.m * top.g * top.R * top.alpha * ENERGY_SCALE
+    hi = max(floors) + max(depth, 0.3 * (max(floors) - lo))
+    z_in = np.concatenate([ln.get_xdata()[ln.get_ydata() <= hi] for ln in lines])
+    pad = 0.03 * (z_in.max() - z_in.min()) + 1e-3
+    ax.set_xlim(max(-1.0, z_in.min() - pad), min(1.0, z_in.max() + pad))
+    ax.set_ylim(lo - 0.05 * (hi - lo), hi)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     return fig
 
 
