@@ -281,8 +281,8 @@ def plot_potential_surface(
     for axis in (ax.yaxis, ax.zaxis):
         axis.set_major_locator(MaxNLocator(5))
     ax.set_xlabel(_COORDINATE_LABELS[coordinate])
-    ax.set_ylabel(D_LABEL)
-    ax.set_zlabel(f"V [{ENERGY_UNIT}]")
+    ax.set_ylabel(D_LABEL, labelpad=12)  # clear of the tick labels in the default views
+    ax.set_zlabel(f"V [{ENERGY_UNIT}]", labelpad=6)
     if coordinate == "z":
         ax.set_title(rf"$V(\cos\theta, D, \lambda)$, {_lam_text(lam)}")
     else:
