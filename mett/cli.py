@@ -143,8 +143,17 @@ def _print_rows(rows: Sequence[tuple[str, str]]) -> None:
         print(f"{k:<{width}}  {v}")
 
 
+def _finite_or_null(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _finite_or_null(v) for k, v in obj.items()}
+    if isinstance(obj, float):
+        return _json_number(obj)
+    return obj
+
+
 def _print_json(data: dict) -> None:
-    print(json.dumps(data, indent=2, allow_nan=False))
+    """Strict JSON (no NaN/Infinity tokens): non-finite numbers become null."""
+    print(json.dumps(_finite_or_null(data), indent=2, allow_nan=False))
 
 
 def _progress_enabled(flag: bool | None) -> bool:
@@ -304,7 +313,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                     f"{pred.kind}: theta = {_fmt(pred.theta)}, omega3 = {_fmt(pred.omega3)}",
                 )
             )
-        except (ValueError, ArithmeticError) as exc:  # the run's results still stand
+        except (ValueError, ArithmeticError, RuntimeError) as exc:  # the run's results stand
             rows.append(("predicted end state", f"unavailable ({_one_line(str(exc))})"))
     rows += [("wrote", str(p)) for p in written]
     _print_rows(rows)
