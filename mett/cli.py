@@ -431,11 +431,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         model=args.model, rtol=args.rtol,
     )  # fmt: skip
     if args.scheduler is not None:
-        _probe_scheduler(args.scheduler, args.scheduler_timeout)
         try:
             from distributed import Client
         except ImportError:
             raise ValueError("--scheduler needs Dask: pip install 'mett[dask]'") from None
+        _probe_scheduler(args.scheduler, args.scheduler_timeout)
         try:
             client = Client(args.scheduler, timeout=args.scheduler_timeout)
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
@@ -456,8 +456,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     counts = table["simulated"].value_counts().to_dict()
     _print_rows(
         [
-            ("wrote", str(out)),
-            ("runs", str(len(table))),
+            ("wrote", f"{out} ({len(table)} runs)"),
             ("end states", ", ".join(f"{k}: {v}" for k, v in counts.items())),
             ("agree with the prediction", str(int(table["agree"].sum()))),
         ]

@@ -16,6 +16,14 @@ def run(*args: str) -> subprocess.CompletedProcess:
 
 
 # --- in-process: mett.cli.main(argv) -------------------------------------------------------------
+def assert_one_line_error(out: subprocess.CompletedProcess, needle: str) -> None:
+    """Bad arguments (a subprocess): exit status 2, one line on stderr naming the problem."""
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert needle in out.stderr
+
+
 def call(argv, capsys) -> tuple[int, str, str]:
     """Run ``mett argv`` in this process: (exit status, stdout, stderr)."""
     from mett.cli import main
