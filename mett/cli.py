@@ -602,7 +602,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = _build_parser()
     args = parser.parse_args(argv)
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("default")
+        if not sys.warnoptions:  # python -W ... decides for itself
+            warnings.simplefilter("default")
         try:
             status = args.func(args)
         except KeyboardInterrupt:
