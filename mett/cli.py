@@ -297,6 +297,28 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     lam = float(jellett(top, state))
     cross = traj.crossings(np.pi / 2)
+    pred, pred_error = None, None
+    if lam > 0:
+        try:
+            pred = asymptotic_state(top, lam)
+        except (ValueError, ArithmeticError, RuntimeError) as exc:  # the run's results stand
+            pred_error = _one_line(str(exc))
+    if args.json:
+        _print_json(
+            {
+                "status": traj.status, "message": traj.message, "model": traj.model,
+                "lambda": lam, "lambda_ratio": lam / top.lambda_thres,
+                "t_invert": float(cross[0]) if cross.size else None,
+                "t_end": traj.t_final, "theta_end": float(traj.theta[-1]),
+                "omega3_end": float(traj.omega3[-1]),
+                "predicted": None if pred is None else
+                {"kind": pred.kind, "theta": float(pred.theta), "omega3": float(pred.omega3)},
+                "prediction_error": pred_error,
+                "wrote": [str(p) for p in written],
+                "units": {"lambda": "kg m^3/s", "t": "s", "theta": "rad", "omega3": "rad/s"},
+            }
+        )  # fmt: skip
+        return 0
     rows = [
         ("status", traj.status + (f" ({traj.message})" if traj.message else "")),
         ("lambda / lambda_thres", _fmt(lam / top.lambda_thres)),
@@ -304,17 +326,15 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         ("theta(end) [rad]", f"{_fmt(traj.theta[-1])}  at t = {_fmt(traj.t[-1])} s"),
         ("omega3(end) [rad/s]", _fmt(traj.omega3[-1])),
     ]
-    if lam > 0:
-        try:
-            pred = asymptotic_state(top, lam)
-            rows.append(
-                (
-                    "predicted end state",
-                    f"{pred.kind}: theta = {_fmt(pred.theta)}, omega3 = {_fmt(pred.omega3)}",
-                )
+    if pred is not None:
+        rows.append(
+            (
+                "predicted end state",
+                f"{pred.kind}: theta = {_fmt(pred.theta)}, omega3 = {_fmt(pred.omega3)}",
             )
-        except (ValueError, ArithmeticError, RuntimeError) as exc:  # the run's results stand
-            rows.append(("predicted end state", f"unavailable ({_one_line(str(exc))})"))
+        )
+    elif pred_error is not None:
+        rows.append(("predicted end state", f"unavailable ({pred_error})"))
     rows += [("wrote", str(p)) for p in written]
     _print_rows(rows)
     return 0
@@ -532,6 +552,7 @@ def _build_parser() -> argparse.ArgumentParser:
         help="write the trajectory: .npz (everything, for mett.Trajectory.load) or .csv (series)",
     )
     p.add_argument("--plot", default=None, help="write θ(t) as an image (e.g. theta.png)")
+    p.add_argument("--json", action="store_true", help=json_help)
 
     p = add("period", "turning points, nutation period and precession (rolling)", _cmd_period)
     _add_top_arguments(p)

@@ -297,6 +297,23 @@ def test_simulate_writes_a_trajectory_that_loads(tmp_path, capsys):
     assert f"wrote                   {path}" in out
 
 
+def test_simulate_json_agrees_with_the_library(capsys):
+    import math
+
+    import mett
+
+    code, out, err = call([*SIM[:-1], "7", "--json"], capsys)
+    assert code == 0, err
+    data = json.loads(out)
+    top = mett.presets.get("rutstam2013")
+    traj = mett.simulate(top, mett.State(theta=0.1, omega3=155.0), 7.0)
+    assert data["status"] == traj.status == "completed"
+    assert data["t_invert"] == float(traj.crossings(math.pi / 2)[0])
+    assert data["theta_end"] == float(traj.theta[-1]) and data["t_end"] == 7.0
+    assert data["predicted"]["kind"] == "inverted" and data["prediction_error"] is None
+    assert data["lambda_ratio"] == pytest.approx(2.00485, abs=1e-5)
+
+
 def test_simulate_reports_a_failed_prediction_but_keeps_the_run(tmp_path, capsys, monkeypatch):
     import mett.thresholds
 

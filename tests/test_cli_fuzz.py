@@ -132,7 +132,7 @@ def simulate_argv(draw, tmp: str, thorough: bool) -> list[str]:
         "out": (None, paths(tmp, [".csv", ".npz"])),
         "plot": (None, paths(tmp, [".png", ".svg"]) if thorough else BAD_PLOTS),
     }
-    return ["simulate", *draw(top_args()), *draw(perturbed(opts, ("--cm-at-rest",)))]
+    return ["simulate", *draw(top_args()), *draw(perturbed(opts, ("--cm-at-rest", "--json")))]
 
 
 @st.composite

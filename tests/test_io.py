@@ -181,6 +181,13 @@ def test_load_refuses_what_is_not_a_trajectory(thesis, tmp_path):
     truncated.write_bytes(raw[: len(raw) // 2])
     with pytest.raises(ValueError, match="not a readable mett trajectory"):
         Trajectory.load(truncated)
+    damaged = thesis.save(tmp_path / "damaged.npz")
+    with np.load(damaged, allow_pickle=False) as data:
+        files = {k: np.array(data[k]) for k in data.files}
+    files["theta"] = files["theta"][:-1]  # one sample short
+    np.savez(damaged, **files)
+    with pytest.raises(ValueError, match="damaged mett trajectory file"):
+        Trajectory.load(damaged)
     unknown = thesis.save(tmp_path / "unknown_model.npz")
     _rewrite_meta(unknown, model="magic")
     with pytest.raises(ValueError, match="model 'magic'"):

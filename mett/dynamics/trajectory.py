@@ -490,9 +490,17 @@ class Trajectory:
             raise ValueError(f"{p} is not a readable mett trajectory file: {exc}") from None
         _check_meta(meta, p)
         arrays = files
+        from .simulation import MODELS
+
+        name = meta.get("model")
+        if name not in MODELS:
+            raise ValueError(
+                f"{p} holds a run of model {name!r}, which this mett does not know "
+                f"(known models: {', '.join(MODELS)})"
+            )
         try:
             return cls._from_saved(meta, arrays)
-        except (KeyError, TypeError, IndexError) as exc:
+        except (KeyError, TypeError, IndexError, ValueError) as exc:
             raise ValueError(f"{p} is a damaged mett trajectory file: {exc!r}") from None
 
     @classmethod
@@ -501,11 +509,6 @@ class Trajectory:
         from .simulation import MODELS
 
         name = meta["model"]
-        if name not in MODELS:
-            raise ValueError(
-                f"the file holds a run of model {name!r}, which this mett does not know "
-                f"(known models: {', '.join(MODELS)})"
-            )
         top_fields = {k: v for k, v in meta["top"].items() if k != "type"}
         with warnings.catch_warnings():  # the top was accepted (and warned about) when it was made
             warnings.simplefilter("ignore", _validate.MettWarning)
@@ -530,6 +533,8 @@ class Trajectory:
         # the series exactly as saved (a later mett may derive them in other rounding)
         for key in meta["series"]:
             if key in arrays:
+                if arrays[key].shape != traj.t.shape:
+                    raise ValueError(f"series {key!r} has shape {arrays[key].shape}")
                 setattr(traj, key, arrays[key])
         return traj
 
