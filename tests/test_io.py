@@ -142,6 +142,7 @@ def test_the_file_is_a_plain_npz_readable_without_mett(thesis, tmp_path):
         assert np.array_equal(data["theta"], thesis.theta)
         meta = json.loads(str(data["mett_trajectory"]))
     assert meta["format"] == "mett.Trajectory" and meta["format_version"] == FORMAT_VERSION
+    assert meta["top"]["type"] == "mett.top:TippeTop"
     assert meta["top"]["I1"] == thesis.top.I1 and meta["status"] == "completed"
     assert meta["initial_state"]["omega3"] == 155.0 and meta["model"] == "gliding"
 
@@ -192,6 +193,24 @@ def test_load_refuses_what_is_not_a_trajectory(thesis, tmp_path):
     _rewrite_meta(unknown, model="magic")
     with pytest.raises(ValueError, match="model 'magic'"):
         Trajectory.load(unknown)
+
+
+def test_mett_dataclass_options_round_trip_and_foreign_classes_are_refused(thesis, tmp_path):
+    # a model option that is a mett dataclass (e.g. a friction law object) is stored by name
+    thesis.options = {"law": State(theta=0.2, omega3=3.0), "n": [1, 2.5, None]}
+    try:
+        path = thesis.save(tmp_path / "opt.npz")
+    finally:
+        thesis.options = {}
+    loaded = Trajectory.load(path)
+    assert loaded.options == {"law": State(theta=0.2, omega3=3.0), "n": [1, 2.5, None]}
+    # a file can only name mett's own classes: nothing else is imported or called
+    _rewrite_meta(path, top={"type": "os:system", "command": "true"})
+    with pytest.raises(ValueError, match="refusing to rebuild 'os:system'"):
+        Trajectory.load(path)
+    _rewrite_meta(path, top={"type": "mett.top:NoSuchTop"})
+    with pytest.raises(ValueError, match="does not exist in this mett"):
+        Trajectory.load(path)
 
 
 def test_save_validates_the_path_before_writing(thesis, tmp_path):

@@ -418,7 +418,7 @@ class Trajectory:
             "model": self.model,
             "options": {k: _encode_option(k, v) for k, v in self.options.items()},
             "params": [_encode_param(i, v) for i, v in enumerate(self.params)],
-            "top": {"type": type(self.top).__name__, **dataclasses.asdict(self.top)},
+            "top": {"type": _qualified_name(type(self.top)), **dataclasses.asdict(self.top)},
             "initial_state": (
                 None
                 if self.initial_state is None
@@ -505,14 +505,14 @@ class Trajectory:
 
     @classmethod
     def _from_saved(cls, meta: dict, arrays: dict[str, np.ndarray]) -> Trajectory:
-        from ..top import TippeTop
         from .simulation import MODELS
 
         name = meta["model"]
         top_fields = {k: v for k, v in meta["top"].items() if k != "type"}
+        top_cls = _mett_class(meta["top"].get("type", "mett.top:TippeTop"))
         with warnings.catch_warnings():  # the top was accepted (and warned about) when it was made
             warnings.simplefilter("ignore", _validate.MettWarning)
-            top = TippeTop(**top_fields)
+            top = top_cls(**top_fields)
         init = meta["initial_state"]
         traj = cls(
             t=arrays["t"],
@@ -581,7 +581,7 @@ def _encode_option(name: str, v: Any) -> Any:
             fields = {
                 f.name: _encode_option(name, getattr(v, f.name)) for f in dataclasses.fields(v)
             }
-            return {"__dataclass__": f"{cls.__module__}:{cls.__qualname__}", "fields": fields}
+            return {"__dataclass__": _qualified_name(cls), "fields": fields}
     raise TypeError(
         f"option {name!r} must be a plain value (number, string, bool, None, list, dict or a mett "
         f"dataclass) to be saved; got {type(v).__name__}"
@@ -593,17 +593,32 @@ def _decode_option(v: Any) -> Any:
         return [_decode_option(x) for x in v]
     if isinstance(v, dict):
         if "__dataclass__" in v:
-            import importlib
-
-            module, _, qualname = v["__dataclass__"].partition(":")
-            if module.split(".")[0] != "mett":
-                raise ValueError(f"refusing to rebuild a non-mett object {v['__dataclass__']!r}")
-            obj: Any = importlib.import_module(module)
-            for part in qualname.split("."):
-                obj = getattr(obj, part)
-            return obj(**{k: _decode_option(x) for k, x in v["fields"].items()})
+            cls = _mett_class(v["__dataclass__"])
+            return cls(**{k: _decode_option(x) for k, x in v["fields"].items()})
         return {k: _decode_option(x) for k, x in v.items()}
     return v
+
+
+def _qualified_name(cls: type) -> str:
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+def _mett_class(name: str) -> type:
+    """The mett dataclass ``"module:QualName"`` (only mett's own: a file never names code to run)."""
+    import importlib
+
+    module, _, qualname = str(name).partition(":")
+    if module.split(".")[0] != "mett" or not qualname:
+        raise ValueError(f"refusing to rebuild {name!r}: not a mett class")
+    try:
+        obj: Any = importlib.import_module(module)
+        for part in qualname.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError):
+        raise ValueError(f"{name!r} does not exist in this mett") from None
+    if not (isinstance(obj, type) and dataclasses.is_dataclass(obj)):
+        raise ValueError(f"{name!r} is not a mett dataclass")
+    return obj
 
 
 def _check_meta(meta: Any, p: Path) -> None:
