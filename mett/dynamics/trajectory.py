@@ -400,15 +400,16 @@ class Trajectory:
         :data:`SERIES`, ``t_events_<k>`` per user event, and the dense output as ``dense_*``. The
         entry ``mett_trajectory`` is a JSON string with ``format`` (``"mett.Trajectory"``),
         ``format_version`` (:data:`FORMAT_VERSION`), ``mett_version``, ``model``, ``options``,
-        ``params``, ``top`` (all its fields), ``initial_state``, ``status``, ``message``,
+        ``params``, ``top`` (its class and all its fields), ``initial_state``, ``status``, ``message``,
         ``t_contact_lost``, ``nfev``, ``backend`` and ``dense`` (how the dense output is stored).
 
         The dense output of a DOP853 run (either backend, the default) is stored as the solver's own
         per-step interpolant coefficients, so :meth:`at` and :meth:`crossings` of the loaded
         trajectory equal the original's bit for bit. Other scipy methods (RK45, Radau, …) are
         stored as their step states and right-hand-side values, and the loaded trajectory
-        interpolates between the steps with cubic Hermite polynomials: exact at the steps, and
-        between them within the interpolation error O(h⁴) of the step size h.
+        interpolates between the steps with cubic Hermite polynomials: equal at the steps (to
+        rounding), and between them within the interpolation error O(h⁴) of the step size h
+        (at most 7e-8 rad in θ for the thesis run with RK45 at rtol = 1e-10).
         """
         target = _check_save_path(path)
         meta = {
