@@ -289,7 +289,7 @@ def simulate(
     if atol_arr is None:
         atol_arr = rtol * np.asarray(mdl.scales(y0, params), dtype=float)
 
-    run = _Run(mdl, top, params, y0, backend)
+    run = _Run(mdl, top, params, y0, backend, state=state, options=options)
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
@@ -308,9 +308,18 @@ class _Run:
     """What both backends share: the model, its parameters, and how to build the Trajectory."""
 
     def __init__(
-        self, mdl: Model, top: TippeTop, params: tuple, y0: np.ndarray, backend: str
+        self,
+        mdl: Model,
+        top: TippeTop,
+        params: tuple,
+        y0: np.ndarray,
+        backend: str,
+        *,
+        state: State | None = None,
+        options: dict | None = None,
     ) -> None:
         self.mdl, self.top, self.params, self.y0, self.backend = mdl, top, params, y0, backend
+        self.state, self.options = state, options  # kept on the Trajectory (saved with it)
 
     def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Trajectory:
         return Trajectory(
@@ -323,6 +332,8 @@ class _Run:
             status=status,
             message=message,
             backend=self.backend,
+            initial_state=self.state,
+            options=self.options,
             **kw,
         )
 
