@@ -120,7 +120,7 @@ def test_integrals_refuse_wrong_argument_types():
 
 
 def test_high_spin_at_tiny_spin_is_a_value_error():
-    with pytest.raises(ValueError, match="omega3 = 1e-300 .* outside double precision"):
+    with pytest.raises(ValueError, match=r"omega3 = 1e-300 .* outside double precision"):
         mett.high_spin(TOP, math.pi / 2, 1e-300)
     # the scaling laws hold wherever the result is finite: width ∝ ω3⁻², frequency ∝ ω3
     a, b = mett.high_spin(TOP, 1.0, 1e3), mett.high_spin(TOP, 1.0, 1e9)
@@ -173,7 +173,7 @@ def test_period_comparison_without_two_maxima_is_empty():
     res = analysis.period_comparison(one)
     assert res.t.size == res.observed.size == res.rolling.size == 0
     assert res.estimates.T_D0 > 0
-    with pytest.raises(TypeError, match="traj must be a mett.Trajectory"):
+    with pytest.raises(TypeError, match=r"traj must be a mett\.Trajectory"):
         analysis.period_comparison(TOP)
 
 
@@ -229,7 +229,7 @@ def test_bad_sweep_options_are_refused_before_any_write(tmp_path, kw, error, mes
 def test_checkpoint_paths_are_checked_before_any_run(tmp_path, monkeypatch):
     calls = []
     monkeypatch.setattr(mett.dynamics, "simulate", lambda *a, **k: calls.append(a))
-    with pytest.raises(ValueError, match="directory .* does not exist"):
+    with pytest.raises(ValueError, match=r"directory .* does not exist"):
         _tiny(checkpoint=tmp_path / "missing" / "c.jsonl")
     with pytest.raises(ValueError, match="must be a file, not a directory"):
         _tiny(checkpoint=tmp_path)
