@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import warnings
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -40,13 +41,13 @@ from mett import analysis, presets
 
 settings.register_profile(
     "fuzz",
-    max_examples=15,
+    max_examples=25,
     deadline=None,
     derandomize=True,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
     database=None,
 )
-settings.register_profile("fuzz-slow", settings.get_profile("fuzz"), max_examples=150)
+settings.register_profile("fuzz-slow", settings.get_profile("fuzz"), max_examples=250)
 FUZZ = settings.get_profile("fuzz")
 FUZZ_SLOW = settings.get_profile("fuzz-slow")
 
@@ -62,12 +63,17 @@ NASTY_OBJECTS = [
     [math.nan], {"a": 1}, object(),
 ]  # fmt: skip
 nasty = st.sampled_from(NASTY_NUMBERS + NASTY_OBJECTS)
-nasty_number = st.sampled_from(NASTY_NUMBERS) | st.floats(allow_nan=True, allow_infinity=True)
 
 
 def mixed(ordinary: st.SearchStrategy) -> st.SearchStrategy:
-    """Mostly ordinary values, often nasty ones: the deeper paths and the edges both get tried."""
-    return st.one_of(ordinary, ordinary, nasty, nasty_number)
+    """Ordinary values half the time, nasty ones otherwise: the deep paths and the edges both."""
+    return st.one_of(
+        ordinary,
+        ordinary,
+        st.sampled_from(NASTY_NUMBERS),
+        st.sampled_from(NASTY_OBJECTS),
+        st.floats(allow_nan=True, allow_infinity=True),
+    )
 
 
 def arrays(ordinary: st.SearchStrategy) -> st.SearchStrategy:
@@ -124,14 +130,14 @@ def states(draw) -> Any:
 
 @st.composite
 def sim_states(draw) -> Any:
-    """States a short simulation can finish: spins of at most 1e4 rad/s."""
+    """States a short simulation can finish: spins up to 1e4 rad/s, or absurd ones (>= 1e155)."""
     if draw(st.integers(0, 9)) == 0:
         return draw(st.sampled_from([None, [0.1, 0, 0, 155], "state", [math.nan] * 6]))
     return mett.State(
         theta=draw(st.floats(0.0, math.pi) | st.sampled_from([0.0, math.pi])),
         thetadot=draw(st.floats(-20, 20)),
         phidot=draw(st.floats(-20, 20)),
-        omega3=draw(st.floats(-1e4, 1e4)),
+        omega3=draw(st.floats(-1e4, 1e4) | st.sampled_from([1e155, -1e300])),
         nu_x=draw(st.floats(-1, 1)),
         nu_y=draw(st.floats(-1, 1)),
     )
@@ -175,6 +181,7 @@ class Known(NamedTuple):
     owner: str
     what: str
     matches: Callable[[tuple, dict], bool]
+    problem: str = ""  # if given, a regex the failure must match to count as this known one
     hangs: bool = False  # not called at all: it would not return in bounded time
 
 
@@ -215,6 +222,19 @@ def _extreme(
     return matches
 
 
+def _tiny_atol(args: tuple, kwargs: dict) -> bool:
+    atol = kwargs.get("atol")
+    try:
+        return bool(np.any(np.abs(np.asarray(atol, dtype=float)) < 1e-20))
+    except (TypeError, ValueError):
+        return False
+
+
+def _huge_spin(args: tuple, kwargs: dict) -> bool:
+    state = _arg(args, kwargs, 1, "state")
+    return isinstance(state, mett.State) and abs(float(state.omega3)) >= 1e100
+
+
 def _z_is_zero(args: tuple, kwargs: dict) -> bool:
     return _is_zero(_arg(args, kwargs, 1, "z"))
 
@@ -247,12 +267,36 @@ KNOWN_FAILURES_OWNED_ELSEWHERE: list[Known] = [
     *(Known(fn, "mett/analysis.py", _RUN_TYPE, _not_a_run) for fn in _ANALYSIS),
     *(Known(fn, "mett/potential.py", _OVERFLOW, _extreme()) for fn in _POTENTIAL),
     *(Known(fn, "mett/separation.py", _OVERFLOW, _extreme()) for fn in _SEPARATION),
+    *(Known(fn, "mett/estimates.py", _OVERFLOW, _extreme()) for fn in _ESTIMATES),
     Known("dV_dz", "mett/potential.py", "RuntimeWarning 'invalid value' at z = 0", _z_is_zero),
     *(
         Known(fn, "mett/thresholds.py", "|lam| > 1e100: RuntimeWarning overflow, inf", _extreme())
         for fn in _THRESHOLDS
     ),
-    Known("period_estimates", "mett/estimates.py", "lam < 1e-250: infinite periods", _extreme()),
+    Known(
+        "simulate",
+        "mett/dynamics",
+        "atol < 1e-20: ZeroDivisionError (compiled, atol <= 1e-200), "
+        "1e6 steps (compiled) or no return (scipy)",
+        _tiny_atol,
+        hangs=True,
+    ),
+    Known(
+        "simulate",
+        "mett/dynamics",
+        "|omega3| >= 1e155: RuntimeWarning overflow and a ValueError "
+        "about an atol the user never passed",
+        _huge_spin,
+        problem="RuntimeWarning|atol",
+    ),
+    Known(
+        "asymptotic_state",
+        "mett/thresholds.py",
+        "RuntimeError where the tumbling family folds "
+        "or in group III (no tumbling state between lambda_0 and lambda_thres)",
+        lambda a, k: True,
+        problem="RuntimeError: no tumbling state",
+    ),
     Known("analysis.deforming_potential", "mett/analysis.py", "a scalar z: IndexError", _scalar_z),
 ]
 
@@ -347,7 +391,8 @@ def check(function: str, fn: Callable, *args: Any, **kwargs: Any) -> None:
         else:
             problems = _problems(result, "result", function, set())
     problems += [f"warning {w.category.__name__}: {w.message}" for w in caught if _foreign(w)]
-    if problems and not known:
+    text = "; ".join(problems)
+    if problems and not any(re.search(k.problem, text) for k in known):
         pytest.fail(f"{function}(*{args!r}, **{kwargs!r}): " + "; ".join(problems[:5]))
 
 
