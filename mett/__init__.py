@@ -5,7 +5,7 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, presets
-from ._validate import MettWarning, PhysicalityWarning
+from ._validate import AccuracyWarning, MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
 from .dynamics import Trajectory, simulate
 from .estimates import period_estimates, potential_minimum
@@ -52,6 +52,7 @@ def __getattr__(name: str):
 
 
 __all__ = [
+    "AccuracyWarning",
     "AsymptoticState",
     "Band",
     "HighSpin",
