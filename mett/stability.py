@@ -136,7 +136,7 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
     from .dynamics import MODELS
     from .integrals import jellett
 
-    lam = float(jellett(top, state))
+    lam = float(jellett(top, state))  # checks the types of top and state
     J = spin_jacobian(top, lam, "upright")
     A = J[np.ix_(_HORIZONTAL, _HORIZONTAL)]
     ev, vecs = np.linalg.eig(A)
@@ -148,18 +148,25 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
         )
     model = MODELS["gliding"]
     p = model.params(top, {})
-    dy = model.initial(state, p) - _spin_state(top, lam, "upright")
-    coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+    with np.errstate(over="ignore", invalid="ignore"):
+        dy = model.initial(state, p) - _spin_state(top, lam, "upright")
+    if not np.all(np.isfinite(dy)):
+        raise ValueError(
+            "state is not near the upright spin (its deviation overflows double precision): the "
+            "linear escape prediction does not apply"
+        )
     unstable = ev.real > 0.5 * sigma
-    # 3̂_x, 3̂_y rows of the unstable part: its size is sin θ of the unstable component.
-    u = vecs[4:6][:, unstable] * coef[unstable]
-    amplitude = float(np.sqrt(np.sum(np.abs(u) ** 2)))
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge deviation: inf, refused below
+        coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+        # 3̂_x, 3̂_y rows of the unstable part: its size is sin θ of the unstable component.
+        u = vecs[4:6][:, unstable] * coef[unstable]
+        amplitude = float(np.sqrt(np.sum(np.abs(u) ** 2)))
     if amplitude == 0.0:
         raise ValueError(
             "the state has no component in the unstable modes (e.g. exactly upright): "
             "the linear prediction never leaves the spin"
         )
-    if amplitude >= 1.0:
+    if not amplitude < 1.0:  # NaN from an overflowing deviation too
         raise ValueError(
             f"the state is not near the upright spin (unstable-mode amplitude {amplitude:.3g} "
             ">= 1): the linear escape prediction does not apply"

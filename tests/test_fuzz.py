@@ -235,6 +235,22 @@ def _huge_spin(args: tuple, kwargs: dict) -> bool:
     return isinstance(state, mett.State) and abs(float(state.omega3)) >= 1e100
 
 
+def _big_subdivision(args: tuple, kwargs: dict) -> bool:
+    sub = kwargs.get("subdivision")
+    try:
+        return not isinstance(sub, bool) and float(sub) > 64
+    except (TypeError, ValueError):
+        return False
+
+
+def _tiny_max_step(args: tuple, kwargs: dict) -> bool:
+    step = kwargs.get("max_step")
+    try:
+        return not isinstance(step, bool) and 0 < float(step) < 1e-6
+    except (TypeError, ValueError):
+        return False
+
+
 def _z_is_zero(args: tuple, kwargs: dict) -> bool:
     return _is_zero(_arg(args, kwargs, 1, "z"))
 
@@ -297,6 +313,22 @@ KNOWN_FAILURES_OWNED_ELSEWHERE: list[Known] = [
         lambda a, k: True,
         problem="RuntimeError: no tumbling state",
     ),
+    Known(
+        "simulate",
+        "mett/dynamics",
+        "max_step < 1e-6 s: no step budget on the scipy backend (memory grows without bound), "
+        "1e6 steps and ~1 GB on the compiled one",
+        _tiny_max_step,
+        hangs=True,
+    ),
+    Known(
+        "analysis.turning_points",
+        "mett/analysis.py",
+        "subdivision is not bounded: n_samples x subdivision points are allocated "
+        "(MemoryError at 1.5e5 under a 6 GB limit; 24 GB and the OOM killer without one)",
+        _big_subdivision,
+        hangs=True,
+    ),
     Known("analysis.deforming_potential", "mett/analysis.py", "a scalar z: IndexError", _scalar_z),
 ]
 
@@ -308,8 +340,13 @@ DOCUMENTED_NAN = {
     ("band", "z_low"),  # kind "none": no motion, so no turning points
     ("band", "z_high"),
 }
-# ... and +inf: λ_0 = inf in group I, λ_thres = inf in group III ("never")
-DOCUMENTED_INF = {("TippeTop properties", "result"), ("min_spin_for_inversion", "result")}
+# ... and ±inf: λ_0 = inf in group I, λ_thres = inf in group III, no inverting spin ("never");
+# V = +inf at a pole where N does not vanish (and so its derivatives and f)
+DOCUMENTED_INF = {
+    ("TippeTop properties", "result"),
+    ("min_spin_for_inversion", "result"),
+    *((fn, "result") for fn in ("V", "V_rational", "dV_dz", "d2V_dz2", "f")),
+}
 
 
 def _problems(obj: Any, path: str, function: str, seen: set[int]) -> list[str]:
@@ -318,13 +355,7 @@ def _problems(obj: Any, path: str, function: str, seen: set[int]) -> list[str]:
     if obj is None or isinstance(obj, (str, bool, int, np.integer, np.bool_, type)):
         return []
     if isinstance(obj, (float, np.floating)):
-        if math.isfinite(float(obj)):
-            return []
-        if float(obj) == math.inf and any(f == function and k in path for f, k in DOCUMENTED_INF):
-            return []
-        if math.isnan(float(obj)) and any(f == function and k in path for f, k in DOCUMENTED_NAN):
-            return []
-        return [f"{path} = {obj!r}"]
+        return _problems(np.asarray(obj), path, function, seen)
     if isinstance(obj, (complex, np.complexfloating)):
         return [] if np.isfinite(obj) else [f"{path} = {obj!r}"]
     seen = seen | {id(obj)}
@@ -332,10 +363,14 @@ def _problems(obj: Any, path: str, function: str, seen: set[int]) -> list[str]:
         if obj.dtype.kind not in "fc":
             return []
         bad = ~np.isfinite(obj)
+        if any(f == function and k in path for f, k in DOCUMENTED_NAN):
+            bad &= ~np.isnan(obj)
+        if any(f == function and k in path for f, k in DOCUMENTED_INF):
+            bad &= ~np.isinf(obj)
         if not bad.any():
             return []
-        if np.isnan(obj[bad]).all() and any(f == function and k in path for f, k in DOCUMENTED_NAN):
-            return []
+        if obj.ndim == 0:
+            return [f"{path} = {obj.item()!r}"]
         return [f"{path} has {int(bad.sum())} non-finite value(s), e.g. {obj[bad].ravel()[0]!r}"]
     if isinstance(obj, pd.DataFrame):
         out = []

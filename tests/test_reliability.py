@@ -308,3 +308,12 @@ def test_validators():
     with pytest.raises(TypeError, match="out must be a path"):
         _validate.output_path("out", 3)
     assert json.loads(json.dumps(_validate.finite_scalar("x", np.float32(0.5)))) == 0.5
+
+
+def test_escape_time_of_an_absurd_state_is_a_value_error_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="not near the upright spin"):
+            mett.escape_time(TOP, mett.State(theta=3.125, thetadot=1e300, omega3=-15.0))
+        est = mett.escape_time(TOP, mett.State(theta=0.1, omega3=155.0))
+    assert 0 < est.amplitude < 1 and est.time > 0
