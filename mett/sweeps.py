@@ -280,21 +280,37 @@ class _Checkpoint:
         self._fh.close()
 
 
-def _progress_bar(total: int, initial: int, progress: bool | None):
-    if progress is None:  # default: a bar only where someone watches (an interactive stderr)
+def _want_progress(progress: bool | None) -> bool:
+    """Resolve ``progress`` before any work: None means "if stderr is a terminal and tqdm exists"."""
+    has_tqdm = importlib.util.find_spec("tqdm") is not None
+    if progress is None:
         try:
-            progress = sys.stderr is not None and sys.stderr.isatty()
-        except (AttributeError, ValueError):
-            progress = False
-        if progress and importlib.util.find_spec("tqdm") is None:
-            return None
-    if not progress:
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        raise ValueError("progress=True needs tqdm: pip install 'mett[progress]'") from None
+            interactive = sys.stderr is not None and sys.stderr.isatty()
+        except (AttributeError, ValueError):  # a closed or replaced stderr
+            interactive = False
+        return interactive and has_tqdm
+    if progress and not has_tqdm:
+        raise ValueError("progress=True needs tqdm: pip install 'mett[progress]'")
+    return progress
+
+
+def _progress_bar(total: int, initial: int):
+    from tqdm import tqdm
+
     return tqdm(total=total, initial=initial, desc="sweep", unit="run")
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars and arrays as Python numbers and lists (for the checkpoint's JSON)."""
+    import numpy as np
+
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
 
 
 def _probe_options(base: dict, points: list[dict]) -> None:
@@ -430,23 +446,25 @@ def sweep(
         "omega3": _validate.finite_scalar("omega3", omega3),
         "nu_x": _validate.finite_scalar("nu_x", nu_x),
         "nu_y": _validate.finite_scalar("nu_y", nu_y),
-        "simulate_kw": dict(simulate_kw),
+        "simulate_kw": {k: _plain(v) for k, v in simulate_kw.items()},
     }
+    _probe_options(base, points)
     try:
-        json.dumps(base["simulate_kw"], allow_nan=False)
+        json.dumps(base["simulate_kw"])
     except (TypeError, ValueError):
         raise ValueError(
-            "simulate options of a sweep must be plain values (numbers, strings)"
+            "simulate options of a sweep must be plain values (numbers, strings, arrays): they "
+            f"are recorded in the checkpoint; got {simulate_kw!r}"
         ) from None
     signature = _signature(base, names, points)
-    _probe_options(base, points)
+    show_progress = _want_progress(progress)
     ckpt = None
     if ckpt_path is not None:
         summary = {"names": names, "n_points": len(points), "t_end": t_end}
         ckpt = _Checkpoint(ckpt_path, signature, summary, len(points))
     done = dict(ckpt.done) if ckpt else {}
     todo = [(i, p) for i, p in enumerate(points) if i not in done]
-    bar = _progress_bar(len(points), len(done), progress)
+    bar = _progress_bar(len(points), len(done)) if show_progress else None
     results = dict(done)
 
     def finish(pairs: list[tuple[int, dict]]) -> None:
@@ -465,8 +483,18 @@ def sweep(
             size = chunksize or max(1, math.ceil(len(todo) / 32))
             chunks = [todo[k : k + size] for k in range(0, len(todo), size)]
             futures: list[Future] = [executor.submit(_run_chunk, base, c) for c in chunks]
+            # A chunk whose task failed (a worker died, the executor shut down) is not recorded,
+            # so a rerun redoes it; every other chunk is still collected and checkpointed first.
+            failures: list[BaseException] = []
             for fut in as_completed(futures):
-                finish(fut.result())
+                try:
+                    pairs = fut.result()
+                except Exception as exc:
+                    failures.append(exc)
+                    continue
+                finish(pairs)
+            if failures:
+                raise failures[0]
     finally:
         if ckpt:
             ckpt.close()

@@ -13,6 +13,7 @@ import math
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import mett
@@ -317,3 +318,53 @@ def test_escape_time_of_an_absurd_state_is_a_value_error_without_warnings():
             mett.escape_time(TOP, mett.State(theta=3.125, thetadot=1e300, omega3=-15.0))
         est = mett.escape_time(TOP, mett.State(theta=0.1, omega3=155.0))
     assert 0 < est.amplitude < 1 and est.time > 0
+
+
+def test_progress_without_tqdm_is_refused_before_the_checkpoint_is_written(tmp_path, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "tqdm" else real(name, *a)
+    )
+    path = tmp_path / "c.jsonl"
+    with pytest.raises(ValueError, match=r"progress=True needs tqdm"):
+        sweep(TOP, {"mu": [0.3]}, t_end=0.05, progress=True, checkpoint=path)
+    assert not path.exists()
+
+
+class _OneChunkFails:
+    """An executor (serial) whose second task fails, as if its worker had died."""
+
+    def __init__(self) -> None:
+        self.n = 0
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+
+        fut: Future = Future()
+        self.n += 1
+        if self.n == 2:
+            fut.set_exception(RuntimeError("worker died"))
+        else:
+            fut.set_result(fn(*args))
+        return fut
+
+
+def test_a_failed_executor_task_keeps_every_other_row_in_the_checkpoint(tmp_path):
+    path = tmp_path / "c.jsonl"
+    grid = {"mu": [0.2, 0.3, 0.4]}
+    with pytest.raises(RuntimeError, match="worker died"):
+        sweep(TOP, grid, t_end=0.05, progress=False, checkpoint=path, executor=_OneChunkFails(),
+              chunksize=1)  # fmt: skip
+    records = [json.loads(line) for line in path.read_text().splitlines()[1:]]
+    assert sorted(r["index"] for r in records) == [0, 2]  # the failed chunk is not recorded
+    resumed = sweep(TOP, grid, t_end=0.05, progress=False, checkpoint=path)
+    fresh = sweep(TOP, grid, t_end=0.05, progress=False)
+    pd.testing.assert_frame_equal(resumed, fresh)
+
+
+def test_sweep_accepts_numpy_option_values():
+    atol = np.full(10, 1e-12)
+    table = sweep(TOP, {"mu": [0.3]}, t_end=0.05, progress=False, atol=atol, rtol=np.float64(1e-9))
+    assert list(table["status"]) == ["completed"]
