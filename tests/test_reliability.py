@@ -268,10 +268,13 @@ def test_a_failing_prediction_keeps_the_simulated_row(monkeypatch):
 
 
 def test_folded_tumbling_family_points_do_not_kill_the_sweep():
-    # the docs example's γ = 0.75 column (α = 0.3), where the tumbling family folds
-    table = sweep(TOP, {"lam_ratio": [0.5, 0.9], "gamma": [0.75]}, t_end=0.5, progress=False)
+    # the docs example's γ = 0.75 column (α = 0.3), where the tumbling family folds: at λ = λ_thres
+    # asymptotic_state raised, and the sweep with it
+    table = sweep(TOP, {"lam_ratio": [0.2, 1.0], "gamma": [0.75]}, t_end=0.5, progress=False)
     assert len(table) == 2 and list(table["status"]) == ["completed", "completed"]
     assert set(table["simulated"]) <= {"upright", "tumbling", "inverted", NOT_SETTLED}
+    assert set(table["predicted"]) <= {"upright", "tumbling", "inverted", "error"}
+    assert np.all(np.isfinite(table["theta_end"]))
 
 
 def test_unsettled_run_is_labelled_not_settled():
