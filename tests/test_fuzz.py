@@ -281,7 +281,7 @@ KNOWN_FAILURES_OWNED_ELSEWHERE: list[Known] = [
     *(Known(fn, "mett/thresholds.py", _TOP_TYPE, _not_a_top) for fn in _THRESHOLDS),
     *(Known(fn, "mett/estimates.py", _TOP_TYPE, _not_a_top) for fn in _ESTIMATES),
     *(Known(fn, "mett/analysis.py", _RUN_TYPE, _not_a_run) for fn in _ANALYSIS),
-    *(Known(fn, "mett/potential.py", _OVERFLOW, _extreme()) for fn in _POTENTIAL),
+    *(Known(fn, "mett/potential.py", _OVERFLOW, _extreme()) for fn in _POTENTIAL[2:]),
     *(Known(fn, "mett/separation.py", _OVERFLOW, _extreme()) for fn in _SEPARATION),
     *(Known(fn, "mett/estimates.py", _OVERFLOW, _extreme()) for fn in _ESTIMATES),
     Known("dV_dz", "mett/potential.py", "RuntimeWarning 'invalid value' at z = 0", _z_is_zero),
@@ -316,8 +316,9 @@ KNOWN_FAILURES_OWNED_ELSEWHERE: list[Known] = [
     Known(
         "simulate",
         "mett/dynamics",
-        "max_step < 1e-6 s: no step budget on the scipy backend (memory grows without bound), "
-        "1e6 steps and ~1 GB on the compiled one",
+        "max_step < 1e-6 s: the compiled backend runs to its 1e6-step cap (status failed, "
+        "memory per the issue ~1 GB); the scipy backend has no step budget (>= 1e3 steps per "
+        "ms of t_end), not run here",
         _tiny_max_step,
         hangs=True,
     ),
