@@ -5,7 +5,7 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, presets
-from ._validate import MettDeprecationWarning, MettWarning, PhysicalityWarning
+from ._validate import AccuracyWarning, MettDeprecationWarning, MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
 from .classification import subgroup, tumbling_eigenvalues
 from .dynamics import Trajectory, simulate
@@ -53,6 +53,7 @@ def __getattr__(name: str):
 
 
 __all__ = [
+    "AccuracyWarning",
     "AsymptoticState",
     "Band",
     "HighSpin",

@@ -23,6 +23,43 @@ if TYPE_CHECKING:
 __all__ = ["energy", "jellett", "modified_energy", "routh"]
 
 
+def _arrays(top: TippeTop, state: State) -> _Fields:
+    """The state with float64 array fields, after checking both arguments' types.
+
+    A scalar State holds Python floats, whose ``**`` raises OverflowError; numpy float64 overflows
+    to inf instead, which :func:`_finite` turns into a ValueError naming the state.
+    """
+    from .state import State
+    from .top import TippeTop
+
+    if not isinstance(top, TippeTop):
+        raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
+    if not isinstance(state, State):
+        raise TypeError(f"state must be a State; got {type(state).__name__}")
+    return _Fields(*(np.asarray(getattr(state, n), dtype=float) for n in _FIELDS))
+
+
+_FIELDS = ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
+
+
+class _Fields:
+    __slots__ = _FIELDS
+
+    def __init__(self, *values: np.ndarray) -> None:
+        for name, v in zip(_FIELDS, values, strict=True):
+            setattr(self, name, v)
+
+
+def _finite(what: str, value: np.ndarray, state: _Fields) -> np.ndarray:
+    if not np.all(np.isfinite(value)):
+        big = max(_FIELDS[1:], key=lambda n: float(np.max(np.abs(getattr(state, n)))))
+        raise ValueError(
+            f"state: {what} overflows double precision (|value| > 1.8e308) for this state; "
+            f"its largest field is {big} = {float(np.max(np.abs(getattr(state, big)))):g}"
+        )
+    return value
+
+
 def _omega_cross_a(top: TippeTop, s: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ω × a in the Resal frame."""
     c, sn = np.cos(s.theta), np.sin(s.theta)
@@ -37,13 +74,21 @@ def jellett(top: TippeTop, state: State) -> np.ndarray:
     Conserved for any contact force applied at the contact point. Positive for a top spun with
     ω3 > 0 near θ = 0.
     """
+    state = _arrays(top, state)
     c, sn = np.cos(state.theta), np.sin(state.theta)
-    return top.R * top.I1 * state.phidot * sn**2 - top.R * top.I3 * state.omega3 * (top.alpha - c)
+    with np.errstate(over="ignore", invalid="ignore"):
+        lam = top.R * top.I1 * state.phidot * sn**2 - top.R * top.I3 * state.omega3 * (
+            top.alpha - c
+        )
+    return _finite("the Jellett integral", lam, state)
 
 
 def routh(top: TippeTop, state: State) -> np.ndarray:
     """Routh integral D = I3 ω3 √d(cos θ) (theory.md §1); conserved only while rolling."""
-    return top.I3 * state.omega3 * np.sqrt(d(top, np.cos(state.theta)))
+    state = _arrays(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        D = top.I3 * state.omega3 * np.sqrt(d(top, np.cos(state.theta)))
+    return _finite("the Routh integral", D, state)
 
 
 def _rotational_and_potential(top: TippeTop, s: State) -> np.ndarray:
@@ -57,12 +102,15 @@ def energy(top: TippeTop, state: State) -> np.ndarray:
 
     The centre-of-mass velocity is ṙ = ν − ω × a.
     """
+    state = _arrays(top, state)
     c, sn = np.cos(state.theta), np.sin(state.theta)
-    wa1, wa2, wa3 = _omega_cross_a(top, state)
-    v1 = state.nu_x * c - wa1
-    v2 = state.nu_y - wa2
-    v3 = state.nu_x * sn - wa3
-    return 0.5 * top.m * (v1**2 + v2**2 + v3**2) + _rotational_and_potential(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        wa1, wa2, wa3 = _omega_cross_a(top, state)
+        v1 = state.nu_x * c - wa1
+        v2 = state.nu_y - wa2
+        v3 = state.nu_x * sn - wa3
+        E = 0.5 * top.m * (v1**2 + v2**2 + v3**2) + _rotational_and_potential(top, state)
+    return _finite("the energy", E, state)
 
 
 def modified_energy(top: TippeTop, state: State) -> np.ndarray:
@@ -72,5 +120,8 @@ def modified_energy(top: TippeTop, state: State) -> np.ndarray:
     Ẽ = E when ν = 0. Algebraically Ẽ = ½ m|ω × a|² + ½ ω·L + m g R(1 − α cos θ), which is how it is
     evaluated here (no cancellation between E and the ν terms).
     """
-    wa1, wa2, wa3 = _omega_cross_a(top, state)
-    return 0.5 * top.m * (wa1**2 + wa2**2 + wa3**2) + _rotational_and_potential(top, state)
+    state = _arrays(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        wa1, wa2, wa3 = _omega_cross_a(top, state)
+        E = 0.5 * top.m * (wa1**2 + wa2**2 + wa3**2) + _rotational_and_potential(top, state)
+    return _finite("the modified energy", E, state)

@@ -759,9 +759,11 @@ _KIND_STYLE = {
     "upright": ("o", "C0"),
     "tumbling": ("^", "C2"),
     "inverted": ("s", "C3"),
+    "not settled": ("D", "C1"),
     "contact_lost": ("x", "k"),
     "failed": ("x", "0.5"),
     "invalid": ("x", "0.7"),
+    "error": ("x", "C3"),
 }
 
 
@@ -771,8 +773,8 @@ def plot_phase_diagram(
 ) -> Figure:  # fmt: skip
     """End states of a sweep (:func:`mett.sweeps.sweep`) in the plane of two of its columns.
 
-    Points are drawn by their simulated end state (upright / tumbling / inverted; contact loss and
-    failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
+    Points are drawn by their simulated end state (upright / tumbling / inverted, "not settled"
+    for runs too short to tell; contact loss and failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
     the eccentricity ``alpha`` (default: the sweep's, if it did not vary): λ = λ_thres is the line
     λ/λ_thres = 1 and λ = λ_0 the curve λ_0/λ_thres = ((1 − α)/(1 + α))² √((1 + α − γ)/(α + γ − 1))
     (theory.md §7); between them the top ends tumbling.

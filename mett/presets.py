@@ -17,8 +17,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from . import _validate
 from ._validate import MettDeprecationWarning
-from .top import TippeTop
+from .top import FIELD_RANGE, TippeTop
 
 __all__ = ["Preset", "describe", "get", "names"]
 
@@ -143,6 +144,8 @@ def get(name: str, **overrides: Any) -> TippeTop:
 
     Raises
     ------
+    TypeError
+        A value that is not a real number.
     ValueError
         Unknown preset or field, ``alpha`` missing where the source does not give it (maple-tippe-top), or
         nonphysical values.
@@ -156,19 +159,26 @@ def get(name: str, **overrides: Any) -> TippeTop:
             f"allowed: {', '.join(sorted(allowed))}"
         )
     params: dict[str, Any] = dict(p.defaults)
+    overrides = dict(overrides)
     a = overrides.pop("a", None)
     params.update(overrides)
+    # m and R enter a/R and the inertia fractions: check them first, so the error names them
+    for field, unit in (("m", "kg"), ("R", "m")):
+        params[field] = _validate.bounded_scalar(field, params[field], *FIELD_RANGE, unit=unit)
     if a is not None:
         if "alpha" in overrides:
             raise ValueError("give either alpha or a (= alpha*R), not both")
-        params["alpha"] = float(a) / float(params["R"])
+        a = _validate.finite_scalar("a", a)
+        if not 0.0 < a < params["R"]:
+            raise ValueError(f"a = alpha*R must lie in (0, R) = (0, {params['R']!r}) m; got {a!r}")
+        params["alpha"] = a / params["R"]
     if params.get("alpha") is None:
         raise ValueError(
             f"preset {name!r} does not fix the eccentricity: pass alpha in (0, 1) or a = alpha*R "
             "(the source gives neither)"
         )
     if p.inertia is not None:
-        I1, I3 = p.inertia(float(params["m"]), float(params["R"]))
+        I1, I3 = p.inertia(params["m"], params["R"])
         params.setdefault("I1", I1)
         params.setdefault("I3", I3)
     return TippeTop(**params)
