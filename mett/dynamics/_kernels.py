@@ -1,14 +1,14 @@
-"""Compiled twins of the model right-hand sides, for the compiled DOP853 (:mod:`.dop853`).
+"""Compiled twins of the model right-hand sides and events, for the compiled DOP853 (:mod:`.dop853`).
 
-The physics is written once. Each model module keeps its equations in a private function of plain
-float arithmetic (``gliding._core``, ``rolling._core``, ``reduced._cylinder_core``,
-``euler._euler_core``, …) that numpy evaluates on floats or on arrays of samples, and adds two
-plain-Python out-style functions on top of it: ``_rhs_into(t, y, p, out)`` and
-``_events_into(t, y, p, out)`` (g_n/(m g), then the model's guards). This module compiles those
-very functions with numba: :func:`_jit` makes a copy of the function whose module-level callees are
-replaced by their compiled versions (recursively) and jits it with ``cache=True``. The reference
-right-hand side ``Model.rhs`` and the compiled one therefore run the same source; the tests check
-that they agree to rounding at random states.
+The physics is written once. Each model module keeps its equations in private functions of plain
+float arithmetic (``gliding._core``, ``rolling._core``, …) that numpy evaluates on floats or on
+arrays of samples, and declares in its :class:`~mett.dynamics.registry.Model` an out-style
+``rhs_into(t, y, p, out)`` and its events ``fn(t, y, p)``. This module compiles those very
+functions with numba (:func:`compiled`): :func:`_jit` makes a copy of a function whose
+module-level callees are replaced by their compiled versions (recursively) and jits it with
+``cache=True``, and the events are gathered into one generated ``events_into(t, y, p, out)`` in
+the order the model declares them. The reference right-hand side ``Model.rhs`` and the compiled
+one therefore run the same source; the contract tests check that they agree to rounding.
 
 Only :func:`mett.simulate` imports this module, when it runs the compiled backend: ``import mett``
 does not import numba. Compiling from scratch takes a few seconds per model; later processes load
@@ -27,10 +27,11 @@ import types
 from collections.abc import Callable
 
 import numba
+from numba.core.dispatcher import Dispatcher
 
-from . import euler, gliding, reduced, rolling, routhian
+from .registry import Model, lookup
 
-__all__ = ["KERNELS", "get"]
+__all__ = ["compiled", "get"]
 
 _JITTED: dict[tuple[Callable, bool], Callable] = {}
 # Part of the name of every kernel's cache files. numba 0.68 keys its on-disk cache on the function's
@@ -67,17 +68,62 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     return out
 
 
-KERNELS: dict[str, tuple[Callable, Callable]] = {
-    "gliding": (_jit(gliding._rhs_into), _jit(gliding._events_into)),
-    "rolling": (_jit(rolling._rhs_into), _jit(rolling._events_into)),
-    "cylinder": (_jit(reduced._cylinder_rhs_into), _jit(reduced._cylinder_events_into)),
-    "gliding-euler": (_jit(euler._rhs_into), _jit(euler._events_into)),
-    "frictionless-routhian": (_jit(routhian._rhs_into), _jit(routhian._events_into)),
-}
-"""``Model.kernel`` → (rhs, events) numba dispatchers; compiled (or loaded from the cache) lazily,
-at their first use."""
+def _events_kernel(model_name: str, events: tuple) -> Callable:
+    """One compiled ``events_into(t, y, p, out)`` writing ``out[k] = events[k].fn(t, y, p)``.
+
+    Generated from the model's declared events (no hand-ordered list): the source is compiled
+    with the file name of the events' module, so numba caches it next to that module and an
+    edit of that module invalidates it (see the module docstring); the event functions are
+    inlined as the callees of :func:`_jit` are.
+    """
+    fns = [ev.fn for ev in events]
+    home = fns[0]
+    if any(fn.__module__ != home.__module__ for fn in fns):
+        raise ValueError(
+            f"model {model_name!r}: its compiled events must live in one module (numba's cache "
+            "tracks one source file); got " + ", ".join(fn.__module__ for fn in fns)
+        )
+    env = dict(home.__globals__)
+    lines = ["def events_into(t, y, p, out):"]
+    for k, fn in enumerate(fns):
+        env[f"_event_{k}"] = _jit(fn, inline=True)
+        lines.append(f"    out[{k}] = _event_{k}(t, y, p)")
+    code = compile("\n".join(lines) + "\n", home.__code__.co_filename, "exec")
+    scope: dict = {}
+    exec(code, env, scope)  # our own generated source, from the declared events
+    fn = types.FunctionType(scope["events_into"].__code__, env, "events_into")
+    fn.__module__ = home.__module__
+    tag = "_".join(f.__name__.strip("_") for f in fns)
+    fn.__qualname__ = f"events_into__{model_name.replace('-', '_')}__{tag}__{_CACHE_TAG}"
+    return numba.njit(cache=True, error_model="numpy")(fn)
 
 
-def get(name: str) -> tuple[Callable, Callable]:
-    """The compiled (rhs, events) pair of a model's ``kernel`` name."""
-    return KERNELS[name]
+_COMPILED: dict[tuple, tuple[Callable, Callable]] = {}
+
+
+def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable]:
+    """The compiled (rhs, events) pair of a model (of one of its phases; default the first).
+
+    ``rhs`` is ``rhs_into`` compiled (or used as given if it already is a numba dispatcher),
+    ``events`` evaluates the phase's declared events in their declared order. Compiled (or loaded
+    from numba's cache) at the first call, then kept for the process.
+    """
+    table = model.phase_table()
+    ph = table[0] if phase is None else next(p for p in table if p.name == phase)
+    if ph.rhs_into is None:
+        raise ValueError(
+            f"model {model.name!r} has no compiled right-hand side; use backend='scipy'"
+        )
+    key = (ph.rhs_into, tuple(ev.fn for ev in ph.events))
+    if key not in _COMPILED:
+        rhs = ph.rhs_into
+        if not isinstance(rhs, Dispatcher):
+            rhs = _jit(rhs)
+        name = model.name if not ph.name else f"{model.name}_{ph.name}"
+        _COMPILED[key] = (rhs, _events_kernel(name, ph.events))
+    return _COMPILED[key]
+
+
+def get(model: str | Model) -> tuple[Callable, Callable]:
+    """The compiled (rhs, events) pair of a registered model's name (or of a Model)."""
+    return compiled(lookup(model))

@@ -20,8 +20,7 @@ test_dynamics_compiled.py).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
-from types import MappingProxyType
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -31,45 +30,16 @@ from scipy.integrate import solve_ivp
 from .. import _validate
 from ..state import State
 from ..top import TippeTop
-from . import euler, gliding, reduced, rolling, routhian
-from ._model import Model
+from .registry import MODELS, Model, lookup, validate_options
 from .trajectory import Trajectory, _Constant
 
-__all__ = ["MODELS", "simulate"]
-
-MODELS: Mapping[str, Model] = MappingProxyType(
-    {
-        m.name: m
-        for m in (
-            gliding.MODEL,
-            rolling.MODEL,
-            reduced.HST,
-            reduced.CYLINDER,
-            euler.MODEL,
-            routhian.MODEL,
-        )
-    }
-)
-"""The models :func:`simulate` knows, by name (read-only)."""
+__all__ = ["MAX_STEPS", "MODELS", "simulate"]
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
 """The compiled backend stops with status "failed" after this many steps (it keeps every step in
 memory; about 3000 s of the thesis top at rtol = 1e-10, 650 MB of dense output)."""
 _BACKENDS = ("auto", "compiled", "scipy")
-
-# The compiled twin (a name in mett.dynamics._kernels.KERNELS) of each Python right-hand side,
-# keyed by the function it is compiled from: a Model whose rhs is replaced (dataclasses.replace)
-# has no twin, so "auto" runs it on scipy rather than run the compiled physics of another function.
-_COMPILED_TWIN: Mapping[Callable, str] = MappingProxyType(
-    {
-        gliding.gliding_rhs: "gliding",  # also "gliding-hst": the same equations with R = 0
-        rolling.rolling_rhs: "rolling",
-        reduced.cylinder_rhs: "cylinder",
-        euler.MODEL.rhs: "gliding-euler",
-        routhian.routhian_rhs: "frictionless-routhian",
-    }
-)
 
 
 def _check_state(state: Any) -> State:
@@ -136,7 +106,7 @@ def simulate(
     state: State | ArrayLike,
     t_end: float,
     *,
-    model: str = "gliding",
+    model: str | Model = "gliding",
     rtol: float = 1e-10,
     atol: float | ArrayLike | None = None,
     t_eval: ArrayLike | None = None,
@@ -144,8 +114,7 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
-    l: float | None = None,
-    vertical_cm: bool | None = None,
+    **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
 
@@ -158,8 +127,8 @@ def simulate(
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.
     t_end : float
         End time (s), > 0.
-    model : str, default "gliding"
-        One of :data:`MODELS`:
+    model : str or Model, default "gliding"
+        One of :data:`MODELS` (or an unregistered :class:`~mett.dynamics.registry.Model`):
 
         * ``"gliding"``: the rolling-and-gliding eccentric sphere, F = g_n ẑ − μ g_n v_A, in vector
           form (theory.md §2.1); regular at θ = 0 and π.
@@ -203,12 +172,17 @@ def simulate(
         :data:`MAX_STEPS` steps.
     max_step : float, default inf
         Largest step (s).
-    l : float, optional
-        Tip distance of the ``"gliding-hst"`` model (m), > 0; not allowed for other models.
-    vertical_cm : bool, optional
-        ``"frictionless-routhian"`` only: keep the vertical kinetic energy of the centre of mass
-        (True, the default: the corrected seed-000 equations, equal to ``"gliding"`` at μ = 0) or
-        drop it as the printed Routhian does (False, an approximation).
+    **options
+        The options of the model (``Model.options``), validated by the model's validators; None
+        means the default. Built in:
+
+        * ``l`` (float, m, > 0): tip distance of ``"gliding-hst"`` (default ``top.R * top.alpha``);
+        * ``vertical_cm`` (bool): ``"frictionless-routhian"`` only: keep the vertical kinetic
+          energy of the centre of mass (True, the default: the corrected seed-000 equations,
+          equal to ``"gliding"`` at μ = 0) or drop it as the printed Routhian does (False, an
+          approximation).
+
+        An option of another model is a ValueError, an unknown keyword a TypeError.
 
     Returns
     -------
@@ -236,8 +210,7 @@ def simulate(
     >>> traj.status, round(float(traj.crossings(math.pi / 2)[0]), 4), round(float(traj.omega3[-1]), 3)
     ('completed', 5.8797, -82.866)
     """
-    if not isinstance(model, str) or model not in MODELS:
-        raise ValueError(f"unknown model {model!r}; known models: {', '.join(MODELS)}")
+    mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
     state = _check_state(state)
@@ -248,42 +221,32 @@ def simulate(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
-    mdl = MODELS[model]
-    kernel = _COMPILED_TWIN.get(mdl.rhs)
+    if mdl.hybrid:
+        raise ValueError(
+            f"model {mdl.name!r} has several phases; simulate does not run hybrid models yet"
+        )
     if backend == "auto":
-        backend = "compiled" if method == "DOP853" and kernel is not None else "scipy"
+        backend = "compiled" if method == "DOP853" and mdl.rhs_into is not None else "scipy"
     elif backend == "compiled":
         if method != "DOP853":
             raise ValueError(
                 f"the compiled backend implements method 'DOP853' only; got method {method!r} "
                 "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
             )
-        if kernel is None:
+        if mdl.rhs_into is None:
             raise ValueError(
-                f"model {model!r} has no compiled right-hand side; use backend='scipy'"
+                f"model {mdl.name!r} has no compiled right-hand side; use backend='scipy'"
             )
     max_step = float(max_step)
     if not max_step > 0.0:
         raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
-    options: dict[str, Any] = {}
-    if l is not None:
-        if model != "gliding-hst":
-            raise ValueError(
-                f"l (the tip distance) applies only to model 'gliding-hst'; got model {model!r}"
-            )
-        options["l"] = _validate.positive_scalar("l", l)
-    if vertical_cm is not None:
-        if model != "frictionless-routhian":
-            raise ValueError(
-                f"vertical_cm applies only to model 'frictionless-routhian'; got model {model!r}"
-            )
-        options["vertical_cm"] = bool(vertical_cm)
+    model_options = validate_options(mdl, options)
     events = list(events or [])
     for ev in events:
         if not callable(ev):
             raise ValueError(f"events must be callables event(t, state) -> float; got {ev!r}")
 
-    params = mdl.params(top, options)
+    params = mdl.params(top, model_options)
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
     atol_arr = _check_atol(atol, y0.size)
     if atol_arr is None:
@@ -293,14 +256,14 @@ def simulate(
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
-    for guard, _direction, message in mdl.guards:  # a start already past a guard (e.g. a pole)
-        if float(guard(0.0, y0, params)) <= 0.0:
-            return run.at_start("failed", message)
+    for ev in mdl.events:  # a start already past a guard (e.g. a pole)
+        if ev.action == "fail" and float(ev.fn(0.0, y0, params)) <= 0.0:
+            return run.at_start("failed", ev.message)
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
     if backend == "compiled":
-        return _solve_compiled(run, kernel, t_end, rtol, atol_arr, t_eval_arr, max_step, events)
+        return _solve_compiled(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events)
     return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method)
 
 
@@ -334,8 +297,12 @@ class _Run:
         msg = f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
         return self.result(t_out, Y, sol, "contact_lost", msg, t_contact_lost=float(t_ev), **kw)
 
-    def guard(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
-        msg = f"{self.mdl.guards[index][2]} (t = {t_ev:.9g} s)"
+    def stopped(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
+        """The run stopped at the model's event ``index``, located at ``t_ev``."""
+        ev = self.mdl.events[index]
+        if ev.action == "contact_lost":
+            return self.contact_lost(t_out, Y, sol, t_ev, **kw)
+        msg = f"{ev.message} (t = {t_ev:.9g} s)"
         return self.result(t_out, Y, sol, "failed", msg, **kw)
 
 
@@ -354,25 +321,18 @@ def _solve_scipy(
         except ArithmeticError:
             return nan
 
-    weight = 1.0 / (run.top.m * run.top.g)
+    all_events: list[Callable] = []
+    for ev in mdl.events:
 
-    def contact(t: float, y: np.ndarray) -> float:
-        try:
-            return float(mdl.normal_force(y, params)) * weight
-        except ArithmeticError:
-            return math.nan
+        def model_event(t: float, y: np.ndarray, fn: Callable = ev.fn) -> float:
+            try:
+                return float(fn(t, y, params))
+            except ArithmeticError:
+                return math.nan
 
-    contact.terminal = True  # type: ignore[attr-defined]
-    contact.direction = -1.0  # type: ignore[attr-defined]
-    all_events: list[Callable] = [contact]
-    for fn, direction, _ in mdl.guards:
-
-        def guard(t: float, y: np.ndarray, fn: Callable = fn) -> float:
-            return float(fn(t, y, params))
-
-        guard.terminal = True  # type: ignore[attr-defined]
-        guard.direction = direction  # type: ignore[attr-defined]
-        all_events.append(guard)
+        model_event.terminal = True  # type: ignore[attr-defined]
+        model_event.direction = ev.direction  # type: ignore[attr-defined]
+        all_events.append(model_event)
     n_internal = len(all_events)
     all_events.extend(_user_event(ev, mdl, params) for ev in events)
 
@@ -426,25 +386,21 @@ def _solve_scipy(
             if te.size and getattr(ev, "terminal", False)
         ]
         t_ev, idx = max(last)
-        if idx == 0:
-            return run.contact_lost(t_out, Y, sol, t_ev, **kw)
         if idx < n_internal:
-            return run.guard(t_out, Y, sol, idx - 1, t_ev, **kw)
+            return run.stopped(t_out, Y, sol, idx, t_ev, **kw)
         msg = f"stopped by terminal event {idx - n_internal} at t = {t_ev:.9g} s"
         return run.result(t_out, Y, sol, "completed", msg, **kw)
     return run.result(t_out, Y, sol, "completed", f"reached t_end = {t_end:g} s", **kw)
 
 
-def _solve_compiled(
-    run: _Run, kernel: str, t_end, rtol, atol_arr, t_eval_arr, max_step, events
-) -> Trajectory:
+def _solve_compiled(run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, events) -> Trajectory:
     """The default backend: compiled DOP853 (:mod:`.dop853`) with the model's compiled kernel."""
     # imported here: numba (and the compiled code) only when a compiled run is asked for
     from . import _kernels, dop853
 
     mdl, params = run.mdl, run.params
-    rhs, ev_fn = _kernels.get(kernel)
-    directions = [-1.0] + [direction for _, direction, _ in mdl.guards]
+    rhs, ev_fn = _kernels.compiled(mdl)
+    directions = [ev.direction for ev in mdl.events]
     sol = dop853.solve(
         rhs,
         (0.0, t_end),
@@ -492,10 +448,8 @@ def _solve_compiled(
     if user_stop is not None:
         msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
         return run.result(t_out, Y, dense, "completed", msg, **kw)
-    if stopped_by == 0:
-        return run.contact_lost(t_out, Y, dense, float(sol.event_t[-1]), **kw)
     if stopped_by is not None:
-        return run.guard(t_out, Y, dense, stopped_by - 1, float(sol.event_t[-1]), **kw)
+        return run.stopped(t_out, Y, dense, stopped_by, float(sol.event_t[-1]), **kw)
     if sol.status < 0:
         return run.result(t_out, Y, dense, "failed", failure, **kw)
     return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
