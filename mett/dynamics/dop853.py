@@ -53,6 +53,8 @@ import numpy as np
 from numba import types
 from numpy.typing import ArrayLike
 
+from .._validate import ToleranceWarning
+
 __all__ = [
     "COMPLETED",
     "MAX_STEPS",
@@ -1147,7 +1149,8 @@ def solve(
     if np.any(rtol_arr < 100 * _EPS):
         warnings.warn(
             f"At least one element of `rtol` is too small. Setting `rtol = max(rtol, {100 * _EPS})`.",
-            stacklevel=2,
+            ToleranceWarning,
+            stacklevel=2,  # the caller of solve
         )
         rtol_arr = np.maximum(rtol_arr, 100 * _EPS)
     atol_arr = _per_component("atol", atol, n)

@@ -51,16 +51,39 @@ def _check_state(state: Any) -> State:
     return state
 
 
+RTOL_MIN = 100.0 * float(np.finfo(float).eps)
+"""Smallest relative tolerance (100 machine epsilons, 2.2e-14): below it the error estimate is
+rounding noise and the step size collapses (scipy clamps to the same bound)."""
+
+
 def _check_rtol(rtol: Any) -> float:
-    rtol = _validate.finite_scalar("rtol", rtol)
-    if not 0.0 < rtol < 1.0:
-        raise ValueError(f"rtol must lie in (0, 1); got {rtol!r}")
+    rtol = _real_scalar("rtol", rtol)
+    if not RTOL_MIN <= rtol < 1.0:
+        raise ValueError(
+            f"rtol must lie in [{RTOL_MIN:.3g}, 1) (at least 100 machine epsilons); got {rtol!r}"
+        )
     return rtol
 
 
-def _check_atol(atol: Any, n: int) -> np.ndarray | None:
+def _real_scalar(name: str, value: Any) -> float:
+    """A finite real number; strings and bools are a TypeError (``float("1e-8")`` would pass)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"{name} must be a real number; got {value!r}")
+    return _validate.finite_scalar(name, value)
+
+
+def _check_atol(atol: Any, n: int, scales: np.ndarray) -> np.ndarray | None:
+    """``atol`` as one float per state component, ≥ the rounding of the component's size.
+
+    The floor is ε × the component's typical magnitude (``Model.scales``): an absolute error
+    smaller than one rounding of the values the component is computed from cannot be met; asked
+    for anyway, the step size collapses wherever the component passes through zero (atol = 1e-30
+    made the thesis run take a million steps in its first microsecond).
+    """
     if atol is None:
         return None
+    if isinstance(atol, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"atol must be a real number or an array of them; got {atol!r}")
     arr = _validate.as_finite_array("atol", atol)
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size != n):
         raise ValueError(
@@ -69,7 +92,47 @@ def _check_atol(atol: Any, n: int) -> np.ndarray | None:
         )
     if np.any(arr <= 0.0):
         raise ValueError(f"atol must lie in (0, inf); got {arr.ravel()[arr.ravel() <= 0][0]!r}")
-    return arr
+    full = np.broadcast_to(arr, (n,)).astype(float)
+    floor = float(np.finfo(float).eps) * np.abs(scales)
+    low = np.flatnonzero(full < floor)
+    if low.size:
+        i = int(low[0])
+        raise ValueError(
+            f"atol must be at least machine epsilon times the typical magnitude of each state "
+            f"component (below that it cannot be met); component {i} needs atol >= "
+            f"{floor[i]:.3g}; got {full[i]!r}"
+        )
+    return full
+
+
+def _event_terminal(k: int, ev: Callable) -> int:
+    """How many zeros of user event ``k`` end the run (0: none), as solve_ivp's ``terminal``."""
+    terminal = getattr(ev, "terminal", False)
+    if terminal is None or isinstance(terminal, (bool, np.bool_)):
+        return int(bool(terminal))
+    if isinstance(terminal, (int, np.integer)):
+        if terminal < 0:
+            raise ValueError(f"events[{k}].terminal must lie in [0, inf); got {terminal!r}")
+        return int(terminal)
+    raise TypeError(
+        f"events[{k}].terminal must be a bool or an int (stop at that many zeros); got {terminal!r}"
+    )
+
+
+def _event_direction(k: int, ev: Callable) -> float:
+    """The sign of user event ``k``'s ``direction`` (0: zeros in both directions)."""
+    direction = getattr(ev, "direction", 0.0)
+    if isinstance(direction, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"events[{k}].direction must be a real number; got {direction!r}")
+    return float(np.sign(_validate.finite_scalar(f"events[{k}].direction", direction)))
+
+
+class _UserEventError(Exception):
+    """Carries an exception raised by a user event out of solve_ivp, to re-raise it unchanged."""
+
+    def __init__(self, exc: BaseException) -> None:
+        super().__init__(exc)
+        self.exc = exc
 
 
 def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
@@ -87,17 +150,27 @@ def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
     return te
 
 
-def _user_event(ev: Callable, model: Model, params: tuple) -> Callable:
+def _user_event(
+    ev: Callable, model: Model, params: tuple, terminal: int = 0, direction: float = 0.0
+) -> Callable:
+    """The user event ``ev(t, State)`` as an event ``f(t, y)`` of the model state."""
+
     def wrapped(t: float, y: np.ndarray) -> float:
         s = model.derive(np.asarray(y, dtype=float).reshape(-1, 1), params)
         state = State._trusted(
             float(np.clip(s["theta"][0], 0.0, math.pi)),
             *(float(s[k][0]) for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
         )
-        return float(ev(t, state))
+        try:
+            value = float(ev(t, state))
+        except Exception as exc:  # the caller's exception, raised again unchanged by simulate
+            raise _UserEventError(exc) from exc
+        # A zero at the start is not an event (on both backends; solve_ivp alone would count it,
+        # and a terminal event would end the run at t = 0): NaN makes no sign change with it.
+        return math.nan if value == 0.0 and t == 0.0 else value
 
-    wrapped.terminal = getattr(ev, "terminal", False)  # type: ignore[attr-defined]
-    wrapped.direction = getattr(ev, "direction", 0.0)  # type: ignore[attr-defined]
+    wrapped.terminal = terminal  # type: ignore[attr-defined]
+    wrapped.direction = direction  # type: ignore[attr-defined]
     return wrapped
 
 
@@ -242,15 +315,17 @@ def simulate(
         raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
     model_options = validate_options(mdl, options)
     events = list(events or [])
-    for ev in events:
+    for k, ev in enumerate(events):
         if not callable(ev):
-            raise ValueError(f"events must be callables event(t, state) -> float; got {ev!r}")
+            raise TypeError(f"events[{k}] must be a callable event(t, state) -> float; got {ev!r}")
+    user = [(ev, _event_terminal(k, ev), _event_direction(k, ev)) for k, ev in enumerate(events)]
 
     params = mdl.params(top, model_options)
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
-    atol_arr = _check_atol(atol, y0.size)
+    scales = np.asarray(mdl.scales(y0, params), dtype=float)
+    atol_arr = _check_atol(atol, y0.size, scales)
     if atol_arr is None:
-        atol_arr = rtol * np.asarray(mdl.scales(y0, params), dtype=float)
+        atol_arr = rtol * scales
 
     run = _Run(mdl, top, params, y0, backend)
     gn0 = float(mdl.normal_force(y0, params))
@@ -263,8 +338,8 @@ def simulate(
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
     if backend == "compiled":
-        return _solve_compiled(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events)
-    return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method)
+        return _solve_compiled(run, t_end, rtol, atol_arr, t_eval_arr, max_step, user)
+    return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, user, method)
 
 
 class _Run:
@@ -330,11 +405,11 @@ def _solve_scipy(
             except ArithmeticError:
                 return math.nan
 
-        model_event.terminal = True  # type: ignore[attr-defined]
+        model_event.terminal = 1  # type: ignore[attr-defined]
         model_event.direction = ev.direction  # type: ignore[attr-defined]
         all_events.append(model_event)
     n_internal = len(all_events)
-    all_events.extend(_user_event(ev, mdl, params) for ev in events)
+    all_events.extend(_user_event(ev, mdl, params, term, dirn) for ev, term, dirn in events)
 
     try:
         with np.errstate(all="ignore"):
@@ -350,6 +425,8 @@ def _solve_scipy(
                 atol=atol_arr,
                 max_step=max_step,
             )
+    except _UserEventError as err:
+        raise err.exc from None  # a user event's exception, unchanged (as solve_ivp lets it go)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
         return run.at_start("failed", f"integration failed: {exc}")
 
@@ -379,11 +456,11 @@ def _solve_scipy(
         msg = f"integrator failed at t = {t_stop:.9g} s: {res.message}"
         return run.result(t_out, Y, sol, "failed", msg, **kw)
     if res.status == 1:
-        # the terminating event is the terminal event with the latest recorded time
+        # the terminating event: a terminal one that reached its count of zeros, the latest
         last = [
-            (te[-1], i)
+            (te[ev.terminal - 1], i)
             for i, (te, ev) in enumerate(zip(t_events, all_events, strict=True))
-            if te.size and getattr(ev, "terminal", False)
+            if ev.terminal and te.size >= ev.terminal
         ]
         t_ev, idx = max(last)
         if idx < n_internal:
@@ -430,8 +507,8 @@ def _solve_compiled(run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, even
     if events:
         try:
             t_user, t_term, k_term = _user_events_after_run(events, run, dense)
-        except (ArithmeticError, ValueError) as exc:  # as solve_ivp's failures on scipy
-            return run.at_start("failed", f"integration failed: {exc}")
+        except _UserEventError as err:
+            raise err.exc from None  # a user event's exception, unchanged (as on scipy)
         if t_term is not None and t_term <= t_stop:
             # the run would have stopped here: cut it, and its dense output, at the event
             dense, t_stop, user_stop = _truncate(dense, t_term), t_term, k_term
@@ -456,14 +533,15 @@ def _solve_compiled(run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, even
 
 
 def _user_events_after_run(
-    events: list[Callable], run: _Run, dense: Any
+    events: list[tuple[Callable, int, float]], run: _Run, dense: Any
 ) -> tuple[list[np.ndarray], float | None, int]:
     """Zeros of the user events along a finished compiled run, with scipy's rules.
 
     Each event is evaluated at the solver's steps; a sign change over a step (allowed by the
     event's ``direction``; a zero at the start of a step belongs to the previous step) is refined
     by Brent's method on that step's interpolant, as ``solve_ivp`` does during the run. Returns the
-    times per event, and the time and index of the first terminal zero (None, -1 if none).
+    times per event, and the time and index of the zero that ends the run (None, -1 if none):
+    the earliest of each terminal event's ``terminal``-th zero, as solve_ivp counts them.
     """
     from scipy.optimize import brentq
 
@@ -482,13 +560,12 @@ def _user_events_after_run(
     eps = np.finfo(float).eps
     t_user: list[np.ndarray] = []
     t_term, k_term = None, -1
-    for k, ev in enumerate(events):
+    for k, (ev, terminal, direction) in enumerate(events):
         g = np.array([float(ev(t, st)) for t, st in zip(ts.tolist(), states, strict=True)])
-        direction = np.sign(float(getattr(ev, "direction", 0.0)))
         up = (g[:-1] < 0.0) & (g[1:] >= 0.0)
         down = (g[:-1] > 0.0) & (g[1:] <= 0.0)
         steps = np.flatnonzero((up & (direction >= 0)) | (down & (direction <= 0)))
-        fn = _user_event(ev, run.mdl, run.params)
+        fn = _user_event(ev, run.mdl, run.params)  # for the root, on the interpolant
         roots = np.empty(steps.size)
         for j, i in enumerate(steps):
             a, b, ga, gb = ts[i], ts[i + 1], g[i], g[i + 1]
@@ -500,8 +577,10 @@ def _user_events_after_run(
 
             roots[j] = brentq(h, a, b, xtol=4 * eps, rtol=4 * eps)
         t_user.append(roots)
-        if getattr(ev, "terminal", False) and roots.size and (t_term is None or roots[0] < t_term):
-            t_term, k_term = float(roots[0]), k
+        if terminal and roots.size >= terminal:
+            t_k = float(roots[terminal - 1])
+            if t_term is None or t_k < t_term:
+                t_term, k_term = t_k, k
     return t_user, t_term, k_term
 
 
