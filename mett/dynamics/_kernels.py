@@ -12,10 +12,10 @@ one therefore run the same source; the contract tests check that they agree to r
 
 Only :func:`mett.simulate` imports this module, when it runs the compiled backend: ``import mett``
 does not import numba. Compiling from scratch takes a few seconds per model; later processes load
-the machine code from numba's cache (``__pycache__`` next to the model modules). The cache of a
-compiled function is keyed on the source file of that function, and every callee lives in the same
-file, so editing a model module invalidates all of its kernels (numba does not track callees in
-other files).
+the machine code from numba's cache (``__pycache__`` next to the model modules). numba keys the
+cache of a compiled function on that function's source file only; callees from other files of
+mett are covered by a hash of those files in the cache name, so editing any module a kernel
+inlines invalidates that kernel.
 
 The kernels use numba's ``error_model="numpy"``: a division by zero gives inf/nan (which the
 integrator rejects and reports as status "failed") instead of raising inside compiled code.
@@ -23,6 +23,7 @@ integrator rejects and reports as status "failed") instead of raising inside com
 
 from __future__ import annotations
 
+import hashlib
 import types
 from collections.abc import Callable
 
@@ -43,50 +44,76 @@ _CACHE_TAG = "inl1"
 def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     """``numba.njit(cache=True)`` of a plain-arithmetic function and of the functions it calls.
 
-    Module-level functions of the same module that ``fn`` refers to are compiled first and bound in
-    a copy of its globals, since compiled code can only call compiled code. They are compiled with
-    ``inline="always"``: numba then inlines them into the caller's IR. A real call boundary cost
-    far more than the arithmetic: the gliding right-hand side took 115 ns per call when it called
-    ``_core`` (passing the state and parameter arrays into a compiled call, and the 13-tuple back)
-    and 29 ns with ``_core`` inlined (measured on the thesis run's machine, 1e6 calls).
+    Module-level functions that ``fn`` refers to by name, from its own module or from any module
+    of mett (e.g. a friction model calling ``gliding_normal_force``), are compiled first and bound
+    in a copy of its globals, since compiled code can only call compiled code. They are compiled
+    with ``inline="always"``: numba then inlines them into the caller's IR. A real call boundary
+    cost far more than the arithmetic: the gliding right-hand side took 115 ns per call when it
+    called ``_core`` (passing the state and parameter arrays into a compiled call, and the 13-tuple
+    back) and 29 ns with ``_core`` inlined (measured on the thesis run's machine, 1e6 calls).
+
+    numba's cache is stamped with the source file of ``fn`` only; the code inlined from other
+    files is covered by a hash of those files in the cache name (:func:`_foreign_tag`).
     """
     key = (fn, inline)
     if key in _JITTED:
         return _JITTED[key]
     env = dict(fn.__globals__)
+    deps: set[str] = set()
     for name in fn.__code__.co_names:
         callee = env.get(name)
-        if isinstance(callee, types.FunctionType) and callee.__module__ == fn.__module__:
+        if isinstance(callee, types.FunctionType) and _inlinable(callee, fn):
             env[name] = _jit(callee, inline=True)
+            deps |= _DEPS[env[name]] | {callee.__code__.co_filename}
     clone = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
     clone.__module__, clone.__doc__ = fn.__module__, fn.__doc__
     # the cache files are named after the qualname; the version tag keeps machine code compiled
     # with other options (numba's cache key ignores them) from being loaded
-    clone.__qualname__ = f"{fn.__qualname__}__{_CACHE_TAG}"
+    clone.__qualname__ = f"{fn.__qualname__}__{_CACHE_TAG}{_foreign_tag(deps, fn)}"
     options = {"inline": "always"} if inline else {}
     _JITTED[key] = out = numba.njit(cache=True, error_model="numpy", **options)(clone)
+    _DEPS[out] = frozenset(deps)
     return out
+
+
+_DEPS: dict[Callable, frozenset[str]] = {}
+"""Source files whose code each compiled function inlines."""
+
+
+def _inlinable(callee: types.FunctionType, fn: types.FunctionType) -> bool:
+    """A callee :func:`_jit` compiles along with ``fn``: same module, or a module of mett."""
+    mod = callee.__module__ or ""
+    return mod == fn.__module__ or mod == "mett" or mod.startswith("mett.")
+
+
+def _foreign_tag(files: set[str], fn: types.FunctionType) -> str:
+    """``""``, or ``"_"`` + a hash of the files other than ``fn``'s own that ``fn`` inlines."""
+    foreign = sorted(f for f in files if f != fn.__code__.co_filename)
+    if not foreign:
+        return ""
+    h = hashlib.sha1(usedforsecurity=False)
+    for path in foreign:
+        with open(path, "rb") as fh:
+            h.update(fh.read())
+    return "_" + h.hexdigest()[:10]
 
 
 def _events_kernel(model_name: str, events: tuple) -> Callable:
     """One compiled ``events_into(t, y, p, out)`` writing ``out[k] = events[k].fn(t, y, p)``.
 
     Generated from the model's declared events (no hand-ordered list): the source is compiled
-    with the file name of the events' module, so numba caches it next to that module and an
-    edit of that module invalidates it (see the module docstring); the event functions are
-    inlined as the callees of :func:`_jit` are.
+    with the file name of the first event's module, so numba caches it next to that module and
+    an edit of that module invalidates it; the code of other files it inlines (other events'
+    modules, their callees) is covered by a hash in its cache name, as in :func:`_jit`.
     """
     fns = [ev.fn for ev in events]
     home = fns[0]
-    if any(fn.__module__ != home.__module__ for fn in fns):
-        raise ValueError(
-            f"model {model_name!r}: its compiled events must live in one module (numba's cache "
-            "tracks one source file); got " + ", ".join(fn.__module__ for fn in fns)
-        )
     env = dict(home.__globals__)
     lines = ["def events_into(t, y, p, out):"]
+    deps: set[str] = set()
     for k, fn in enumerate(fns):
-        env[f"_event_{k}"] = _jit(fn, inline=True)
+        env[f"_event_{k}"] = jitted = _jit(fn, inline=True)
+        deps |= _DEPS[jitted] | {fn.__code__.co_filename}
         lines.append(f"    out[{k}] = _event_{k}(t, y, p)")
     code = compile("\n".join(lines) + "\n", home.__code__.co_filename, "exec")
     scope: dict = {}
@@ -94,7 +121,9 @@ def _events_kernel(model_name: str, events: tuple) -> Callable:
     fn = types.FunctionType(scope["events_into"].__code__, env, "events_into")
     fn.__module__ = home.__module__
     tag = "_".join(f.__name__.strip("_") for f in fns)
-    fn.__qualname__ = f"events_into__{model_name.replace('-', '_')}__{tag}__{_CACHE_TAG}"
+    fn.__qualname__ = (
+        f"events_into__{model_name.replace('-', '_')}__{tag}__{_CACHE_TAG}{_foreign_tag(deps, fn)}"
+    )
     return numba.njit(cache=True, error_model="numpy")(fn)
 
 
@@ -110,6 +139,8 @@ def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable
     """
     table = model.phase_table()
     ph = table[0] if phase is None else next(p for p in table if p.name == phase)
+    if not ph.events:
+        raise ValueError(f"model {model.name!r}, phase {ph.name!r}: no events to compile")
     if ph.rhs_into is None:
         raise ValueError(
             f"model {model.name!r} has no compiled right-hand side; use backend='scipy'"

@@ -19,9 +19,10 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -30,7 +31,7 @@ from scipy.integrate import solve_ivp
 from .. import _validate
 from ..state import State
 from ..top import TippeTop
-from .registry import MODELS, Model, lookup, validate_options
+from .registry import MODELS, Model, Phase, lookup, validate_options
 from .trajectory import Trajectory, _Constant
 
 __all__ = ["MAX_STEPS", "MODELS", "simulate"]
@@ -151,7 +152,12 @@ def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
 
 
 def _user_event(
-    ev: Callable, model: Model, params: tuple, terminal: int = 0, direction: float = 0.0
+    ev: Callable,
+    model: Model,
+    params: tuple,
+    t_start: float,
+    terminal: int = 0,
+    direction: float = 0.0,
 ) -> Callable:
     """The user event ``ev(t, State)`` as an event ``f(t, y)`` of the model state."""
 
@@ -167,7 +173,7 @@ def _user_event(
             raise _UserEventError(exc) from exc
         # A zero at the start is not an event (on both backends; solve_ivp alone would count it,
         # and a terminal event would end the run at t = 0): NaN makes no sign change with it.
-        return math.nan if value == 0.0 and t == 0.0 else value
+        return math.nan if value == 0.0 and t == t_start else value
 
     wrapped.terminal = terminal  # type: ignore[attr-defined]
     wrapped.direction = direction  # type: ignore[attr-defined]
@@ -294,19 +300,16 @@ def simulate(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
-    if mdl.hybrid:
-        raise ValueError(
-            f"model {mdl.name!r} has several phases; simulate does not run hybrid models yet"
-        )
+    compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
     if backend == "auto":
-        backend = "compiled" if method == "DOP853" and mdl.rhs_into is not None else "scipy"
+        backend = "compiled" if method == "DOP853" and compilable else "scipy"
     elif backend == "compiled":
         if method != "DOP853":
             raise ValueError(
                 f"the compiled backend implements method 'DOP853' only; got method {method!r} "
                 "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
             )
-        if mdl.rhs_into is None:
+        if not compilable:
             raise ValueError(
                 f"model {mdl.name!r} has no compiled right-hand side; use backend='scipy'"
             )
@@ -327,30 +330,156 @@ def simulate(
     if atol_arr is None:
         atol_arr = rtol * scales
 
-    run = _Run(mdl, top, params, y0, backend)
+    table = {ph.name: ph for ph in mdl.phase_table()}
+    phase = mdl.phase_table()[0]
+    if mdl.start_phase is not None:
+        name = mdl.start_phase(y0, params)
+        if name not in table:
+            raise ValueError(f"model {mdl.name!r}: start_phase gave unknown phase {name!r}")
+        phase = table[name]
+    run = _Run(mdl, top, params, y0, backend, phase)
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
-    for ev in mdl.events:  # a start already past a guard (e.g. a pole)
+    for ev in phase.events:  # a start already past a guard (e.g. a pole)
         if ev.action == "fail" and float(ev.fn(0.0, y0, params)) <= 0.0:
             return run.at_start("failed", ev.message)
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
-    if backend == "compiled":
-        return _solve_compiled(run, t_end, rtol, atol_arr, t_eval_arr, max_step, user)
-    return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, user, method)
+    solve = functools.partial(
+        _solve_compiled if backend == "compiled" else _solve_scipy,
+        t_end=t_end,
+        rtol=rtol,
+        atol_arr=atol_arr,
+        max_step=max_step,
+        method=method,
+    )
+    if not mdl.hybrid:
+        return solve(run, t_eval_arr=t_eval_arr, events=user)
+    return _solve_hybrid(run, solve, table, t_eval_arr, user)
+
+
+MAX_SWITCHES = 100_000
+"""A hybrid model's run stops with status "failed" after this many phase switches."""
+
+
+class _Segments:
+    """The dense output of a hybrid run: one solution per phase, switched at their start times."""
+
+    def __init__(self, sols: list[Any]) -> None:
+        self._sols = sols
+        self._starts = np.array([float(s.t_min) for s in sols])
+        self.ts = np.concatenate([np.asarray(s.ts, dtype=float)[:-1] for s in sols[:-1]]
+                                 + [np.asarray(sols[-1].ts, dtype=float)])  # fmt: skip
+        self.t_min, self.t_max = float(sols[0].t_min), float(sols[-1].t_max)
+
+    def __call__(self, t: Any) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        # at a switch time the later phase (the state after the switch) holds
+        k = np.clip(np.searchsorted(self._starts, t, side="right") - 1, 0, len(self._sols) - 1)
+        if t.ndim == 0:
+            return np.asarray(self._sols[int(k)](t), dtype=float)
+        out = np.empty((self._sols[0](self.t_min).size, t.size))
+        for j in np.unique(k):
+            sel = k == j
+            out[:, sel] = np.asarray(self._sols[j](t[sel]), dtype=float).reshape(-1, sel.sum())
+        return out
+
+
+def _solve_hybrid(
+    run: _Run,
+    solve: Callable,
+    table: dict[str, Phase],
+    t_eval_arr: np.ndarray | None,
+    user: list[tuple[Callable, int, float]],
+) -> Trajectory:
+    """Run a hybrid model phase by phase: each phase until one of its events; a "switch" event
+    starts the phase it names at the located time (with the event's ``jump`` applied), any other
+    end (t_end, contact lost, a failure, a terminal user event) ends the run.
+
+    The samples of a phase end just before the switch time; the next phase's first sample is the
+    state after the switch. ``Trajectory.phase`` holds the phase of each sample and
+    ``Trajectory.switches`` the (time, from, to) of each switch. User events count their zeros
+    over the whole run (``terminal`` = n stops at the n-th zero, whichever phase it falls in).
+    """
+    mdl, params = run.mdl, run.params
+    remaining = [term for _, term, _ in user]
+    t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
+    switches: list[tuple[float, str, str]] = []
+    nfev = 0
+    while True:
+        events = [(ev, rem, dirn) for (ev, _, dirn), rem in zip(user, remaining, strict=True)]
+        seg = solve(run, t_eval_arr=t_eval_arr, events=events, collect=True)
+        nfev += seg.kw.get("nfev", 0)
+        for k, te in enumerate(seg.kw.get("t_events", [])):
+            t_user[k].append(te)
+            if remaining[k]:  # a terminal event that reaches its count ends the run anyway
+                remaining[k] = max(remaining[k] - te.size, 1)
+        sols.append(seg.sol)
+        last = run.switch is None or len(switches) >= MAX_SWITCHES
+        t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
+        if not last:
+            t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
+        t_parts.append(t_seg)
+        y_parts.append(y_seg.reshape(run.y0.size, -1))
+        phases.extend([run.phase.name] * t_seg.size)
+        if last:
+            break
+        index, t_sw = run.switch
+        ev = run.phase.events[index]
+        y_sw = np.asarray(seg.sol(t_sw), dtype=float)
+        if ev.jump is not None:
+            y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
+        switches.append((t_sw, run.phase.name, ev.target))
+        run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw)
+    kw = dict(seg.kw)
+    kw["nfev"] = nfev
+    kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
+    status, message = seg.status, seg.message
+    if run.switch is not None:  # stopped for switching too often
+        status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
+    t_all = np.concatenate(t_parts)
+    Y_all = np.hstack(y_parts)
+    run.collect = False
+    traj = run.result(t_all, Y_all, _Segments(sols), status, message, **kw)
+    traj.phase = np.array(phases)
+    traj.switches = switches
+    return traj
+
+
+class _Piece(NamedTuple):
+    """One phase of a hybrid run (what :meth:`_Run.result` returns while collecting)."""
+
+    t: Any
+    Y: Any
+    sol: Any
+    status: str
+    message: str
+    kw: dict
 
 
 class _Run:
     """What both backends share: the model, its parameters, and how to build the Trajectory."""
 
     def __init__(
-        self, mdl: Model, top: TippeTop, params: tuple, y0: np.ndarray, backend: str
+        self,
+        mdl: Model,
+        top: TippeTop,
+        params: tuple,
+        y0: np.ndarray,
+        backend: str,
+        phase: Phase,
+        t0: float = 0.0,
     ) -> None:
         self.mdl, self.top, self.params, self.y0, self.backend = mdl, top, params, y0, backend
+        self.phase, self.t0 = phase, t0
+        self.collect = False  # True: result() returns the pieces, for a hybrid run to join
+        self.switch: tuple[int, float] | None = None  # (event index, time) of a "switch" stop
 
-    def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Trajectory:
+    def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Any:
+        if self.collect:
+            return _Piece(t, Y, sol, status, message, kw)
         return Trajectory(
             t=t,
             states=Y,
@@ -366,7 +495,8 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        return self.result([0.0], self.y0, _Constant(0.0, self.y0), status, message, **kw)
+        sol = _Constant(self.t0, self.y0)
+        return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
         msg = f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
@@ -374,19 +504,28 @@ class _Run:
 
     def stopped(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
         """The run stopped at the model's event ``index``, located at ``t_ev``."""
-        ev = self.mdl.events[index]
+        ev = self.phase.events[index]
         if ev.action == "contact_lost":
             return self.contact_lost(t_out, Y, sol, t_ev, **kw)
+        if ev.action == "switch":
+            self.switch = (index, float(t_ev))
+            msg = f"switch to phase {ev.target!r} at t = {t_ev:.9g} s"
+            return self.result(t_out, Y, sol, "completed", msg, **kw)
         msg = f"{ev.message} (t = {t_ev:.9g} s)"
         return self.result(t_out, Y, sol, "failed", msg, **kw)
 
 
 def _solve_scipy(
-    run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method
-) -> Trajectory:
-    """The reference backend: :func:`scipy.integrate.solve_ivp` with the Python right-hand side."""
-    mdl, params, y0 = run.mdl, run.params, run.y0
-    rhs, nan = mdl.rhs, np.full(y0.size, np.nan)
+    run: _Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method, collect=False
+) -> Any:
+    """The reference backend: :func:`scipy.integrate.solve_ivp` with the Python right-hand side.
+
+    Integrates ``run.phase`` from ``run.t0``; returns the Trajectory (with ``collect``, the
+    :class:`_Piece` for a hybrid run to join).
+    """
+    mdl, params, y0, t0 = run.mdl, run.params, run.y0, run.t0
+    run.collect = collect
+    rhs, nan = run.phase.rhs, np.full(y0.size, np.nan)
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
         # a ZeroDivisionError/OverflowError of plain float math becomes NaN: the step is rejected
@@ -397,7 +536,7 @@ def _solve_scipy(
             return nan
 
     all_events: list[Callable] = []
-    for ev in mdl.events:
+    for ev in run.phase.events:
 
         def model_event(t: float, y: np.ndarray, fn: Callable = ev.fn) -> float:
             try:
@@ -409,13 +548,15 @@ def _solve_scipy(
         model_event.direction = ev.direction  # type: ignore[attr-defined]
         all_events.append(model_event)
     n_internal = len(all_events)
-    all_events.extend(_user_event(ev, mdl, params, term, dirn) for ev, term, dirn in events)
+    all_events.extend(_user_event(ev, mdl, params, t0, term, dirn) for ev, term, dirn in events)
+    if t_eval_arr is not None:
+        t_eval_arr = t_eval_arr[t_eval_arr >= t0]
 
     try:
         with np.errstate(all="ignore"):
             res = solve_ivp(
                 fun,
-                (0.0, t_end),
+                (t0, t_end),
                 y0,
                 method=method,
                 t_eval=t_eval_arr,
@@ -432,7 +573,7 @@ def _solve_scipy(
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _Constant(0.0, y0)
+        sol = _Constant(t0, y0)
     t_stop = float(sol.t_max)
     t_out = np.asarray(res.t, dtype=float)
     Y = np.asarray(res.y, dtype=float).reshape(y0.size, -1)
@@ -470,17 +611,24 @@ def _solve_scipy(
     return run.result(t_out, Y, sol, "completed", f"reached t_end = {t_end:g} s", **kw)
 
 
-def _solve_compiled(run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, events) -> Trajectory:
-    """The default backend: compiled DOP853 (:mod:`.dop853`) with the model's compiled kernel."""
+def _solve_compiled(
+    run: _Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method, collect=False
+) -> Any:
+    """The default backend: compiled DOP853 (:mod:`.dop853`) with the model's compiled kernel.
+
+    Integrates ``run.phase`` from ``run.t0``; returns the Trajectory (with ``collect``, the
+    :class:`_Piece` for a hybrid run to join). ``method`` is DOP853 (checked by simulate).
+    """
     # imported here: numba (and the compiled code) only when a compiled run is asked for
     from . import _kernels, dop853
 
     mdl, params = run.mdl, run.params
-    rhs, ev_fn = _kernels.compiled(mdl)
-    directions = [ev.direction for ev in mdl.events]
+    run.collect = collect
+    rhs, ev_fn = _kernels.compiled(mdl, run.phase.name)
+    directions = [ev.direction for ev in run.phase.events]
     sol = dop853.solve(
         rhs,
-        (0.0, t_end),
+        (run.t0, t_end),
         run.y0,
         params,
         rtol=rtol,
@@ -517,7 +665,7 @@ def _solve_compiled(run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, even
     if t_eval_arr is None:
         t_out, Y = dense.t, dense.y.T
     else:
-        t_out = t_eval_arr[t_eval_arr <= t_stop]
+        t_out = t_eval_arr[(t_eval_arr >= run.t0) & (t_eval_arr <= t_stop)]
         if t_out.size == 0 or t_out[-1] < t_stop:
             t_out = np.append(t_out[t_out < t_stop], t_stop)
         Y = dense(t_out).reshape(run.y0.size, -1)
@@ -565,7 +713,7 @@ def _user_events_after_run(
         up = (g[:-1] < 0.0) & (g[1:] >= 0.0)
         down = (g[:-1] > 0.0) & (g[1:] <= 0.0)
         steps = np.flatnonzero((up & (direction >= 0)) | (down & (direction <= 0)))
-        fn = _user_event(ev, run.mdl, run.params)  # for the root, on the interpolant
+        fn = _user_event(ev, run.mdl, run.params, run.t0)  # for the root, on the interpolant
         roots = np.empty(steps.size)
         for j, i in enumerate(steps):
             a, b, ga, gb = ts[i], ts[i + 1], g[i], g[i + 1]
