@@ -221,6 +221,8 @@ class Model:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"Model.name must be a non-empty str; got {self.name!r}")
+        if not getattr(self.derive, "chunked", False):
+            object.__setattr__(self, "derive", _chunked(self.derive))
         for attr in ("events", "options", "conserves", "phases"):
             object.__setattr__(self, attr, tuple(getattr(self, attr)))
         names = [o.name for o in self.options]
@@ -257,6 +259,37 @@ class Model:
     def hybrid(self) -> bool:
         """True for a model with several phases."""
         return bool(self.phases)
+
+
+DERIVE_CHUNK = 65_536
+"""Samples per call of a model's ``derive``: a long run's series are derived in chunks of this many
+samples, so that its temporaries (dozens of arrays per sample) stay small next to the results."""
+
+
+def _chunked(derive: Callable) -> Callable:
+    """``derive`` evaluated on at most :data:`DERIVE_CHUNK` samples at a time (elementwise, so the
+    result is that of one call); without this, deriving the series of a million-step run took
+    more memory than the run itself."""
+
+    def chunked(Y: np.ndarray, p: Params) -> dict[str, np.ndarray]:
+        Y = np.asarray(Y, dtype=float)
+        if Y.ndim != 2 or Y.shape[1] <= DERIVE_CHUNK:
+            return derive(Y, p)
+        n = Y.shape[1]
+        out: dict[str, np.ndarray] = {}
+        for i in range(0, n, DERIVE_CHUNK):
+            part = derive(Y[:, i : i + DERIVE_CHUNK], p)
+            k = min(DERIVE_CHUNK, n - i)
+            for key, value in part.items():
+                if key not in out:
+                    out[key] = np.empty(n, dtype=np.result_type(value, float))
+                out[key][i : i + k] = np.broadcast_to(value, (k,))
+        return out
+
+    chunked.chunked = True  # type: ignore[attr-defined]
+    chunked.__wrapped__ = derive  # type: ignore[attr-defined]
+    chunked.__doc__ = derive.__doc__
+    return chunked
 
 
 _REGISTRY: dict[str, Model] = {}
