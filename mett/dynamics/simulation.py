@@ -26,13 +26,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.integrate import solve_ivp
+from scipy.integrate import OdeSolution, solve_ivp
 
 from .. import _validate
 from ..state import State
 from ..top import TippeTop
 from .registry import MODELS, Model, Phase, lookup, validate_options
-from .trajectory import Trajectory, _Constant
+from .trajectory import Trajectory
 
 __all__ = ["MAX_STEPS", "MODELS", "simulate"]
 
@@ -363,6 +363,21 @@ def simulate(
     return _solve_hybrid(run, solve, table, t_eval_arr, user)
 
 
+class _AtStart:
+    """Dense output of a run (or phase) that never left its start time ``t0``."""
+
+    def __init__(self, t0: float, y0: np.ndarray) -> None:
+        self.ts = np.array([t0])
+        self.t_min = self.t_max = t0
+        self._y0 = y0
+
+    def __call__(self, t: Any) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        if t.ndim == 0:
+            return self._y0.copy()
+        return np.repeat(self._y0[:, None], t.size, axis=1)
+
+
 MAX_SWITCHES = 100_000
 """A hybrid model's run stops with status "failed" after this many phase switches."""
 
@@ -498,7 +513,7 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        sol = _Constant(self.t0, self.y0)
+        sol = _AtStart(self.t0, self.y0)
         return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
@@ -516,6 +531,25 @@ class _Run:
             return self.result(t_out, Y, sol, "completed", msg, **kw)
         msg = f"{ev.message} (t = {t_ev:.9g} s)"
         return self.result(t_out, Y, sol, "failed", msg, **kw)
+
+
+def _recording(method: str, pieces: list[Any], states: list[np.ndarray]) -> type:
+    """The solver class of ``method``, recording the interpolant and the state at the end of every
+    step in ``pieces`` and ``states`` (solve_ivp asks for the interpolant once per accepted step
+    with ``dense_output=True``)."""
+    import scipy.integrate
+
+    base = getattr(scipy.integrate, method)
+
+    class Recording(base):  # type: ignore[misc, valid-type]
+        def dense_output(self) -> Any:
+            out = super().dense_output()
+            pieces.append(out)
+            states.append(np.array(self.y, dtype=float))
+            return out
+
+    Recording.__name__ = Recording.__qualname__ = method
+    return Recording
 
 
 def _solve_scipy(
@@ -555,13 +589,16 @@ def _solve_scipy(
     if t_eval_arr is not None:
         t_eval_arr = t_eval_arr[t_eval_arr >= t0]
 
+    # the steps' interpolants and end states, to keep the run if the solver raises
+    pieces: list[Any] = []
+    states: list[np.ndarray] = []
     try:
         with np.errstate(all="ignore"):
             res = solve_ivp(
                 fun,
                 (t0, t_end),
                 y0,
-                method=method,
+                method=_recording(method, pieces, states),
                 t_eval=t_eval_arr,
                 dense_output=True,
                 events=all_events,
@@ -572,11 +609,28 @@ def _solve_scipy(
     except _UserEventError as err:
         raise err.exc from None  # a user event's exception, unchanged (as solve_ivp lets it go)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
-        return run.at_start("failed", f"integration failed: {exc}")
+        # raised inside the solver (e.g. an LU factorisation of a non-finite Jacobian): keep the
+        # steps taken so far, as for any other failure
+        if not pieces:
+            return run.at_start("failed", f"integration failed at t = {t0:.9g} s: {exc}")
+        sol = OdeSolution(
+            [t0] + [pc.t for pc in pieces], pieces, alt_segment=method in ("BDF", "LSODA")
+        )
+        if t_eval_arr is None:
+            t_out = np.asarray(sol.ts, dtype=float)
+            Y = np.column_stack([y0, *states])
+        else:
+            t_out = np.append(t_eval_arr[t_eval_arr < sol.t_max], sol.t_max)
+            Y = np.asarray(sol(t_out), dtype=float).reshape(y0.size, -1)
+        msg = f"integration failed at t = {sol.t_max:.9g} s: {exc}"
+        kw = {"t_events": [np.empty(0) for _ in events], "nfev": 0}
+        return run.result(t_out, Y, sol, "failed", msg, **kw)
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _Constant(t0, y0)
+        sol = _AtStart(t0, y0)
+    elif method in ("BDF", "LSODA"):  # solve_ivp sets this only for its own classes
+        sol = OdeSolution(sol.ts, sol.interpolants, alt_segment=True)
     t_stop = float(sol.t_max)
     t_out = np.asarray(res.t, dtype=float)
     Y = np.asarray(res.y, dtype=float).reshape(y0.size, -1)
