@@ -224,19 +224,22 @@ def simulate(
         * ``"frictionless-routhian"``: the corrected seed-000 Routhian equations (no friction;
           ``vertical_cm=False`` for the printed approximation); equals "gliding" at μ = 0.
     rtol : float, default 1e-10
-        Relative tolerance, in (0, 1). The default is converged for the thesis run: the first time
+        Relative tolerance, in [100 ε, 1) = [2.2e-14, 1). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
     atol : float or array_like, optional
         Absolute tolerance (scalar or one per model state component). By default
         ``rtol * scale`` with a typical magnitude per component (R for lengths, R|ω| for velocities,
-        I|ω| for angular momenta, 1 for the axis and angles).
+        I|ω| for angular momenta, 1 for the axis and angles); at least ``eps * scale`` (smaller
+        absolute errors are below the rounding of the component and cannot be met).
     t_eval : array_like, optional
         Sample times, increasing, in [0, t_end]. By default the solver's own steps are returned.
         Dense output (:meth:`Trajectory.at`) is available either way.
     events : sequence of callables, optional
         ``event(t, state) -> float`` with a scalar :class:`~mett.State`; optional attributes
-        ``terminal`` and ``direction`` as in :func:`scipy.integrate.solve_ivp`. Their times are
-        in ``Trajectory.t_events``. A terminal user event ends the run with status "completed".
+        ``terminal`` and ``direction`` as in :func:`scipy.integrate.solve_ivp`: ``terminal`` a bool
+        or an int n ≥ 0 (stop at the n-th zero; True = 1), ``direction`` a real number (its sign
+        selects the crossings). A zero at t = 0 is not an event. Their times are in
+        ``Trajectory.t_events``. A terminal user event ends the run with status "completed".
         With the compiled backend they are evaluated after the run, on the same steps and dense
         output scipy would use (so the times agree), and the trajectory is cut at the first
         terminal one.
@@ -276,11 +279,18 @@ def simulate(
     Raises
     ------
     ValueError
-        Bad input: non-finite state or θ outside [0, π], ``t_end <= 0``, ``rtol`` outside (0, 1),
-        bad ``atol``/``t_eval``, an unknown model, method or backend, ``backend="compiled"`` with a
-        method other than DOP853, or a state the model cannot represent.
+        Bad input, before any work: non-finite state or θ outside [0, π], ``t_end <= 0``,
+        ``rtol`` outside [100 ε, 1) (:data:`RTOL_MIN`), ``atol`` ≤ 0 or below ε times a state
+        component's typical magnitude, bad ``t_eval``, an unknown model, method or backend,
+        ``backend="compiled"`` with a method other than DOP853, an option of another model or out
+        of its range, an event ``terminal`` < 0, or a state the model cannot represent.
     TypeError
-        If ``top`` is not a :class:`~mett.TippeTop`.
+        If ``top`` is not a :class:`~mett.TippeTop`, a tolerance is not a real number, an option
+        has the wrong type (``vertical_cm="no"``), an event is not callable or its ``terminal`` is
+        not a bool or an int, or a keyword is unknown.
+    Exception
+        Whatever a user event raises propagates unchanged (as in :func:`scipy.integrate.solve_ivp`);
+        failures of the integration itself are a status, never an exception.
 
     Examples
     --------
