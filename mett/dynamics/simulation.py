@@ -313,6 +313,11 @@ def simulate(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    model_options = validate_options(mdl, options)
+    if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
+        alt = mdl.variant(model_options)
+        if alt is not None and alt is not mdl:
+            mdl, model_options = alt, validate_options(alt, options)
     compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
     if backend == "auto":
         backend = "compiled" if method == "DOP853" and compilable else "scipy"
@@ -329,7 +334,6 @@ def simulate(
     max_step = float(max_step)
     if not max_step > 0.0:
         raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
-    model_options = validate_options(mdl, options)
     events = list(events or [])
     for k, ev in enumerate(events):
         if not callable(ev):
