@@ -23,6 +23,7 @@ __all__ = [
     "MettDeprecationWarning",
     "MettWarning",
     "PhysicalityWarning",
+    "ToleranceWarning",
     "as_finite_array",
     "boolean",
     "bounded_scalar",
@@ -50,12 +51,18 @@ class MettDeprecationWarning(MettWarning, DeprecationWarning):
     """A deprecated name was used; the message names its replacement."""
 
 
+class ToleranceWarning(MettWarning):
+    """A tolerance was changed to one the integrator can meet (e.g. rtol raised to 100 ε)."""
+
+
 def _fmt(value: Any) -> str:
     arr = np.asarray(value)
     if arr.ndim == 0:
         return repr(arr.item())
     bad = arr.ravel()
     return f"array of shape {arr.shape} (e.g. {bad[0]!r})"
+
+
 class AccuracyWarning(MettWarning):
     """A request mett had to adjust or cannot meet to the asked accuracy (e.g. a clamped rtol)."""
 

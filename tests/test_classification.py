@@ -161,7 +161,9 @@ def test_classify_refuses_bad_input():
 
 def test_presets_are_class_IIa():
     for name in mett.presets.names():
-        if name == "maple-tippe-top":  # no eccentricity in the source; I3 > m R² (PhysicalityWarning)
+        if (
+            name == "maple-tippe-top"
+        ):  # no eccentricity in the source; I3 > m R² (PhysicalityWarning)
             with pytest.warns(mett.PhysicalityWarning):
                 top = mett.presets.get(name, alpha=0.3)
         else:

@@ -640,8 +640,9 @@ def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str
     """(description, arrays) of a dense output, for :meth:`Trajectory.save`."""
     from .dop853 import DenseOutput
 
-    if isinstance(sol, _Constant):
-        return {"kind": "constant"}, {"t": sol.ts, "y": sol._y0}
+    if isinstance(sol, _Constant) or np.asarray(sol.ts).size == 1:  # a run that never left t0
+        ts = np.asarray(sol.ts, dtype=float)[:1]
+        return {"kind": "constant"}, {"t": ts, "y": np.asarray(sol(ts[0]), dtype=float)}
     if isinstance(sol, DenseOutput):
         return {"kind": "dop853"}, {"t": sol.t, "y": sol.y, "h": sol.h, "F": sol.F}
     ts = np.asarray(sol.ts, dtype=float)
