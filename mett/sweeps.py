@@ -157,8 +157,12 @@ def _run_point(base: dict, point: dict) -> dict:
     except Exception as exc:  # a sweep records a failing point and goes on
         return finish(dict(start, status="error", message=_describe(exc), simulated="error"))
     message = traj.message
+    candidates: tuple[str, ...] = ()
     try:
-        predicted = asymptotic_state(top, lam).kind if lam > 0 else "n/a"
+        pred = asymptotic_state(top, lam) if lam > 0 else None
+        predicted = pred.kind if pred is not None else "n/a"
+        # "bistable": the run agrees if it ends in either stable state
+        candidates = tuple(c.kind for c in pred.candidates) if pred is not None else ()
     except Exception as exc:  # the simulated result is kept
         predicted = "error"
         message = "; ".join(filter(None, [message, f"asymptotic_state: {_describe(exc)}"]))
@@ -175,7 +179,9 @@ def _run_point(base: dict, point: dict) -> dict:
             omega3_end=float(traj.omega3[-1]),
             predicted=predicted,
             simulated=simulated,
-            agree=bool(predicted == simulated),
+            agree=bool(
+                predicted == simulated or (predicted == "bistable" and simulated in candidates)
+            ),
         )
     )
 
@@ -412,7 +418,8 @@ def sweep(
         One row per grid point, in grid order: the grid values, ``t_invert`` (first θ = π/2, NaN
         if never), ``status``, ``theta_end``, ``omega3_end``, ``lam``, ``lam_ratio`` (λ/λ_thres),
         ``predicted`` (:func:`mett.asymptotic_state` kind), ``simulated`` (kind read off θ_end, or
-        "not settled" if θ still moved over the last quarter of the run), ``agree``, and
+        "not settled" if θ still moved over the last quarter of the run), ``agree`` (for a
+        "bistable" prediction: the run ended in one of its two stable states), and
         ``message``. A point that fails is a row too: status "invalid" (its parameters are
         refused), "error" (the simulation raised; ``message`` says what) or the run's own status
         ("failed", "contact_lost") with the partial run's end values; the sweep goes on.
