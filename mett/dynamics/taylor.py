@@ -193,7 +193,9 @@ def trace(rhs_into: Callable, events_into: Callable | None, n_state: int, n_para
     out = _Out(g)
     rhs_into(t, y, p, out)
     if sorted(out.items) != list(range(n_state)):
-        raise ValueError(f"the right-hand side wrote components {sorted(out.items)}, not 0..{n_state - 1}")
+        raise ValueError(
+            f"the right-hand side wrote components {sorted(out.items)}, not 0..{n_state - 1}"
+        )
     rhs = tuple(out.items[k].i for k in range(n_state))
     ev: tuple[int, ...] = ()
     if events_into is not None:
@@ -270,19 +272,6 @@ class _IR:
         """Balanced-tree sum: log2(n) dependent additions instead of n."""
         if not terms:
             return "0.0"
-        nch = int(os.environ.get("METT_TAYLOR_CHAINS", "0"))
-        if nch:
-            chains = [terms[c::nch] for c in range(nch) if terms[c::nch]]
-            heads = []
-            for ch in chains:
-                acc = ch[0]
-                for t in ch[1:]:
-                    acc = self.op("fadd", acc, t)
-                heads.append(acc)
-            acc = heads[0]
-            for t in heads[1:]:
-                acc = self.op("fadd", acc, t)
-            return acc
         while len(terms) > 1:
             nxt = [self.op("fadd", terms[j], terms[j + 1]) for j in range(0, len(terms) - 1, 2)]
             if len(terms) % 2:
@@ -342,7 +331,9 @@ class _IR:
                 for comp, i in enumerate(tr.rhs):
                     # × 1/(k+1), not ÷ (k+1): 150 divisions a step at order 15 cost more than
                     # the last bit of these coefficients is worth
-                    L.append(f"%y{comp}_{k + 1} = fmul double {self.v(i, k)}, {_hex(1.0 / (k + 1))}")
+                    L.append(
+                        f"%y{comp}_{k + 1} = fmul double {self.v(i, k)}, {_hex(1.0 / (k + 1))}"
+                    )
         width = self.order + 1
         for e, i in enumerate(tr.events):
             for k in range(width):
@@ -375,7 +366,9 @@ class _IR:
             mid = self.op("fmul", v(a, k // 2), v(a, k // 2)) if k % 2 == 0 else "0.0"
             L.append(f"{lhs} = fadd double {twice}, {mid}")
         elif op == "mul":
-            self.assign(lhs, self.sum([self.op("fmul", v(a, j), v(b, k - j)) for j in range(k + 1)]))
+            self.assign(
+                lhs, self.sum([self.op("fmul", v(a, j), v(b, k - j)) for j in range(k + 1)])
+            )
         elif op == "div" and self.scalar[b]:
             L.append(f"{lhs} = fdiv double {v(a, k)}, {self.s(b)}")
         elif op == "div":
@@ -474,9 +467,9 @@ def _native(ir: str, name: str) -> int:
         if obj is None:
             mod = llvm.parse_assembly(ir)
             mod.verify()
-            pto = llvm.create_pipeline_tuning_options(speed_level=3)
-            pto.slp_vectorization = True  # packs independent products of one order into SIMD
-            pb = llvm.create_pass_builder(tm, pto)
+            # llvmlite leaves the SLP vectorizer off; on: no faster here, and 10-100x the compile
+            # time (80 s for the rolling top's jet)
+            pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=3))
             pb.getModulePassManager().run(mod, pb)
             obj = tm.emit_object(mod)
             for d in dirs:  # best effort: a read-only home only costs a recompile
