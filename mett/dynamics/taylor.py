@@ -379,6 +379,59 @@ class _IR:
         for r in range(tr.n_state):
             for k in range(width):
                 self.store(f"%y{r}_{k}", r * width + k)
+        self.norms()
+
+    def norms(self) -> None:
+        """The step-size norms of every lane (Jorba & Zou 2005, §3.3), with the jet:
+        ``nrm[0] = max_i |y_i,p−1| w_i``, ``nrm[1] = max_i |y_i,p| w_i``, w_i = 1/max(σ_i, ε|y_i|)
+        for ``sig = (σ_i ... , ε)`` (σ_i already scaled by the tolerance ε)."""
+        L, T, p = self.lines, self.T, self.order
+        eps = self.load("%sig", self.tr.n_state)
+        n1 = n2 = self.c(0.0)
+        for i in range(self.tr.n_state):
+            a = self.tmp()
+            L.append(f"{a} = {self.call('fabs', f'%y{i}_0')}")
+            ea = self.op("fmul", eps, a)
+            sg = self.load("%sig", i)
+            m = self.tmp()
+            L.append(f"{m} = call {T} @llvm.maxnum.{self.suffix}({T} {sg}, {T} {ea})")
+            w = self.tmp()
+            L.append(f"{w} = fdiv {T} {self.c(1.0)}, {m}")
+            for acc_name, k in (("n1", p - 1), ("n2", p)):
+                q = self.tmp()
+                L.append(f"{q} = {self.call('fabs', f'%y{i}_{k}')}")
+                qw = self.op("fmul", q, w)
+                new = self.tmp()
+                cur = n1 if acc_name == "n1" else n2
+                L.append(f"{new} = call {T} @llvm.maxnum.{self.suffix}({T} {cur}, {T} {qw})")
+                if acc_name == "n1":
+                    n1 = new
+                else:
+                    n2 = new
+        for idx, val in ((0, n1), (1, n2)):
+            g = self.ptr("%nrm", idx)
+            L.append(f"store {T} {val}, {T}* {g}, align 8")
+
+    def update(self) -> str:
+        """IR of ``update_<name>(X, h, y)``: y_i = Σ_k X[i, k] h^k (Horner) for every lane."""
+        T, W, width = self.T, self.W, self.order + 1
+        body: list[str] = []
+        saved, self.lines = self.lines, body
+        h = self.load("%h", 0)
+        for i in range(self.tr.n_state):
+            acc = self.load("%X", i * width + self.order)
+            for k in range(self.order - 1, -1, -1):
+                prod = self.op("fmul", acc, h)
+                acc = self.op("fadd", prod, self.load("%X", i * width + k))
+            g = self.ptr("%yn", i)
+            body.append(f"store {T} {acc}, {T}* {g}, align 8")
+        self.lines = saved
+        del W
+        return (
+            f"define void @{self.name}_update(double* noalias nocapture readonly %X, "
+            "double* noalias nocapture readonly %h, double* noalias nocapture %yn) nounwind {\n"
+            "entry:\n  " + "\n  ".join(body) + "\n  ret void\n}\n"
+        )
 
     def node(self, i: int, op: str, a: int, b: int, k: int) -> None:
         L, v, lhs, T = self.lines, self.v, self.v(i, k), self.T
@@ -438,13 +491,17 @@ class _IR:
 
     def text(self) -> str:
         T, sfx = self.T, self.suffix
-        decl = "".join(f"declare {T} @llvm.{f}.{sfx}({T})\n" for f in ("sqrt", "sin", "cos"))
+        decl = (
+            "".join(f"declare {T} @llvm.{f}.{sfx}({T})\n" for f in ("sqrt", "sin", "cos", "fabs"))
+            + f"declare {T} @llvm.maxnum.{sfx}({T}, {T})\n"
+        )
         body = "\n  ".join(self.lines)
         return (
             f"{decl}define void @{self.name}(double* noalias nocapture readonly %t0, "
             "double* noalias nocapture readonly %y, double* noalias nocapture readonly %p, "
-            "double* noalias nocapture %X) nounwind {\n"
-            f"entry:\n  {body}\n  ret void\n}}\n"
+            "double* noalias nocapture %X, double* noalias nocapture readonly %sig, "
+            "double* noalias nocapture %nrm) nounwind {\n"
+            f"entry:\n  {body}\n  ret void\n}}\n" + self.update()
         )
 
 
@@ -452,7 +509,7 @@ class _IR:
 
 _LOCK = threading.Lock()
 _ENGINES: list[Any] = []  # execution engines must outlive every pointer into their code
-_ADDRESSES: dict[str, int] = {}
+_ADDRESSES: dict[str, tuple[int, int]] = {}
 
 
 def _cache_dir() -> Path:
@@ -478,8 +535,9 @@ def _target_machine() -> Any:
     )
 
 
-def _native(ir: str, name: str) -> int:
-    """Address of function ``name`` compiled from ``ir`` (machine code cached on disk)."""
+def _native(ir: str, name: str) -> tuple[int, int]:
+    """Addresses of ``name`` and ``name_update`` compiled from ``ir`` (machine code cached on
+    disk)."""
     import llvmlite
     import llvmlite.binding as llvm
 
@@ -517,8 +575,8 @@ def _native(ir: str, name: str) -> int:
         ee = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
         ee.add_object_file(llvm.ObjectFileRef.from_data(obj))
         ee.finalize_object()
-        addr = ee.get_function_address(name)
-        if not addr:  # pragma: no cover - a broken object file
+        addr = (ee.get_function_address(name), ee.get_function_address(f"{name}_update"))
+        if not all(addr):  # pragma: no cover - a broken object file
             raise RuntimeError(f"compiled Taylor kernel {name} has no entry point")
         _ENGINES.append(ee)
         _ADDRESSES[name] = addr
@@ -540,7 +598,8 @@ class TaylorKernel:
         self.name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
         ir = _IR(tr, order, self.name, lanes).text()
         self.address = _native(ir, self.name)
-        self.function = _function_value(self.address)
+        self.function = _JetAddress(self.address[0], _JET_SIG)
+        self.update = _JetAddress(self.address[1], _UPDATE_SIG)
 
 
 _KERNELS: dict[tuple, TaylorKernel] = {}
@@ -570,25 +629,23 @@ import numba  # noqa: E402  (only the integrator needs numba; tracing does not)
 from numba import types  # noqa: E402
 
 _F8P = types.CPointer(types.float64)
-_JET_SIG = types.void(_F8P, _F8P, _F8P, _F8P)
+_JET_SIG = types.void(_F8P, _F8P, _F8P, _F8P, _F8P, _F8P)
 _JET_TYPE = types.FunctionType(_JET_SIG)
+_UPDATE_SIG = types.void(_F8P, _F8P, _F8P)
+_UPDATE_TYPE = types.FunctionType(_UPDATE_SIG)
 
 
 class _JetAddress(types.WrapperAddressProtocol):
-    """A compiled jet as a numba first-class function value."""
+    """A compiled function (jet or update) as a numba first-class function value."""
 
-    def __init__(self, address: int) -> None:
-        self._address = address
+    def __init__(self, address: int, sig: Any) -> None:
+        self._address, self._sig = address, sig
 
     def __wrapper_address__(self) -> int:
         return self._address
 
     def signature(self) -> Any:
-        return _JET_SIG
-
-
-def _function_value(address: int) -> _JetAddress:
-    return _JetAddress(address)
+        return self._sig
 
 
 COMPLETED, TERMINAL_EVENT, NON_FINITE, STEP_TOO_SMALL, MAX_STEPS = 0, 1, -1, -2, -3
@@ -640,12 +697,12 @@ def _root(C, r, order, a, b, fa, fb):
 
 _INTEGRATE_SIG = types.void(
     _JET_TYPE,
+    _UPDATE_TYPE,
     types.float64[::1],  # t0 (W,)
     types.float64,  # t_end
     types.float64[:, ::1],  # y0 (n, W)
     types.float64[:, ::1],  # p (n_params, W)
-    types.float64[:, ::1],  # sigma (n, W)
-    types.float64,  # tol_scale
+    types.float64[:, ::1],  # sig (n + 1, W): ε σ_i, then ε
     types.float64,  # fac
     types.int64,  # order
     types.float64,  # max_step
@@ -653,33 +710,37 @@ _INTEGRATE_SIG = types.void(
     types.int64,  # n_sub
     types.float64[:, ::1],  # T (room + 1, W)
     types.float64[:, :, ::1],  # Y (room + 1, n, W)
-    types.float64[:, :, :, ::1],  # C (W, room, rows, order + 1)
-    types.float64[:, :, ::1],  # X (rows, order + 1, W): the jet's output
+    types.float64[:, :, :, ::1],  # C (room, rows, order + 1, W)
     types.int64[:, ::1],  # info (W, 3): steps, event index, status
 )
 
 
 @numba.njit(_INTEGRATE_SIG, cache=True, error_model="numpy")
 def _integrate(
-    jet, t0, t_end, y0, p, sigma, tol_scale, fac, order, max_step, ev_dir, n_sub, T, Y, C, X, info
+    jet, update, t0, t_end, y0, p, sig, fac, order, max_step, ev_dir, n_sub, T, Y, C, info
 ):  # fmt: skip
     """Taylor steps of W trajectories (lanes) at once, from ``t0`` towards ``t_end``.
 
-    One jet call computes the coefficients of every lane (SIMD when W > 1); then each lane takes
-    its own step. A lane that is done keeps its state (its coefficients are computed and ignored)
-    until every lane is done or out of room. Active lanes have all taken the same number of
-    steps, so step m of lane l starts at ``T[m, l]`` in state ``Y[m, :, l]`` with coefficients
-    ``C[l, m]`` (lane-major: one trajectory's coefficients are contiguous). ``info[l]`` = (steps, index of the terminal event or −1, status), status
-    as in :data:`STATUS_MESSAGES` (:data:`MAX_STEPS`: out of room, to be resumed).
+    One jet call computes the coefficients and step-size norms of every lane (SIMD when W > 1),
+    each lane then chooses its step and looks for events, and one update call advances every lane
+    (a lane that is done gets h = 0, which leaves its state exactly as it is). Active lanes have
+    all taken the same number of steps, so step m of lane l starts at ``T[m, l]`` in state
+    ``Y[m, :, l]`` with coefficients ``C[m, :, :, l]`` (the jet writes them there).
+    ``info[l]`` = (steps, index of the terminal event or −1, status), status as in
+    :data:`STATUS_MESSAGES` (:data:`MAX_STEPS`: out of room, to be resumed).
     """
     n, W = y0.shape
     n_ev = ev_dir.size
-    room = C.shape[1]
-    rows = X.shape[0]
+    room = C.shape[0]
     y = y0.copy()
+    y_new = np.empty((n, W))
     t = t0.copy()
+    h = np.zeros(W)
+    nrm = np.empty((2, W))
     fa = np.empty(n_sub + 1)
     xs = np.empty(n_sub + 1)
+    hit_of = np.full(W, -1)
+    last_of = np.zeros(W, dtype=np.bool_)
     active = np.ones(W, dtype=np.bool_)
     for lane in range(W):
         T[0, lane] = t0[lane]
@@ -700,16 +761,13 @@ def _integrate(
                 if active[lane]:
                     info[lane, 2] = MAX_STEPS
             break
-        jet(t.ctypes, y.ctypes, p.ctypes, X.ctypes)
+        X = C[it]
+        jet(t.ctypes, y.ctypes, p.ctypes, X.ctypes, sig.ctypes, nrm.ctypes)
         for lane in range(W):
+            h[lane] = 0.0
             if not active[lane]:
                 continue
-            n1 = 0.0
-            n2 = 0.0
-            for i in range(n):
-                w = 1.0 / (tol_scale * max(sigma[i, lane], abs(y[i, lane])))
-                n1 = max(n1, abs(X[i, order - 1, lane]) * w)
-                n2 = max(n2, abs(X[i, order, lane]) * w)
+            n1, n2 = nrm[0, lane], nrm[1, lane]
             if not (n1 < math.inf and n2 < math.inf):
                 info[lane, 2] = NON_FINITE
                 active[lane] = False
@@ -719,21 +777,21 @@ def _integrate(
                 rho = n1 ** (-1.0 / (order - 1))
             if n2 > 0.0:
                 rho = min(rho, n2 ** (-1.0 / order))
-            h = min(rho * fac, max_step)
+            hl = min(rho * fac, max_step)
             last = False
-            if t[lane] + h >= t_end:
-                h = t_end - t[lane]
+            if t[lane] + hl >= t_end:
+                hl = t_end - t[lane]
                 last = True
-            elif not (t[lane] + h > t[lane]):
+            elif not (t[lane] + hl > t[lane]):
                 info[lane, 2] = STEP_TOO_SMALL
                 active[lane] = False
                 continue
             # events: sign changes of the event polynomials over [0, h] at n_sub sample points
             # (evaluated together: independent Horner chains overlap in the pipeline)
             hit = -1
-            x_hit = h
+            x_hit = hl
             for q in range(n_sub + 1):
-                xs[q] = h * q / n_sub
+                xs[q] = hl * q / n_sub
             for e in range(n_ev):
                 r = n + e
                 for q in range(n_sub + 1):
@@ -755,27 +813,29 @@ def _integrate(
                             hit = e
                         break
             if hit >= 0:
-                h = x_hit
+                hl = x_hit
                 last = False
-            for i in range(rows):
-                for k in range(order + 1):
-                    C[lane, it, i, k] = X[i, k, lane]
+            h[lane] = hl
+            hit_of[lane] = hit
+            last_of[lane] = last
+        update(X.ctypes, h.ctypes, y_new.ctypes)
+        for lane in range(W):
+            if not active[lane]:
+                continue
             finite = True
             for i in range(n):
-                acc = X[i, order, lane]
-                for k in range(order - 1, -1, -1):
-                    acc = acc * h + X[i, k, lane]
-                finite = finite and (acc - acc == 0.0)
-                y[i, lane] = acc
-                Y[it + 1, i, lane] = acc
+                v = y_new[i, lane]
+                finite = finite and (v - v == 0.0)
+                y[i, lane] = v
+                Y[it + 1, i, lane] = v
             info[lane, 0] = it + 1
-            t[lane] = t_end if last else t[lane] + h
+            t[lane] = t_end if last_of[lane] else t[lane] + h[lane]
             T[it + 1, lane] = t[lane]
             if not finite:
                 info[lane, 2] = NON_FINITE
                 active[lane] = False
-            elif hit >= 0:
-                info[lane, 1] = hit
+            elif hit_of[lane] >= 0:
+                info[lane, 1] = hit_of[lane]
                 info[lane, 2] = TERMINAL_EVENT
                 active[lane] = False
         it += 1
@@ -818,7 +878,7 @@ class TaylorDense:
     def __init__(self, t: np.ndarray, y: np.ndarray, C: np.ndarray) -> None:
         self.t = np.ascontiguousarray(t, dtype=float)
         self.y = np.ascontiguousarray(y, dtype=float)
-        self.C = np.ascontiguousarray(C, dtype=float)
+        self.C = np.asarray(C, dtype=float)  # may be a strided view of a batch's buffer
         self.n = self.y.shape[1]
 
     @property
@@ -925,19 +985,18 @@ def solve(
             lanes = group + [group[0]] * (W - len(group))  # pad with a copy of the first
             rm = int(max(1, min(room, max_steps - done[group].min())))
             T, Yb = np.empty((rm + 1, W)), np.empty((rm + 1, n, W))
-            C = np.empty((W, rm, rows, width))
-            X = np.empty((rows, width, W))
+            C = np.empty((rm, rows, width, W))
             info = np.zeros((W, 3), dtype=np.int64)
             _integrate(
-                k.function, np.ascontiguousarray(t_now[lanes]), t_end,
+                k.function, k.update, np.ascontiguousarray(t_now[lanes]), t_end,
                 np.ascontiguousarray(y_now[lanes].T), np.ascontiguousarray(P[lanes].T),
-                np.ascontiguousarray(SC[lanes].T), tol_scale, fac, k.order, float(max_step),
-                ev_dir, n_sub, T, Yb, C, X, info,
+                np.ascontiguousarray(np.vstack([tol_scale * SC[lanes].T, np.full(W, tol_scale)])),
+                fac, k.order, float(max_step), ev_dir, n_sub, T, Yb, C, info,
             )  # fmt: skip
             for lane, j in enumerate(group):
                 steps, hit, status = (int(x) for x in info[lane])
                 parts[j].append(
-                    (T[1 : steps + 1, lane], Yb[1 : steps + 1, :, lane], C[lane, :steps])
+                    (T[1 : steps + 1, lane], Yb[1 : steps + 1, :, lane], C[:steps, :, :, lane])
                 )
                 done[j] += steps
                 t_now[j], y_now[j] = T[steps, lane], Yb[steps, :, lane]
