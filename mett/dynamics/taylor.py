@@ -163,6 +163,11 @@ class _Sym:
     def __bool__(self):
         raise TypeError("a traced right-hand side cannot branch on state values")
 
+    def _compare(self, other):
+        raise TypeError("a traced right-hand side cannot branch on state values (comparison)")
+
+    __lt__ = __le__ = __gt__ = __ge__ = _compare
+
     # numpy's ufuncs (np.sin, np.sqrt, …) on an object call the method of the same name
     def __array_ufunc__(self, ufunc, method, *inputs, **kwargs):
         if method == "__call__" and len(inputs) == 1 and ufunc.__name__ in ("sin", "cos", "sqrt"):
