@@ -5,8 +5,9 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, presets
-from ._validate import MettWarning, PhysicalityWarning
+from ._validate import AccuracyWarning, MettDeprecationWarning, MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
+from .classification import subgroup, tumbling_eigenvalues
 from .dynamics import Trajectory, simulate
 from .estimates import period_estimates, potential_minimum
 from .integrals import energy, jellett, modified_energy, routh
@@ -52,9 +53,11 @@ def __getattr__(name: str):
 
 
 __all__ = [
+    "AccuracyWarning",
     "AsymptoticState",
     "Band",
     "HighSpin",
+    "MettDeprecationWarning",
     "MettWarning",
     "PhysicalityWarning",
     "State",
@@ -87,7 +90,9 @@ __all__ = [
     "routh",
     "simulate",
     "spin_eigenvalues",
+    "subgroup",
     "sweep",
+    "tumbling_eigenvalues",
     "tumbling_state",
     "turning_points",
 ]

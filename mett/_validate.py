@@ -1,26 +1,41 @@
-"""Input validation shared by every public function.
+"""Input validation shared by every public function, and mett's warning categories.
 
-Messages name the parameter, its valid range and the offending value, e.g.
-``ValueError: alpha must lie in (0, 1); got 1.5``.
+The rules (docs/reliability.md): bad input is refused before any work or write, with a
+``ValueError`` (a value out of range) or ``TypeError`` (not a number at all: a string, a boolean,
+``None``, a complex number) whose message names the parameter, its valid range and the offending
+value, e.g. ``ValueError: alpha must lie in (0, 1); got 1.5``. Every warning mett emits is a
+:class:`MettWarning` subclass reported at the caller's line (:func:`warn`).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import sys
+import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 __all__ = [
+    "AccuracyWarning",
+    "MettDeprecationWarning",
     "MettWarning",
     "PhysicalityWarning",
     "ToleranceWarning",
     "as_finite_array",
+    "boolean",
+    "bounded_scalar",
     "cos_theta",
     "finite_scalar",
+    "instance",
+    "output_path",
+    "positive_int",
     "positive_jellett",
     "positive_scalar",
     "theta",
+    "warn",
 ]
 
 
@@ -30,6 +45,10 @@ class MettWarning(UserWarning):
 
 class PhysicalityWarning(MettWarning):
     """Legal but physically suspicious input (e.g. I3 > m R², as in the seed-000 table)."""
+
+
+class MettDeprecationWarning(MettWarning, DeprecationWarning):
+    """A deprecated name was used; the message names its replacement."""
 
 
 class ToleranceWarning(MettWarning):
@@ -44,12 +63,69 @@ def _fmt(value: Any) -> str:
     return f"array of shape {arr.shape} (e.g. {bad[0]!r})"
 
 
+class AccuracyWarning(MettWarning):
+    """A request mett had to adjust or cannot meet to the asked accuracy (e.g. a clamped rtol)."""
+
+
+# Modules whose frames a warning skips to reach the user's line: mett itself, and the frames that
+# dataclasses and functools insert between a public call and mett's code.
+_INTERNAL = ("mett", "dataclasses", "functools")
+
+
+def warn(message: str, category: type[MettWarning] = MettWarning) -> None:
+    """Emit ``message`` as ``category``, attributed to the first caller outside mett.
+
+    A fixed ``stacklevel`` is wrong as soon as the same check is reached through two paths (e.g.
+    ``TippeTop(...)`` directly and via ``presets.get``); walking the stack is not.
+    """
+    if not (isinstance(category, type) and issubclass(category, MettWarning)):
+        raise TypeError(f"category must be a MettWarning subclass; got {category!r}")
+    level, frame = 2, sys._getframe(1)
+    while frame is not None and frame.f_globals.get("__name__", "").split(".")[0] in _INTERNAL:
+        frame = frame.f_back
+        level += 1
+    warnings.warn(message, category, stacklevel=level)
+
+
+def instance(name: str, value: Any, cls_name: str) -> Any:
+    """``TypeError`` unless ``value`` is a mett ``cls_name`` (e.g. "TippeTop", "State", "Trajectory")."""
+    import mett
+
+    cls = getattr(mett, cls_name)
+    if not isinstance(value, cls):
+        raise TypeError(f"{name} must be a {cls_name}; got {_type_name(value)}")
+    return value
+
+
+def _type_name(value: Any) -> str:
+    return type(value).__name__
+
+
+def _reject_non_real(name: str, value: Any) -> None:
+    """TypeError for values that float() would accept but that are not numbers (str, bool, …)."""
+    if value is None or isinstance(value, (str, bytes, bool, np.bool_)):
+        raise TypeError(f"{name} must be a real number; got {_type_name(value)} {value!r}")
+    if isinstance(value, (complex, np.complexfloating)):
+        raise TypeError(f"{name} must be a real number; got complex {value!r}")
+
+
 def finite_scalar(name: str, value: Any) -> float:
-    """Return ``value`` as a finite float or raise ``ValueError`` naming ``name``."""
+    """Return ``value`` as a finite float.
+
+    Raises ``TypeError`` for non-numbers (strings, booleans, None, complex, arrays of several
+    values) and ``ValueError`` for NaN or ±inf, naming ``name``.
+    """
+    _reject_non_real(name, value)
+    if isinstance(value, np.ndarray) and value.size != 1:
+        raise TypeError(f"{name} must be a single real number; got an array of shape {value.shape}")
+    if isinstance(value, np.ndarray) and value.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be a real number; got an array of dtype {value.dtype}")
     try:
         x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite real number; got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(
+            f"{name} must be a finite real number; got {_type_name(value)} {value!r}"
+        ) from None
     if not math.isfinite(x):
         raise ValueError(f"{name} must be finite; got {x!r}")
     return x
@@ -64,6 +140,20 @@ def positive_scalar(name: str, value: Any, *, allow_zero: bool = False) -> float
     return x
 
 
+def bounded_scalar(
+    name: str, value: Any, lo: float, hi: float, *, unit: str = "", allow_zero: bool = False
+) -> float:
+    """A finite float in [lo, hi] (or exactly 0 with ``allow_zero``); the message gives the range."""
+    x = finite_scalar(name, value)
+    if allow_zero and x == 0.0:
+        return x
+    if not lo <= x <= hi:
+        zero = "be 0 or " if allow_zero else ""
+        suffix = f" {unit}" if unit else ""
+        raise ValueError(f"{name} must {zero}lie in [{lo:g}, {hi:g}]{suffix}; got {x!r}")
+    return x
+
+
 def positive_jellett(value: Any, name: str = "lam") -> float:
     """A Jellett integral λ that must be positive (top spun with ω3 > 0 near θ = 0)."""
     x = finite_scalar(name, value)
@@ -75,16 +165,54 @@ def positive_jellett(value: Any, name: str = "lam") -> float:
     return x
 
 
+def positive_int(name: str, value: Any, *, minimum: int = 1) -> int:
+    """An integer ≥ ``minimum`` (booleans and floats are refused with ``TypeError``)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(
+            f"{name} must be an integer >= {minimum}; got {_type_name(value)} {value!r}"
+        )
+    if value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}; got {int(value)!r}")
+    return int(value)
+
+
+def boolean(name: str, value: Any) -> bool:
+    """``True`` or ``False`` exactly: ``"no"``, ``0`` or ``None`` are refused with ``TypeError``.
+
+    (``bool("no")`` is True, so a truthiness test would silently invert such an option.)
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise TypeError(f"{name} must be True or False; got {_type_name(value)} {value!r}")
+
+
 def as_finite_array(name: str, value: Any) -> np.ndarray:
-    """Convert to a float array and reject NaN/inf, naming ``name`` in the error."""
+    """A new float array (never a view of the caller's) with every element finite.
+
+    ``TypeError`` for strings, booleans, None or complex values; ``ValueError`` for NaN/inf or a
+    ragged nesting, naming ``name``.
+    """
+    _reject_non_real(name, value)
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be real numbers; got {value!r}") from None
+        raw = np.asarray(value)
+    except ValueError:  # ragged nested sequences
+        raise ValueError(f"{name} must be a rectangular array of real numbers") from None
+    kind = raw.dtype.kind
+    if kind in "USbcVMm" or (kind == "O" and any(_is_non_real(v) for v in raw.ravel())):
+        example = raw.ravel()[0] if raw.size else raw
+        raise TypeError(f"{name} must be real numbers; got dtype {raw.dtype} (e.g. {example!r})")
+    try:
+        arr = np.array(raw, dtype=float, copy=True)
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(f"{name} must be real numbers; got {value!r}") from None
     if not np.all(np.isfinite(arr)):
         bad = arr[~np.isfinite(arr)].ravel()[0].item()
         raise ValueError(f"{name} must be finite; got {bad!r}")
     return arr
+
+
+def _is_non_real(v: Any) -> bool:
+    return v is None or isinstance(v, (str, bytes, bool, np.bool_, complex, np.complexfloating))
 
 
 def cos_theta(value: Any, name: str = "z") -> np.ndarray:
@@ -103,3 +231,23 @@ def theta(value: Any, name: str = "theta") -> np.ndarray:
         bad = th[(th < 0.0) | (th > np.pi)].ravel()[0].item()
         raise ValueError(f"{name} must lie in [0, pi]; got {bad!r}")
     return th
+
+
+def output_path(name: str, value: Any) -> Path:
+    """A path a file can be written to: its directory exists and it is not itself a directory.
+
+    Checked before any work, so a long computation does not end in a failed write.
+    """
+    if not isinstance(value, (str, os.PathLike)) or isinstance(value, bytes):
+        raise TypeError(f"{name} must be a path (str or os.PathLike); got {_type_name(value)}")
+    if os.fspath(value) == "":
+        raise ValueError(f"{name} must be a file path; got an empty string")
+    path = Path(value)
+    if path.is_dir():
+        raise ValueError(f"{name} must be a file, not a directory; got {str(path)!r}")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"{name}: directory {str(parent)!r} does not exist; got {str(path)!r}")
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise ValueError(f"{name}: {str(path)!r} is not writable")
+    return path

@@ -28,6 +28,7 @@ __all__ = [
     "mett_residual",
     "minimum_track",
     "period_comparison",
+    "theta_extrema",
     "turning_points",
 ]
 
@@ -87,12 +88,21 @@ def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarra
 
 
 class TurningPoints(NamedTuple):
-    """Times and angles at which θ̇ = 0 along a trajectory."""
+    """Times and angles at which θ̇ = 0 along a trajectory (the extrema of θ(t)).
+
+    ``kind`` is ``MAX`` (+1) where θ has a maximum (θ̇ goes from + to −) and ``MIN`` (−1) where
+    it has a minimum, so ``tp.t[tp.kind == TurningPoints.MAX]`` are the times of the maxima.
+    """
 
     t: np.ndarray
+    """Times of θ̇ = 0 (s)."""
     theta: np.ndarray
+    """θ at those times (rad)."""
     kind: np.ndarray
-    """+1 at a maximum of θ, −1 at a minimum."""
+    """+1 (``TurningPoints.MAX``) at a maximum of θ, −1 (``TurningPoints.MIN``) at a minimum."""
+
+    MAX = 1
+    MIN = -1
 
 
 def _illinois(fn, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.ndarray, tol: float):
@@ -119,8 +129,11 @@ def _illinois(fn, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.nda
     return x
 
 
-def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
-    """Turning points of θ(t): zeros of θ̇ located on the dense output.
+def theta_extrema(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
+    """Extrema of θ(t) along a simulated trajectory: zeros of θ̇ located on the dense output.
+
+    Not to be confused with :func:`mett.turning_points`, the roots z_a < z_b of the rolling
+    separation equation for given (Ẽ, D, λ); these are the times at which the simulated θ turns.
 
     Each interval between output samples is cut into ``subdivision`` pieces to bracket the sign
     changes of θ̇ (with the solver's own steps as samples, the default of :func:`mett.simulate`,
@@ -139,6 +152,21 @@ def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
     )  # fmt: skip
     kinds = np.where(thd[idx] > 0, 1, -1)
     return TurningPoints(times, traj.theta_at(times), kinds)
+
+
+def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
+    """Deprecated name of :func:`theta_extrema` (warns with ``MettDeprecationWarning``)."""
+    import warnings
+
+    from ._validate import MettDeprecationWarning
+
+    warnings.warn(
+        "mett.analysis.turning_points is deprecated: use mett.analysis.theta_extrema (the extrema "
+        "of a simulated θ(t)); mett.turning_points is the rolling separation equation's roots",
+        MettDeprecationWarning,
+        stacklevel=2,
+    )
+    return theta_extrema(traj, subdivision=subdivision)
 
 
 class PeriodComparison(NamedTuple):
@@ -166,24 +194,67 @@ def period_comparison(traj: Trajectory) -> PeriodComparison:
     the fast-top value; the gliding top is slower than the rolling estimate at the start and faster
     at the end (tests/test_analysis.py has the numbers). A nutation whose θ̇ does not reach zero
     (a shoulder in θ instead of a maximum) merges two periods into one observed interval.
+
+    The maxima are searched on the dense output at a step of at most 1/8 of the shortest fast-top
+    period, so a run saved at a few ``t_eval`` times is analysed like one saved at every step. The
+    mirror-image top (ω3 < 0, λ < 0) has the same periods as its image (D, λ → −D, −λ); a run
+    with fewer than two maxima of θ gives empty arrays.
+
+    Raises
+    ------
+    TypeError
+        If ``traj`` is not a :class:`~mett.Trajectory`.
+    ValueError
+        If the run's Jellett integral is 0 (no spin: the estimates do not apply).
     """
-    tp = turning_points(traj)
-    tmax = tp.t[tp.kind == 1]
+    from .dynamics import Trajectory
+    from .integrals import modified_energy
+
+    if not isinstance(traj, Trajectory):
+        raise TypeError(f"traj must be a mett.Trajectory; got {type(traj).__name__}")
+    lam_run = float(np.median(traj.lam))
+    if lam_run == 0.0:
+        raise ValueError(
+            "traj: the run's Jellett integral is 0 (no spin), so the period estimates do not apply"
+        )
+    # the mirror image ω3 → −ω3 maps (D, λ) → (−D, −λ) and leaves V and every period unchanged
+    sign = 1.0 if lam_run > 0 else -1.0
+    est = estimates.period_estimates(traj.top, abs(lam_run))
+    tp = theta_extrema(traj, subdivision=_subdivision(traj))
+    tmax = tp.t[tp.kind == TurningPoints.MAX]
+    if tmax.size < 2:
+        empty = np.empty(0)
+        return PeriodComparison(empty, empty, empty, empty, est)
     mids = 0.5 * (tmax[1:] + tmax[:-1])
     observed = np.diff(tmax)
     s = traj.at(mids)
     D, lam = _integrals_at(traj, s)
-    from .integrals import modified_energy
-
     E = np.atleast_1d(modified_energy(traj.top, s))
     rolling = np.full(mids.shape, np.nan)
     for i in range(mids.size):
         try:
             rolling[i] = separation.nutation_period(
-                traj.top, E[i], D[i], lam[i], z0=float(np.cos(s.theta[i]))
+                traj.top, E[i], sign * D[i], sign * lam[i], z0=float(np.cos(s.theta[i]))
             )
         except ValueError:
             pass
-    fast = 2 * np.pi * traj.top.I1 / (traj.top.I3 * np.abs(np.atleast_1d(s.omega3)))
-    est = estimates.period_estimates(traj.top, float(np.median(traj.lam)))
+    with np.errstate(divide="ignore"):  # ω3 = 0 at an instant: an infinite fast-top period
+        fast = 2 * np.pi * traj.top.I1 / (traj.top.I3 * np.abs(np.atleast_1d(s.omega3)))
     return PeriodComparison(mids, observed, rolling, fast, est)
+
+
+# Bracketing the maxima of θ needs a few samples per nutation; at most this many in all.
+_SAMPLES_PER_PERIOD = 8
+_MAX_SEARCH_SAMPLES = 2_000_000
+
+
+def _subdivision(traj: Trajectory) -> int:
+    """Subdivision of the output intervals giving ≥ 8 samples per fast-top period (at least 4)."""
+    t = np.asarray(traj.t, dtype=float)
+    w3 = float(np.max(np.abs(traj.omega3)))
+    if t.size < 2 or w3 == 0.0:
+        return 4
+    period = 2 * np.pi * traj.top.I1 / (traj.top.I3 * w3)
+    need = int(np.ceil(_SAMPLES_PER_PERIOD * float(np.max(np.diff(t))) / period))
+    cap = max(4, _MAX_SEARCH_SAMPLES // (t.size - 1))
+    return int(min(max(4, need), cap))

@@ -6,7 +6,7 @@ the effective force F0 = m g R α + I3 K0 φ̇0 ω3, to leading order in 1/ω3
 
 * band width (in z):  Δ = 2 d0 (1 − z0²) F0 / (I3 K0² ω3²)   (z moves from z0 to z0 + Δ),
 * depth of the well:  Ẽ − V_min = F0² d0 (1 − z0²) / (2 I3 K0² ω3²),
-* nutation frequency: ω_n = |ω3| K0 / √(d0 G0),
+* nutation angular frequency (rad/s): ω_n = |ω3| K0 / √(d0 G0), period 2π/ω_n,
 * mean precession:    ⟨φ̇⟩ = −m g R α / (I3 K0 ω3)   (independent of φ̇0).
 
 Accuracy, measured against direct rolling integrations (tests/test_asymptotics.py): with φ̇0 = 0
@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import math
 from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
 
 from . import _validate
 from .potential import d
@@ -64,8 +66,10 @@ def high_spin(top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0)
     Raises
     ------
     ValueError
-        If θ0 is a pole or outside [0, π], ω3 = 0, or an input is not finite.
+        If θ0 is a pole or outside [0, π], ω3 = 0, an input is not finite, or |ω3| is so small
+        (or φ̇0 so large) that the expansion leaves double precision.
     """
+    _validate.instance("top", top, "TippeTop")
     th = float(_validate.theta(theta0, "theta0"))
     if th in (0.0, math.pi):
         raise ValueError(f"theta0 must lie in the open interval (0, pi); got {th!r}")
@@ -81,9 +85,19 @@ def high_spin(top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0)
     mgRa = top.m * top.g * top.R * a
     force = mgRa + I3 * K0 * phidot0 * w3
     s2 = 1.0 - z0 * z0
-    return HighSpin(
-        width=2.0 * d0 * s2 * force / (I3 * K0**2 * w3**2),
-        depth=force**2 * d0 * s2 / (2.0 * I3 * K0**2 * w3**2),
-        frequency=abs(w3) * K0 / math.sqrt(d0 * G0),
-        precession=-mgRa / (I3 * K0 * w3),
-    )
+    # numpy float64: overflow and underflow become inf/0 instead of OverflowError/ZeroDivisionError
+    w3, force = np.float64(w3), np.float64(force)
+    with np.errstate(all="ignore"):
+        result = HighSpin(
+            width=2.0 * d0 * s2 * force / (I3 * K0**2 * w3**2),
+            depth=force**2 * d0 * s2 / (2.0 * I3 * K0**2 * w3**2),
+            frequency=abs(w3) * K0 / math.sqrt(d0 * G0),
+            precession=-mgRa / (I3 * K0 * w3),
+        )
+    if not all(math.isfinite(v) for v in result):
+        raise ValueError(
+            f"omega3 = {float(w3)!r} rad/s (with phidot0 = {phidot0!r}) puts the high-spin "
+            "expansion outside double precision: it holds for |omega3| large, e.g. above "
+            f"sqrt(m g R alpha / I3) = {math.sqrt(mgRa / I3):.3g} rad/s"
+        )
+    return HighSpin(*(float(v) for v in result))

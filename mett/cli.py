@@ -1,33 +1,180 @@
 """The ``mett`` command line.
 
-Bad arguments print one line on stderr and exit with status 2 (argparse's convention); a
-``ValueError`` from the library is reported the same way, never as a traceback.
+Every error, whether a bad argument or a ``ValueError`` from the library, is one line on stderr
+(``mett: error: ...``) and exit status 2 (argparse's convention), never a traceback; ``--traceback``
+shows it for a bug report. Arguments, paths and options are checked before any computation or
+write. Warnings are printed one line each (``mett: warning: ...``) after a successful command and
+dropped when the command fails. Progress bars (tqdm, on stderr) are shown by default only when
+stderr is a terminal, so logs never receive carriage-return animations.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import os
 import sys
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
 
-from . import presets
+from . import __version__, presets
 from .top import TippeTop
 
 __all__ = ["main"]
 
 _FIELDS = ("m", "R", "alpha", "I1", "I3", "mu", "g")
+_UNITS = {"m": "kg", "R": "m", "alpha": "1", "I1": "kg m^2", "I3": "kg m^2", "mu": "s/m",
+          "g": "m/s^2"}  # fmt: skip
+# The Dask scheduler must answer within this (s) before the sweep gives up (--scheduler-timeout).
+_SCHEDULER_TIMEOUT = 5.0
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2
-        self.exit(2, f"mett: error: {message}\n")
+        self.exit(2, f"mett: error: {_one_line(message)}\n")
 
 
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows ``(default: X)`` for options that have a meaningful default (not None or False)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default is None or action.default is False or action.help is None:
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
+# --- argument types: checked by argparse, so a bad value is a one-line usage error -------------
+def _real(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid float value: {text!r}") from None
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"must be a finite number; got {text!r}")
+    return x
+
+
+def _positive(text: str) -> float:
+    x = _real(text)
+    if x <= 0.0:
+        raise argparse.ArgumentTypeError(f"must lie in (0, inf); got {text!r}")
+    return x
+
+
+def _rtol(text: str) -> float:
+    x = _real(text)
+    if not 0.0 < x < 1.0:
+        raise argparse.ArgumentTypeError(f"must lie in (0, 1); got {text!r}")
+    return x
+
+
+def _theta(text: str) -> float:
+    x = _real(text)
+    if not 0.0 <= x <= math.pi:
+        raise argparse.ArgumentTypeError(f"must lie in [0, pi]; got {text!r}")
+    return x
+
+
+def _workers(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not 1 <= n <= 4096:
+        raise argparse.ArgumentTypeError(f"must lie in [1, 4096]; got {text!r}")
+    return n
+
+
+# --- paths: checked before any work, so nothing is computed that cannot be written -------------
+def _check_output_file(option: str, path: str, suffixes: Sequence[str] | None = None) -> Path:
+    p = Path(path)
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ValueError(f"{option} must end in one of {', '.join(suffixes)}; got {path!r}")
+    if p.is_dir():
+        raise ValueError(f"{option} must be a file, not a directory; got {path!r}")
+    parent = p.parent
+    if not parent.is_dir():
+        raise ValueError(f"{option}: the directory {str(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ValueError(f"{option}: the directory {str(parent)!r} is not writable")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise ValueError(f"{option}: {path!r} exists and is not writable")
+    return p
+
+
+def _check_output_dir(option: str, path: str) -> Path:
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{option} must be a directory; {path!r} is a file")
+    existing = p
+    while not existing.exists():  # the first existing ancestor must be a writable directory
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ValueError(f"{option}: {str(existing)!r} is a file, so {path!r} cannot be created")
+    if not os.access(existing, os.W_OK):
+        raise ValueError(f"{option}: {str(existing)!r} is not writable")
+    return p
+
+
+def _image_suffixes() -> tuple[str, ...]:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(f".{ext}" for ext in FigureCanvasBase.get_supported_filetypes())
+
+
+# --- output ------------------------------------------------------------------------------------
+def _fmt(x: float, digits: int = 6) -> str:
+    return str(x) if not math.isfinite(x) else f"{x:.{digits}g}"
+
+
+def _json_number(x: float) -> float | None:
+    """A float for JSON; None (null) where it is infinite or undefined."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _print_rows(rows: Sequence[tuple[str, str]]) -> None:
+    """``label  value`` lines with the values in one column."""
+    width = max(len(k) for k, _ in rows)
+    for k, v in rows:
+        print(f"{k:<{width}}  {v}")
+
+
+def _finite_or_null(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _finite_or_null(v) for k, v in obj.items()}
+    if isinstance(obj, float):
+        return _json_number(obj)
+    return obj
+
+
+def _print_json(data: dict) -> None:
+    """Strict JSON (no NaN/Infinity tokens): non-finite numbers become null."""
+    print(json.dumps(_finite_or_null(data), indent=2, allow_nan=False))
+
+
+def _progress_enabled(flag: bool | None) -> bool:
+    """--progress / --no-progress, or by default: only on a terminal (no \\r in logs)."""
+    if flag is not None:
+        return flag
+    isatty = getattr(sys.stderr, "isatty", None)
+    return bool(isatty and isatty())
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+# --- the top and the state -----------------------------------------------------------------------
 def _add_top_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--preset", default=None, help=f"one of: {', '.join(presets.names())}")
     for name in _FIELDS:
-        p.add_argument(f"--{name}", type=float, default=None, help=f"override {name} (SI units)")
+        p.add_argument(
+            f"--{name}", type=_real, default=None, help=f"override {name} [{_UNITS[name]}]"
+        )
 
 
 def _top_from_args(args: argparse.Namespace) -> TippeTop:
@@ -42,45 +189,17 @@ def _top_from_args(args: argparse.Namespace) -> TippeTop:
     return TippeTop(**given)
 
 
-def _fmt(x: float) -> str:
-    return "inf" if math.isinf(x) else f"{x:.6g}"
-
-
-def _cmd_info(args: argparse.Namespace) -> int:
-    top = _top_from_args(args)
-    from .thresholds import lambda_E, lambda_roll
-
-    rows = [
-        ("m [kg]", _fmt(top.m)),
-        ("R [m]", _fmt(top.R)),
-        ("alpha", _fmt(top.alpha)),
-        ("I1 [kg m^2]", _fmt(top.I1)),
-        ("I3 [kg m^2]", _fmt(top.I3)),
-        ("mu [s/m]", _fmt(top.mu)),
-        ("g [m/s^2]", _fmt(top.g)),
-        ("gamma = I1/I3", _fmt(top.gamma)),
-        ("sigma = m R^2/I3", _fmt(top.sigma)),
-        ("group", top.group),
-        ("admissible (1-a < gamma < 1+a)", str(top.is_admissible)),
-        ("rational METT", str(top.is_rational)),
-        ("lambda_thres [kg m^3/s]", _fmt(top.lambda_thres)),
-        ("lambda_0 [kg m^3/s]", _fmt(top.lambda_0)),
-        ("lambda_E [kg m^3/s]", _fmt(lambda_E(top))),
-        ("lambda_roll [kg m^3/s]", _fmt(lambda_roll(top))),
-    ]
-    c = math.cos(args.theta0)
-    if c > top.alpha and math.isfinite(top.lambda_thres):
-        lam_needed = max(top.lambda_thres, top.lambda_0)
-        rows.append(
-            (
-                f"min omega3 to invert from theta0={args.theta0:g} [rad/s]",
-                _fmt(lam_needed / (top.R * top.I3 * (c - top.alpha))),
-            )
-        )
-    width = max(len(k) for k, _ in rows)
-    for k, v in rows:
-        print(f"{k:<{width}}  {v}")
-    return 0
+def _add_state_arguments(p: argparse.ArgumentParser, *, required: bool) -> None:
+    p.add_argument("--theta0", type=_theta, required=required, default=None, help="θ(0) [rad]")
+    p.add_argument("--omega3", type=_real, required=required, default=None, help="ω3(0) [rad/s]")
+    p.add_argument("--thetadot", type=_real, default=0.0, help="θ̇(0) [rad/s]")
+    p.add_argument("--phidot", type=_real, default=0.0, help="φ̇(0) [rad/s]")
+    p.add_argument(
+        "--cm-at-rest",
+        action="store_true",
+        help="start with the centre of mass at rest (the contact point gliding) instead of the "
+        "contact point at rest",
+    )
 
 
 def _state_from_args(args: argparse.Namespace, top: TippeTop):
@@ -93,93 +212,200 @@ def _state_from_args(args: argparse.Namespace, top: TippeTop):
     return State(theta=args.theta0, omega3=args.omega3, thetadot=args.thetadot, phidot=args.phidot)
 
 
+# --- commands ------------------------------------------------------------------------------------
+def _cmd_info(args: argparse.Namespace) -> int:
+    top = _top_from_args(args)
+    from .thresholds import lambda_E, lambda_roll
+
+    values: dict[str, Any] = {
+        **{k: getattr(top, k) for k in _FIELDS},
+        "gamma": top.gamma,
+        "sigma": top.sigma,
+        "group": top.group,
+        "admissible": bool(top.is_admissible),
+        "rational": bool(top.is_rational),
+        "lambda_thres": top.lambda_thres,
+        "lambda_0": top.lambda_0,
+        "lambda_E": float(lambda_E(top)),
+        "lambda_roll": float(lambda_roll(top)),
+    }
+    c = math.cos(args.theta0)
+    min_spin = None
+    if c > top.alpha and math.isfinite(top.lambda_thres):
+        lam_needed = max(top.lambda_thres, top.lambda_0)
+        min_spin = lam_needed / (top.R * top.I3 * (c - top.alpha))
+    if args.json:
+        out = {k: (_json_number(v) if isinstance(v, float) else v) for k, v in values.items()}
+        out["min_omega3_to_invert"] = {
+            "theta0": args.theta0,
+            "omega3": None if min_spin is None else _json_number(min_spin),
+        }
+        out["units"] = {**_UNITS, "lambda": "kg m^3/s", "omega3": "rad/s", "theta0": "rad"}
+        _print_json(out)
+        return 0
+    rows = [(f"{k} [{_UNITS[k]}]" if _UNITS[k] != "1" else k, _fmt(values[k])) for k in _FIELDS]
+    rows += [
+        ("gamma = I1/I3", _fmt(top.gamma)),
+        ("sigma = m R^2/I3", _fmt(top.sigma)),
+        ("group", top.group),
+        ("admissible (1-a < gamma < 1+a)", str(top.is_admissible)),
+        ("rational METT", str(top.is_rational)),
+        ("lambda_thres [kg m^3/s]", _fmt(values["lambda_thres"])),
+        ("lambda_0 [kg m^3/s]", _fmt(values["lambda_0"])),
+        ("lambda_E [kg m^3/s]", _fmt(values["lambda_E"])),
+        ("lambda_roll [kg m^3/s]", _fmt(values["lambda_roll"])),
+    ]
+    if min_spin is not None:
+        rows.append((f"min omega3 to invert from theta0={args.theta0:g} [rad/s]", _fmt(min_spin)))
+    _print_rows(rows)
+    return 0
+
+
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    # everything that can be checked is checked before the run
+    out = None if args.out is None else _check_output_file("--out", args.out, (".csv", ".npz"))
+    plot = None if args.plot is None else _check_output_file("--plot", args.plot, _image_suffixes())
+    top = _top_from_args(args)
+    state = _state_from_args(args, top)
+
     import numpy as np
 
     from .dynamics import simulate
     from .integrals import jellett
     from .thresholds import asymptotic_state
 
-    top = _top_from_args(args)
-    state = _state_from_args(args, top)
-    if args.out is not None and not args.out.endswith((".csv", ".npz")):
-        raise ValueError(f"--out must end in .csv or .npz; got {args.out!r}")
     traj = simulate(top, state, args.t_end, model=args.model, rtol=args.rtol)
-    lam = float(jellett(top, state))
-    cross = traj.crossings(np.pi / 2)
-    print(f"status                 {traj.status}" + (f" ({traj.message})" if traj.message else ""))
-    print(f"lambda / lambda_thres  {lam / top.lambda_thres:.6g}")
-    t_inv = f"{cross[0]:.6g}" if cross.size else "never (within t_end)"
-    print(f"first theta = pi/2 [s] {t_inv}")
-    print(f"theta(end) [rad]       {traj.theta[-1]:.6g}  at t = {traj.t[-1]:.6g} s")
-    print(f"omega3(end) [rad/s]    {traj.omega3[-1]:.6g}")
-    if lam > 0:
-        pred = asymptotic_state(top, lam)
-        print(
-            f"predicted end state    {pred.kind}: theta = {pred.theta:.6g}, omega3 = {pred.omega3:.6g}"
-        )
-    if args.out is not None:
-        data = traj.as_dict()
-        if args.out.endswith(".npz"):
-            np.savez(args.out, **data)
+    written = []
+    if out is not None:
+        if out.suffix.lower() == ".npz":
+            traj.save(out)
         else:
-            names = list(data)
-            np.savetxt(args.out, np.column_stack([data[n] for n in names]), delimiter=",",
-                       header=",".join(names), comments="")  # fmt: skip
-        print(f"wrote {args.out}")
-    if args.plot is not None:
+            traj.to_dataframe().to_csv(out, index=False, float_format="%.17g")
+        written.append(out)
+    if plot is not None:
         import matplotlib
 
         matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
         from .plotting import plot_theta
 
-        plot_theta(traj).savefig(args.plot, dpi=110)
-        print(f"wrote {args.plot}")
+        fig = plot_theta(traj)
+        fig.savefig(plot, dpi=110)
+        plt.close(fig)
+        written.append(plot)
+
+    lam = float(jellett(top, state))
+    cross = traj.crossings(np.pi / 2)
+    pred, pred_error = None, None
+    if lam > 0:
+        try:
+            pred = asymptotic_state(top, lam)
+        except (ValueError, ArithmeticError, RuntimeError) as exc:  # the run's results stand
+            pred_error = _one_line(str(exc))
+    if args.json:
+        _print_json(
+            {
+                "status": traj.status, "message": traj.message, "model": traj.model,
+                "lambda": lam, "lambda_ratio": lam / top.lambda_thres,
+                "t_invert": float(cross[0]) if cross.size else None,
+                "t_end": traj.t_final, "theta_end": float(traj.theta[-1]),
+                "omega3_end": float(traj.omega3[-1]),
+                "predicted": None if pred is None else
+                {"kind": pred.kind, "theta": float(pred.theta), "omega3": float(pred.omega3)},
+                "prediction_error": pred_error,
+                "wrote": [str(p) for p in written],
+                "units": {"lambda": "kg m^3/s", "t": "s", "theta": "rad", "omega3": "rad/s"},
+            }
+        )  # fmt: skip
+        return 0
+    rows = [
+        ("status", traj.status + (f" ({traj.message})" if traj.message else "")),
+        ("lambda / lambda_thres", _fmt(lam / top.lambda_thres)),
+        ("first theta = pi/2 [s]", _fmt(cross[0]) if cross.size else "never (within t_end)"),
+        ("theta(end) [rad]", f"{_fmt(traj.theta[-1])}  at t = {_fmt(traj.t[-1])} s"),
+        ("omega3(end) [rad/s]", _fmt(traj.omega3[-1])),
+    ]
+    if pred is not None:
+        rows.append(
+            (
+                "predicted end state",
+                f"{pred.kind}: theta = {_fmt(pred.theta)}, omega3 = {_fmt(pred.omega3)}",
+            )
+        )
+    elif pred_error is not None:
+        rows.append(("predicted end state", f"unavailable ({pred_error})"))
+    rows += [("wrote", str(p)) for p in written]
+    _print_rows(rows)
     return 0
 
 
 def _cmd_period(args: argparse.Namespace) -> int:
     from . import integrals, separation
 
-    top = _top_from_args(args)
     given = [v is not None for v in (args.E, args.D, args.lam)]
     if any(given) and not all(given):
         raise ValueError("give all of --E --D --lam, or a state with --theta0 --omega3")
+    has_state = args.theta0 is not None and args.omega3 is not None
+    if not all(given) and not has_state:
+        raise ValueError("give --E --D --lam, or a rolling state with --theta0 --omega3")
+    top = _top_from_args(args)
     if all(given):
         E, D, lam, z0 = args.E, args.D, args.lam, None
-    elif args.theta0 is not None and args.omega3 is not None:
-        state = _state_from_args(args, top)
-        E, D, lam = (
-            float(f(top, state)) for f in (integrals.energy, integrals.routh, integrals.jellett)
-        )
-        import math
-
-        z0 = math.cos(args.theta0)
     else:
-        raise ValueError("give --E --D --lam, or a rolling state with --theta0 --omega3")
+        state = _state_from_args(args, top)
+        # the METT's energy is the modified energy Ẽ (= E when the contact point is at rest,
+        # not when the centre of mass is: --cm-at-rest)
+        E, D, lam = (
+            float(f(top, state))
+            for f in (integrals.modified_energy, integrals.routh, integrals.jellett)
+        )
+        z0 = math.cos(args.theta0)
     band = separation.band(top, E, D, lam, z0=z0)
-    print(f"E [J], D [kg m^2/s], lam [kg m^3/s]  {E!r}, {D!r}, {lam!r}")
-    print(f"motion                 {band.kind}")
     if band.kind == "none":
         raise ValueError(f"no admissible motion: E lies {-band.depth:.3g} J below the minimum of V")
-    import math
-
-    print(f"turning points z       {band.z_low:.10g}, {band.z_high:.10g}")
-    print(f"turning points theta   {math.acos(band.z_high):.10g}, {math.acos(band.z_low):.10g} rad")
-    print(f"nutation period [s]    {separation.nutation_period(top, E, D, lam, z0=z0):.10g}")
-    print(f"mean precession [rad/s] {separation.mean_precession(top, E, D, lam, z0=z0):.10g}")
+    T = float(separation.nutation_period(top, E, D, lam, z0=z0))
+    prec = float(separation.mean_precession(top, E, D, lam, z0=z0))
+    theta_min, theta_max = math.acos(band.z_high), math.acos(band.z_low)
+    if args.json:
+        _print_json(
+            {
+                "E_mod": E, "D": D, "lam": lam, "motion": band.kind,
+                "z_low": band.z_low, "z_high": band.z_high,
+                "theta_min": theta_min, "theta_max": theta_max,
+                "nutation_period": _json_number(T), "mean_precession": _json_number(prec),
+                "units": {"E_mod": "J", "D": "kg m^2/s", "lam": "kg m^3/s", "theta": "rad",
+                          "nutation_period": "s", "mean_precession": "rad/s"},
+            }
+        )  # fmt: skip
+        return 0
+    _print_rows(
+        [
+            ("modified energy E~ [J]", repr(E)),
+            ("Routh D [kg m^2/s]", repr(D)),
+            ("Jellett lam [kg m^3/s]", repr(lam)),
+            ("motion", band.kind),
+            ("turning points z", f"{band.z_low:.10g}, {band.z_high:.10g}"),
+            ("turning points theta [rad]", f"{theta_min:.10g}, {theta_max:.10g}"),
+            ("nutation period [s]", _fmt(T, 10)),
+            ("mean precession [rad/s]", _fmt(prec, 10)),
+        ]
+    )
     return 0
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
+    out = _check_output_dir("--out", args.out)
+    custom = args.preset is not None or any(getattr(args, k) is not None for k in _FIELDS)
+    kw: dict[str, Any] = {}
+    if custom:
+        kw["top"] = _top_from_args(args)
     from . import gallery
 
-    paths = gallery.generate(args.out, animation=not args.no_animation, progress=not args.quiet)
-    from pathlib import Path
-
-    (Path(args.out) / "README.md").write_text(gallery.index_markdown(paths), encoding="utf-8")
-    for p in paths:
-        print(f"wrote {p}")
+    progress = _progress_enabled(False if args.quiet else args.progress)
+    paths = gallery.generate(out, animation=not args.no_animation, progress=progress, **kw)
+    (out / "README.md").write_text(gallery.index_markdown(paths), encoding="utf-8")
+    _print_rows([("wrote", str(p)) for p in paths])
     return 0
 
 
@@ -198,116 +424,235 @@ def _parse_grid(specs: list[str]) -> dict:
             raise ValueError(
                 f"--grid takes name=start:stop:num with numbers; got {spec!r}"
             ) from None
-        if num < 1:
-            raise ValueError(f"--grid num must be >= 1; got {spec!r}")
+        if not (math.isfinite(start) and math.isfinite(stop)):
+            raise ValueError(f"--grid start and stop must be finite; got {spec!r}")
+        if not 1 <= num <= 1_000_000:
+            raise ValueError(f"--grid num must lie in [1, 1000000]; got {spec!r}")
+        if name.strip() in grid:
+            raise ValueError(f"--grid {name.strip()!r} is given twice")
         grid[name.strip()] = np.linspace(start, stop, num)
     return grid
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from concurrent.futures import ProcessPoolExecutor
+    out = _check_output_file("--out", args.out)
+    if args.checkpoint is not None:
+        ckpt = _check_output_file("--checkpoint", args.checkpoint)
+        if ckpt.resolve() == out.resolve():
+            raise ValueError("--checkpoint and --out must be different files")
+    grid = _parse_grid(args.grid)
+    top = _top_from_args(args)
 
     from .sweeps import sweep
 
-    top = _top_from_args(args)
-    grid = _parse_grid(args.grid)
     kw = dict(
-        t_end=args.t_end, theta0=args.theta0, omega3=args.omega3, progress=args.progress,
-        checkpoint=args.checkpoint, model=args.model, rtol=args.rtol,
+        t_end=args.t_end, theta0=args.theta0, omega3=args.omega3,
+        progress=_progress_enabled(args.progress), checkpoint=args.checkpoint,
+        model=args.model, rtol=args.rtol,
     )  # fmt: skip
     if args.scheduler is not None:
         try:
             from distributed import Client
         except ImportError:
             raise ValueError("--scheduler needs Dask: pip install 'mett[dask]'") from None
-        with Client(args.scheduler) as client:
+        _probe_scheduler(args.scheduler, args.scheduler_timeout)
+        try:
+            client = Client(args.scheduler, timeout=args.scheduler_timeout)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise ValueError(
+                f"cannot reach the Dask scheduler at {args.scheduler!r} within "
+                f"{args.scheduler_timeout:g} s ({_one_line(str(exc)) or type(exc).__name__})"
+            ) from None
+        with client:
             table = sweep(top, grid, executor=client.get_executor(), **kw)
     elif args.workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
         with ProcessPoolExecutor(max_workers=args.workers) as pool:
             table = sweep(top, grid, executor=pool, **kw)
     else:
         table = sweep(top, grid, **kw)
-    table.to_csv(args.out, index=False)
+    table.to_csv(out, index=False)
     counts = table["simulated"].value_counts().to_dict()
-    print(f"wrote {args.out}: {len(table)} runs, end states {counts}, "
-          f"{int(table['agree'].sum())} agree with the prediction")  # fmt: skip
+    _print_rows(
+        [
+            ("wrote", f"{out} ({len(table)} runs)"),
+            ("end states", ", ".join(f"{k}: {v}" for k, v in counts.items())),
+            ("agree with the prediction", str(int(table["agree"].sum()))),
+        ]
+    )
     return 0
 
 
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Fail at once when nothing listens at a TCP scheduler address (Dask would retry until its
+    timeout); other protocols are left to Dask."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if "://" not in address:
+        address = f"tcp://{address}"
+    parts = urlsplit(address)
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        raise ValueError(f"--scheduler: invalid address {address!r}") from None
+    if not host or port is None:
+        raise ValueError(f"--scheduler needs an address like tcp://HOST:PORT; got {address!r}")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        raise ValueError(
+            f"cannot reach the Dask scheduler at {address!r}: {exc.strerror or exc}"
+        ) from None
+
+
+# --- the parser ----------------------------------------------------------------------------------
 def _build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="mett", description="Tippe-top dynamics around the METT.")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+    parser = _Parser(
+        prog="mett",
+        description="Tippe-top dynamics around the METT.",
+        formatter_class=_Formatter,
+    )
+    parser.add_argument("--version", action="version", version=f"mett {__version__}")
+    parser.add_argument(
+        "--traceback", action="store_true", help="show the full traceback of an error"
+    )
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
     sub.required = True
-    p = sub.add_parser("info", help="parameters, thresholds and group of a top")
+
+    def add(name: str, help: str, func: Callable) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help, description=help, formatter_class=_Formatter)
+        p.set_defaults(func=func)
+        return p
+
+    json_help = "print JSON (SI units; null where a value is infinite or undefined)"
+    model_help = "the dynamical model (see mett.simulate)"
+    progress_help = "progress bar on stderr (default: only when stderr is a terminal)"
+
+    p = add("info", "parameters, thresholds and group of a top", _cmd_info)
     _add_top_arguments(p)
-    p.add_argument("--theta0", type=float, default=0.1, help="start angle for the minimal spin")
-    p.set_defaults(func=_cmd_info)
+    p.add_argument("--theta0", type=_theta, default=0.1, help="start angle for the minimal spin")
+    p.add_argument("--json", action="store_true", help=json_help)
 
     from .dynamics import MODELS
 
-    p = sub.add_parser("simulate", help="simulate a top; print the inversion time and end state")
+    p = add("simulate", "simulate a top; print the inversion time and end state", _cmd_simulate)
     _add_top_arguments(p)
     _add_state_arguments(p, required=True)
-    p.add_argument("--t-end", type=float, required=True, help="simulated time [s]")
-    p.add_argument("--model", default="gliding", choices=sorted(MODELS))
-    p.add_argument("--rtol", type=float, default=1e-10)
-    p.add_argument("--out", default=None, help="write the trajectory (.csv or .npz)")
+    p.add_argument("--t-end", type=_positive, required=True, help="simulated time [s]")
+    p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
+    p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="write the trajectory: .npz (everything, for mett.Trajectory.load) or .csv (series)",
+    )
     p.add_argument("--plot", default=None, help="write θ(t) as an image (e.g. theta.png)")
-    p.set_defaults(func=_cmd_simulate)
+    p.add_argument("--json", action="store_true", help=json_help)
 
-    p = sub.add_parser("period", help="turning points, nutation period and precession (rolling)")
+    p = add("period", "turning points, nutation period and precession (rolling)", _cmd_period)
     _add_top_arguments(p)
-    p.add_argument("--E", type=float, default=None, help="energy [J]")
-    p.add_argument("--D", type=float, default=None, help="Routh integral [kg m^2/s]")
-    p.add_argument("--lam", type=float, default=None, help="Jellett integral [kg m^3/s]")
+    p.add_argument("--E", type=_real, default=None, help="modified energy Ẽ [J] (= E when ν = 0)")
+    p.add_argument("--D", type=_real, default=None, help="Routh integral [kg m^2/s]")
+    p.add_argument("--lam", type=_real, default=None, help="Jellett integral [kg m^3/s]")
     _add_state_arguments(p, required=False)
-    p.set_defaults(func=_cmd_period)
+    p.add_argument("--json", action="store_true", help=json_help)
 
-    p = sub.add_parser("sweep", help="simulate a grid of parameters; write a CSV table")
+    p = add("sweep", "simulate a grid of parameters; write a CSV table", _cmd_sweep)
     _add_top_arguments(p)
     p.add_argument(
         "--grid", action="append", required=True, metavar="NAME=START:STOP:NUM",
         help="a swept parameter (repeat for more): a TippeTop field, an initial condition, "
         "gamma or lam_ratio",
     )  # fmt: skip
-    p.add_argument("--t-end", type=float, required=True, help="simulated time per run [s]")
-    p.add_argument("--theta0", type=float, default=0.1, help="θ(0) [rad]")
-    p.add_argument("--omega3", type=float, default=155.0, help="ω3(0) [rad/s]")
-    p.add_argument("--model", default="gliding", choices=sorted(MODELS))
-    p.add_argument("--rtol", type=float, default=1e-10)
+    p.add_argument("--t-end", type=_positive, required=True, help="simulated time per run [s]")
+    p.add_argument("--theta0", type=_theta, default=0.1, help="θ(0) [rad]")
+    p.add_argument("--omega3", type=_real, default=155.0, help="ω3(0) [rad/s]")
+    p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
+    p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
     p.add_argument("--out", default="sweep.csv", help="output CSV")
-    p.add_argument("--workers", type=int, default=1, help="processes on this machine")
+    p.add_argument("--workers", type=_workers, default=1, help="processes on this machine")
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
+    p.add_argument(
+        "--scheduler-timeout",
+        type=_positive,
+        default=_SCHEDULER_TIMEOUT,
+        help="seconds to wait for the Dask scheduler",
+    )
     p.add_argument("--checkpoint", default=None, help="JSON-lines checkpoint to resume from")
-    p.add_argument("--progress", action="store_true", help="progress bar (needs tqdm)")
-    p.set_defaults(func=_cmd_sweep)
+    p.add_argument(
+        "--progress", action=argparse.BooleanOptionalAction, default=None, help=progress_help
+    )
 
-    p = sub.add_parser("figures", help="regenerate every published figure")
+    p = add("figures", "regenerate every published figure (of the thesis top or another)",
+            _cmd_figures)  # fmt: skip
+    _add_top_arguments(p)
     p.add_argument("--out", default="figures", help="output directory")
     p.add_argument("--no-animation", action="store_true", help="skip the GIF")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=_cmd_figures)
+    p.add_argument(
+        "--progress", action=argparse.BooleanOptionalAction, default=None, help=progress_help
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar (as --no-progress)")
     return parser
 
 
-def _add_state_arguments(p: argparse.ArgumentParser, *, required: bool) -> None:
-    p.add_argument("--theta0", type=float, required=required, default=None, help="θ(0) [rad]")
-    p.add_argument("--omega3", type=float, required=required, default=None, help="ω3(0) [rad/s]")
-    p.add_argument("--thetadot", type=float, default=0.0, help="θ̇(0) [rad/s]")
-    p.add_argument("--phidot", type=float, default=0.0, help="φ̇(0) [rad/s]")
-    p.add_argument(
-        "--cm-at-rest", action="store_true", help="start with the CM at rest instead of ν(0) = 0"
-    )
+def _error(exc: BaseException) -> str:
+    if isinstance(exc, ArithmeticError):
+        return (
+            f"numerical failure ({type(exc).__name__}: {_one_line(str(exc))}); the input is "
+            "probably outside the range this computation handles"
+        )
+    if isinstance(exc, OSError):
+        where = f" {exc.filename!r}" if getattr(exc, "filename", None) else ""
+        return f"cannot write or read{where}: {exc.strerror or _one_line(str(exc))}"
+    return _one_line(str(exc)) or type(exc).__name__
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``mett`` command with ``argv`` (default: ``sys.argv[1:]``); return the exit status.
+
+    Usage errors raise ``SystemExit(2)`` from argparse (``--help`` and ``--version``:
+    ``SystemExit(0)``); errors found while running return 2 after one line on stderr.
+    """
+    import numpy as np
+
     parser = _build_parser()
     args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except ValueError as exc:
-        print(f"mett: error: {exc}", file=sys.stderr)
-        return 2
+    with warnings.catch_warnings(record=True) as caught:
+        if not sys.warnoptions:  # python -W ... decides for itself
+            warnings.simplefilter("default")
+        try:
+            status = args.func(args)
+        except KeyboardInterrupt:
+            print("mett: interrupted", file=sys.stderr)
+            return 130
+        except (
+            ValueError,
+            TypeError,
+            ArithmeticError,
+            OSError,
+            np.linalg.LinAlgError,
+        ) as exc:
+            if args.traceback:
+                raise
+            print(f"mett: error: {_error(exc)}", file=sys.stderr)
+            return 2
+        except Exception as exc:  # a bug: still one line, with a hint for the report
+            if args.traceback:
+                raise
+            print(
+                f"mett: internal error ({type(exc).__name__}: {_one_line(str(exc))}); "
+                "rerun with --traceback and report it",
+                file=sys.stderr,
+            )
+            return 1
+    for w in caught:
+        print(f"mett: warning: {_one_line(str(w.message))}", file=sys.stderr)
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

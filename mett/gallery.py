@@ -1,43 +1,104 @@
 """Every published figure, regenerated: the thesis run (Rutstam 2013, figures 4–6), the V(cos θ, D)
-surface (Rutstam 2012), the deforming potential and the separation equation.
+surface (Rutstam 2012), the potential map with the run's path, the deforming potential and the
+separation equation.
 
 ``mett figures --out DIR`` (or :func:`generate`) writes them as PNG (and one GIF); the checked-in
-copies live in ``figures/`` at the top of the repository.
+copies live in ``figures/`` at the top of the repository. ``generate(out, top=...)`` draws the same
+figures for any top: the run then starts at θ = 0.1 rad with λ = 2 λ_thres (the thesis run has
+λ ≈ 2.005 λ_thres), long enough to invert. Tops that cannot invert (groups I and III) get every
+figure but those of the run (:func:`skipped` says which and why).
 """
 
 from __future__ import annotations
 
+import math
 import sys
+import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["FIGURES", "generate"]
+from ._validate import MettWarning
 
-THESIS_LAMBDA = 6.8944e-6  # λ of the thesis run (theory.md §11), used for the surface figure
+if TYPE_CHECKING:
+    from .top import TippeTop
+
+__all__ = ["FIGURES", "FigureSkippedWarning", "generate", "skipped"]
+
+THESIS_LAMBDA = 6.8944e-6
+"""λ (kg m³/s) of the thesis run (θ = 0.1 rad, ω3 = 155 rad/s), used for the Rutstam 2012 surface."""
+
+THETA0 = 0.1
+"""Start inclination (rad) of the run of a top other than the thesis preset."""
+
+
+class FigureSkippedWarning(MettWarning):
+    """A gallery figure was not drawn because it makes no sense for the given top."""
 
 
 @dataclass
 class _Context:
-    """Runs shared by several figures, computed on first use."""
+    """The top and the runs shared by several figures, computed on first use."""
 
+    top: TippeTop | None = None
+    """None: the thesis preset, its run and the Rutstam 2012 surface exactly as published."""
     cache: dict[str, Any] = field(default_factory=dict)
 
     @cached_property
-    def thesis(self):
+    def body(self) -> TippeTop:
         import mett
 
-        top = mett.presets.get("rutstam2013")
-        return mett.simulate(top, mett.State(theta=0.1, omega3=155.0), t_end=9.0)
+        return mett.presets.get("rutstam2013") if self.top is None else self.top
+
+    @cached_property
+    def lam(self) -> float:
+        """λ of the run: the thesis value, else 2 λ_thres (2 λ_0 for group III, never flips)."""
+        if self.top is None:
+            return THESIS_LAMBDA
+        top = self.top
+        base = top.lambda_thres if math.isfinite(top.lambda_thres) else top.lambda_0
+        return 2.0 * max(base, top.lambda_0 if math.isfinite(top.lambda_0) else 0.0)
+
+    @cached_property
+    def start(self):
+        import mett
+
+        if self.top is None:
+            return mett.State(theta=THETA0, omega3=155.0)
+        top = self.top
+        # λ = R I3 ω3 (cos θ − α) with θ̇ = φ̇ = 0 (Jellett integral)
+        omega3 = self.lam / (top.R * top.I3 * (math.cos(THETA0) - top.alpha))
+        return mett.State(theta=THETA0, omega3=omega3)
+
+    @cached_property
+    def t_end(self) -> float:
+        """9 s for the thesis run; else 1.5 × the predicted escape time (9 s ≈ 1.5 × 6.0 s there)."""
+        if self.top is None:
+            return 9.0
+        import mett
+
+        return min(1.5 * mett.escape_time(self.top, self.start).time, 300.0)
+
+    @cached_property
+    def thesis(self):
+        """The inversion run (for another top: its own start, see :data:`THETA0`)."""
+        import mett
+
+        return mett.simulate(self.body, self.start, t_end=self.t_end)
 
     @cached_property
     def rolling(self):
+        """A rolling state in the middle of the sphere: (top, E, D, λ)."""
         import mett
 
-        top = mett.presets.get("rutstam2013")
-        s = mett.State(theta=1.0, omega3=100.0, phidot=5.0)
+        top = self.body
+        if self.top is None:
+            s = mett.State(theta=1.0, omega3=100.0, phidot=5.0)
+        else:  # the thesis state's spin scaled by the run's
+            omega3 = 100.0 / 155.0 * float(self.start.omega3)
+            s = mett.State(theta=1.0, omega3=omega3, phidot=omega3 / 20.0)
         return top, mett.energy(top, s), mett.routh(top, s), mett.jellett(top, s)
 
 
@@ -55,7 +116,27 @@ def _surface(ctx: _Context):
 
     from . import plotting
 
-    return plotting.plot_potential_surface(mett.presets.get("rutstam2012"), THESIS_LAMBDA)
+    if ctx.top is None:  # the published figure: the Rutstam 2012 body at the thesis λ
+        return plotting.plot_potential_surface(mett.presets.get("rutstam2012"), THESIS_LAMBDA)
+    return plotting.plot_potential_surface(ctx.body, ctx.lam)
+
+
+def _map(ctx: _Context):
+    from . import plotting
+
+    return plotting.plot_potential_map(ctx.body, ctx.lam, trajectory=ctx.thesis)
+
+
+def _slices(ctx: _Context):
+    import numpy as np
+
+    import mett
+
+    from . import plotting
+
+    bv = mett.boundary_values(ctx.body, ctx.lam)
+    Ds = np.linspace(float(bv.D0), float(bv.D1), 7)[1:-1]
+    return plotting.plot_potential_slices(ctx.body, Ds, ctx.lam)
 
 
 def _slice(ctx: _Context):
@@ -69,6 +150,22 @@ def _f(ctx: _Context):
     from . import plotting
 
     return plotting.plot_f(*ctx.rolling)
+
+
+def _subgroups(ctx: _Context):
+    import mett
+
+    from .classification import SAMPLE_POINTS, plot_subgroups
+
+    presets = {n: mett.presets.get(n) for n in ("rutstam2013", "cohen1977", "ueda2005")}
+    points = {n: (t.alpha, t.gamma) for n, t in presets.items()}
+    return plot_subgroups(points=points, samples=list(SAMPLE_POINTS.values()))
+
+
+def _families(ctx: _Context):
+    from .classification import plot_tumbling_families
+
+    return plot_tumbling_families()
 
 
 FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
@@ -94,12 +191,51 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     ),
     "axis_trace": ("the symmetry axis on the unit sphere", _thesis("plot_axis_trace")),
     "paper1_V_surface": ("V(cos θ, D, λ) over D ∈ [D1, D0] (Rutstam 2012)", _surface),
+    "potential_map": ("V over (D, cos θ) with the well's minimum and the run's path", _map),
+    "potential_slices": ("V(z, D, λ) at five D between D0 and D1", _slices),
     "potential_slice": ("V(z) of a rolling top with Ẽ and the turning points", _slice),
     "separation_f": ("f(z) of ż² = f(z) with its roots", _f),
+    "subgroups": ("the classes Ia–III of tops in the (α, γ) plane", _subgroups),
+    "tumbling_families": (
+        "steady states of each class in the (θ, λ) plane, stable and unstable",
+        _families,
+    ),
 }
 """Name → (description, maker). Each maker returns a matplotlib Figure."""
 
+RUN_FIGURES = frozenset(
+    [
+        "thesis_fig4a_theta",
+        "thesis_fig4bc_psidot_phidot",
+        "thesis_fig5a_omega3",
+        "thesis_fig5b_gliding_velocity",
+        "thesis_fig6a_D_E_curve",
+        "thesis_fig6b_thetadot",
+        "energies",
+        "deforming_potential",
+        "axis_trace",
+        "potential_map",
+    ]
+)
+"""Figures drawn from the inversion run (and the GIF): only for tops that can invert."""
+
 ANIMATIONS = {"deforming_potential": "GIF of the deforming potential with θ(t) moving in it"}
+
+
+def skipped(top: TippeTop | None = None) -> dict[str, str]:
+    """Figures (and the GIF) :func:`generate` leaves out for ``top``, with the reason.
+
+    Only tops of group II (1 − α < γ < 1 + α) invert; for the others the run's figures are left
+    out. The thesis preset (``top=None``) skips nothing.
+    """
+    if top is None or top.group == "II":
+        return {}
+    reason = (
+        f"the top is in group {top.group} (γ = {top.gamma:.4g}, α = {top.alpha:.4g}): it cannot "
+        "invert (inversion needs 1 − α < γ < 1 + α), so the inversion run is not drawn"
+    )
+    names = [*sorted(RUN_FIGURES), "deforming_potential.gif"]
+    return dict.fromkeys(names, reason)
 
 
 def _progress(items: list, enabled: bool) -> Iterable:
@@ -123,6 +259,7 @@ def _plain_progress(items: list) -> Iterable:
 def generate(
     out_dir: str | Path,
     *,
+    top: TippeTop | None = None,
     names: Iterable[str] | None = None,
     animation: bool = True,
     progress: bool = False,
@@ -132,13 +269,35 @@ def generate(
 
     Parameters
     ----------
+    out_dir : str or Path
+        Directory (created if missing).
+    top : TippeTop, optional
+        The top to draw. Default: the thesis preset ``rutstam2013`` with the thesis run
+        (θ(0) = 0.1 rad, ω3(0) = 155 rad/s, 9 s) and the Rutstam 2012 surface, as published.
+        Another top is started at θ = 0.1 rad with λ = 2 λ_thres and run for 1.5 × the predicted
+        escape time (:func:`mett.escape_time`); see :func:`skipped` for tops that cannot invert.
     names : iterable of str, optional
         A subset of :data:`FIGURES` (default: all).
     animation : bool, default True
         Also write ``deforming_potential.gif`` (the slowest item, ~10 s).
     progress : bool, default False
         Show a progress bar on stderr (tqdm if installed).
+    dpi : int, default 110
+
+    Warns
+    -----
+    FigureSkippedWarning
+        When figures are left out for ``top`` (the reason is in the message).
     """
+    from .top import TippeTop
+
+    if top is not None and not isinstance(top, TippeTop):
+        raise TypeError(f"top must be a mett.TippeTop or None; got {type(top).__name__}")
+    names = list(FIGURES) if names is None else list(names)
+    unknown = [n for n in names if n not in FIGURES]
+    if unknown:
+        raise ValueError(f"unknown figure(s) {unknown}; known: {', '.join(FIGURES)}")
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -146,14 +305,19 @@ def generate(
 
     from . import plotting
 
-    names = list(FIGURES) if names is None else list(names)
-    unknown = [n for n in names if n not in FIGURES]
-    if unknown:
-        raise ValueError(f"unknown figure(s) {unknown}; known: {', '.join(FIGURES)}")
+    skip = skipped(top)
+    items = names + (["deforming_potential.gif"] if animation else [])
+    left_out = [n for n in items if n in skip]
+    if left_out:
+        warnings.warn(
+            f"figures not drawn: {', '.join(left_out)}: {skip[left_out[0]]}",
+            FigureSkippedWarning,
+            stacklevel=2,
+        )
+    items = [n for n in items if n not in skip]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    ctx = _Context()
-    items = names + (["deforming_potential.gif"] if animation else [])
+    ctx = _Context(top)
     written = []
     for name in _progress(items, progress):
         if name.endswith(".gif"):
@@ -168,11 +332,15 @@ def generate(
     return written
 
 
-def index_markdown(paths: Iterable[Path]) -> str:
-    """A Markdown gallery of the written figures (for ``figures/README.md`` and the docs)."""
+def index_markdown(paths: Iterable[Path], *, left_out: dict[str, str] | None = None) -> str:
+    """A Markdown gallery of the written figures (for ``figures/README.md``), with the skipped."""
     lines = ["# Figures", "", "Regenerate with `mett figures --out figures`.", ""]
     for p in paths:
         key = p.stem
         desc = FIGURES[key][0] if p.suffix == ".png" else ANIMATIONS.get(key, key)
         lines += [f"## {desc}", "", f"![{desc}]({p.name})", ""]
+    if left_out:
+        lines += ["## Not drawn for this top", ""]
+        lines += [f"- `{name}`: {why}" for name, why in left_out.items()]
+        lines.append("")
     return "\n".join(lines)

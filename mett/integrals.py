@@ -146,19 +146,61 @@ def _rot_pot(s, c, thetadot, phidot, omega3, m, R, l, I1, I3, g):
     return rot + m * g * (R - l * c)
 
 
+def _arrays(top: TippeTop, state: State) -> _Fields:
+    """The state with float64 array fields, after checking both arguments' types.
+
+    A scalar State holds Python floats, whose ``**`` raises OverflowError; numpy float64 overflows
+    to inf instead, which :func:`_finite` turns into a ValueError naming the state.
+    """
+    from .state import State
+    from .top import TippeTop
+
+    if not isinstance(top, TippeTop):
+        raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
+    if not isinstance(state, State):
+        raise TypeError(f"state must be a State; got {type(state).__name__}")
+    return _Fields(*(np.asarray(getattr(state, n), dtype=float) for n in _FIELDS))
+
+
+_FIELDS = ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
+
+
+class _Fields:
+    __slots__ = _FIELDS
+
+    def __init__(self, *values: np.ndarray) -> None:
+        for name, v in zip(_FIELDS, values, strict=True):
+            setattr(self, name, v)
+
+
+def _finite(what: str, value: np.ndarray, state: _Fields) -> np.ndarray:
+    if not np.all(np.isfinite(value)):
+        big = max(_FIELDS[1:], key=lambda n: float(np.max(np.abs(getattr(state, n)))))
+        raise ValueError(
+            f"state: {what} overflows double precision (|value| > 1.8e308) for this state; "
+            f"its largest field is {big} = {float(np.max(np.abs(getattr(state, big)))):g}"
+        )
+    return value
+
+
 def jellett(top: TippeTop, state: State) -> np.ndarray:
     """Jellett integral λ = −L·a = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (theory.md §1).
 
     Conserved for any contact force applied at the contact point. Positive for a top spun with
     ω3 > 0 near θ = 0.
     """
-    return jellett_of(state.theta, state.phidot, state.omega3, top.R, top.R * top.alpha,
-                      top.I1, top.I3)  # fmt: skip
+    s = _arrays(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        lam = jellett_of(s.theta, s.phidot, s.omega3, top.R, top.R * top.alpha, top.I1, top.I3)
+    return _finite("the Jellett integral", lam, s)
 
 
 def routh(top: TippeTop, state: State) -> np.ndarray:
     """Routh integral D = I3 ω3 √d(cos θ) (theory.md §1); conserved only while rolling."""
-    return routh_of(state.theta, state.omega3, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
+    s = _arrays(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        D = routh_of(s.theta, s.omega3, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
+    return _finite("the Routh integral", D, s)
 
 
 def energy(top: TippeTop, state: State) -> np.ndarray:
@@ -166,9 +208,11 @@ def energy(top: TippeTop, state: State) -> np.ndarray:
 
     The centre-of-mass velocity is ṙ = ν − ω × a.
     """
-    s = state
-    return energy_of(s.theta, s.thetadot, s.phidot, s.omega3, s.nu_x, s.nu_y,
-                     top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g)  # fmt: skip
+    s = _arrays(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        E = energy_of(s.theta, s.thetadot, s.phidot, s.omega3, s.nu_x, s.nu_y,
+                      top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g)  # fmt: skip
+    return _finite("the energy", E, s)
 
 
 def modified_energy(top: TippeTop, state: State) -> np.ndarray:
@@ -178,6 +222,8 @@ def modified_energy(top: TippeTop, state: State) -> np.ndarray:
     Ẽ = E when ν = 0. Algebraically Ẽ = ½ m|ω × a|² + ½ ω·L + m g R(1 − α cos θ), which is how it is
     evaluated here (no cancellation between E and the ν terms).
     """
-    s = state
-    return modified_energy_of(s.theta, s.thetadot, s.phidot, s.omega3,
-                              top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g)  # fmt: skip
+    s = _arrays(top, state)
+    with np.errstate(over="ignore", invalid="ignore"):
+        E = modified_energy_of(s.theta, s.thetadot, s.phidot, s.omega3,
+                               top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g)  # fmt: skip
+    return _finite("the modified energy", E, s)

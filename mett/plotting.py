@@ -1,7 +1,8 @@
 """Figures of the METT and of simulated tops (matplotlib; imported lazily, never by ``import mett``).
 
 Every function takes ``ax=None`` (a new figure is made when it is None) and returns the Figure; no
-global style (rcParams) is changed. Angles are plotted in radians, energies in J (or mJ where said).
+global style (rcParams) is changed. Angles are plotted in radians, every energy in mJ
+(:data:`ENERGY_UNIT`) and the Routh integral D in 10⁻³ kg m²/s.
 """
 
 from __future__ import annotations
@@ -10,19 +11,27 @@ from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib import patheffects
+from matplotlib.ticker import MaxNLocator
 
-from . import potential, separation, thresholds
+from . import _validate, potential, separation, thresholds
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+    from numpy.typing import ArrayLike
 
     from .dynamics import Trajectory
     from .top import TippeTop
 
 __all__ = [
+    "D_LABEL",
+    "D_SCALE",
+    "ENERGY_SCALE",
+    "ENERGY_UNIT",
     "SERIES",
     "animate_deforming_potential",
+    "default_level",
     "plot_D_E_curve",
     "plot_angular_velocities",
     "plot_axis_trace",
@@ -33,6 +42,8 @@ __all__ = [
     "plot_omega3",
     "plot_phase_diagram",
     "plot_potential",
+    "plot_potential_map",
+    "plot_potential_slices",
     "plot_potential_surface",
     "plot_theta",
     "plot_thetadot",
@@ -47,43 +58,342 @@ def _axes(ax: Axes | None, projection: str | None = None) -> tuple[Figure, Axes]
     return fig, fig.add_subplot(projection=projection)
 
 
+# --- units and shared helpers ----------------------------------------------------------------
+
+ENERGY_SCALE = 1e3
+"""Every energy (V, E, Ẽ, E0, E1) is plotted in mJ: J × ENERGY_SCALE."""
+ENERGY_UNIT = "mJ"
+D_SCALE = 1e3
+"""The Routh integral D is plotted in 10⁻³ kg m²/s: D × D_SCALE."""
+D_LABEL = "D [10⁻³ kg m²/s]"
+
+_COORDINATE_LABELS = {"z": "z = cos θ", "theta": "θ [rad]"}
+_SEQUENTIAL_END = 0.85  # sequential colour maps are cut here: their last colours are pale on white
+
+
+def _sci(x: float, digits: int = 4) -> str:
+    """``x`` as mathtext, in scientific notation (a × 10^b) when far from 1."""
+    if x == 0.0 or not np.isfinite(x):
+        return f"{x:g}"
+    e = int(np.floor(np.log10(abs(x))))
+    if -2 <= e <= 3:
+        return f"{x:.{digits}g}"
+    return rf"{x / 10.0**e:.{digits - 1}f}\times10^{{{e}}}"
+
+
+def _lam_text(lam: float) -> str:
+    return rf"$\lambda = {_sci(lam)}$ kg m³/s"
+
+
+def _D_text(D: float) -> str:
+    return rf"$D = {_sci(D)}$ kg m²/s"
+
+
+def _coordinate(coordinate: str) -> str:
+    if coordinate not in _COORDINATE_LABELS:
+        raise ValueError(f"coordinate must be 'z' or 'theta'; got {coordinate!r}")
+    return coordinate
+
+
+def _coordinate_grid(coordinate: str, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Samples u of the plotted coordinate (z or θ) and z = cos θ at them, poles included."""
+    if n < 3:
+        raise ValueError(f"the number of samples must be >= 3; got {n!r}")
+    if coordinate == "z":
+        u = np.linspace(-1.0, 1.0, n)
+        return u, u
+    u = np.linspace(0.0, np.pi, n)
+    return u, np.clip(np.cos(u), -1.0, 1.0)
+
+
+def _sequential_colors(n: int, cmap: str = "viridis") -> list:
+    """``n`` colours of a sequential map, stopping before its pale end (legible on white)."""
+    cm = plt.get_cmap(cmap)
+    return [cm(x) for x in np.linspace(0.0, _SEQUENTIAL_END, max(n, 1))]
+
+
+def _truncated_cmap(cmap: str):
+    from matplotlib.colors import ListedColormap
+
+    cm = plt.get_cmap(cmap)
+    return ListedColormap(cm(np.linspace(0.0, _SEQUENTIAL_END, 256)), name=f"{cm.name}_trunc")
+
+
+def default_level(top: TippeTop, lam: float) -> float:
+    """Default level (J) above which the potential plots leave V out.
+
+    The floor of the travelling well runs from E1 (at D1, θ = π) to E0 (at D0, θ = 0), the energies
+    of the spinning states (:func:`mett.boundary_values`); the level lies above the higher of them
+    by half their difference (at least m g R α), so the walls of the well show and the poles,
+    where V → ∞, do not.
+    """
+    bv = thresholds.boundary_values(top, lam)
+    hi, lo = max(float(bv.E0), float(bv.E1)), min(float(bv.E0), float(bv.E1))
+    return hi + max(0.5 * (hi - lo), top.m * top.g * top.R * top.alpha)
+
+
+def _V_grid(
+    top: TippeTop, lam: float, D: np.ndarray, coordinate: str, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """u (z or θ) and V(cos θ(u), D, λ) (J) on the grid D × u; +inf at the poles."""
+    u, z = _coordinate_grid(coordinate, n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Vs = potential.V(top, z[None, :], D[:, None], lam)
+    return u, Vs
+
+
+def _masked(Vs: np.ndarray, level: float) -> np.ma.MaskedArray:
+    """V with every value above ``level`` (and the infinite poles) masked: left out, not clipped."""
+    return np.ma.masked_where(~(Vs <= level), Vs)
+
+
+def _trimmed_grid(
+    top: TippeTop, lam: float, D: np.ndarray, coordinate: str, n: int, level: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per D, n samples of u spanning exactly the part of the axis where V <= level.
+
+    The ends of each row are the level crossings (bisection to machine precision, kept on the
+    V <= level side), so the surface ends on the curve V = level instead of in a grid-sized
+    staircase. Samples between them that still exceed the level (a hump between two wells) are
+    masked. Returns U (n_D, n) and V (J, NaN where masked); rows without any V <= level are NaN.
+    """
+    u, Vs = _V_grid(top, lam, D, coordinate, max(4 * n, 801))
+    below = Vs <= level
+    has = below.any(axis=1)
+    j0 = np.argmax(below, axis=1)
+    j1 = below.shape[1] - 1 - np.argmax(below[:, ::-1], axis=1)
+
+    def V_of(uu, dd):
+        zz = uu if coordinate == "z" else np.clip(np.cos(uu), -1.0, 1.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return potential.V(top, zz, dd, lam)
+
+    def crossing(inside, outside):
+        # bisection between a sample with V <= level and its neighbour above it
+        for _ in range(60):
+            mid = 0.5 * (inside + outside)
+            ok = V_of(mid, D) <= level
+            inside, outside = np.where(ok, mid, inside), np.where(ok, outside, mid)
+        return inside
+
+    last = u.size - 1
+    a = np.where(j0 > 0, crossing(u[j0], u[np.maximum(j0 - 1, 0)]), u[j0])
+    b = np.where(j1 < last, crossing(u[j1], u[np.minimum(j1 + 1, last)]), u[j1])
+    U = a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, n)[None, :]
+    Vt = V_of(U, D[:, None])
+    Vt = np.where((Vt <= level) & has[:, None], Vt, np.nan)
+    U = np.where(has[:, None], U, np.nan)
+    return U, Vt
+
+
+def _D_range(top: TippeTop, lam: float, D_range) -> tuple[float, float]:
+    if D_range is None:
+        bv = thresholds.boundary_values(top, lam)
+        return float(bv.D1), float(bv.D0)
+    lo, hi = (_validate.finite_scalar("D_range", x) for x in D_range)
+    if not lo < hi:
+        raise ValueError(f"D_range must be (low, high) with low < high; got {D_range!r}")
+    return lo, hi
+
+
+def _level(top: TippeTop, lam: float, level: float | None) -> float:
+    return default_level(top, lam) if level is None else _validate.finite_scalar("level", level)
+
+
+# --- the potential -----------------------------------------------------------------------------
+
+
 def plot_potential_surface(
     top: TippeTop,
     lam: float,
     *,
     D_range: tuple[float, float] | None = None,
-    n_theta: int = 121,
-    n_D: int = 61,
+    coordinate: str = "z",
+    level: float | None = None,
+    cmap: str = "viridis",
+    elev: float = 55.0,
+    azim: float | None = None,
+    n: int = 161,
+    n_D: int = 81,
+    colorbar: bool = True,
     ax: Axes | None = None,
 ) -> Figure:
-    """The surface V(cos θ, D, λ) over θ ∈ (0, π) and D ∈ [D1, D0] (Rutstam 2012, the surface figure).
+    """The surface V(cos θ, D, λ) over the poles' interval and D ∈ [D1, D0] (Rutstam 2012).
+
+    At fixed λ the potential has one well; as D runs from D0 to D1 its floor travels from
+    (z = 1, E0) to (z = −1, E1), the spinning states of :func:`mett.boundary_values`. Values above
+    ``level`` are masked (left out, not clipped to a plateau), so the walls end where V passes it.
 
     Parameters
     ----------
     top : TippeTop
     lam : float
-        Jellett integral λ (> 0).
+        Jellett integral λ (kg m³/s), > 0.
     D_range : (float, float), optional
-        Range of D; default [D1, D0], the boundary values of :func:`mett.boundary_values`.
+        Range of the Routh integral D (kg m²/s); default [D1, D0].
+    coordinate : {"z", "theta"}, default "z"
+        Horizontal axis: z = cos θ ∈ [−1, 1], or θ ∈ [0, π] (rad). The title and labels follow.
+    level : float, optional
+        V (J) above which the surface is left out; default :func:`default_level`.
+    cmap : str, default "viridis"
+        Colour map of V; the colour bar spans [min V, level].
+    elev, azim : float
+        View of the 3-D axes (degrees, as :meth:`mpl_toolkits.mplot3d.axes3d.Axes3D.view_init`).
+        The default looks down along the well (azimuth −105° for z, −75° for θ, the mirror
+        view), so its floor is seen along its whole track.
+    n, n_D : int
+        Samples along the z (or θ) axis and along D.
+    colorbar : bool, default True
+        Draw a colour bar of V (mJ).
     ax : Axes3D, optional
         A 3-D axes to draw into.
+
+    Returns
+    -------
+    Figure
+        Its 3-D axes holds the surface (a ``Poly3DCollection``; cells with a vertex above ``level``
+        lose that vertex, cells with all four above it are dropped).
     """
-    bv = thresholds.boundary_values(top, lam)
-    D_lo, D_hi = D_range if D_range is not None else (float(bv.D1), float(bv.D0))
-    theta = np.linspace(0.02, np.pi - 0.02, n_theta)
+    lam = _validate.positive_jellett(lam)
+    coordinate = _coordinate(coordinate)
+    D_lo, D_hi = _D_range(top, lam, D_range)
+    level = _level(top, lam, level)
     D = np.linspace(D_lo, D_hi, n_D)
-    TH, DD = np.meshgrid(theta, D)
-    Vs = potential.V(top, np.cos(TH), DD, lam)
-    # Clip the walls at the poles so the travelling well stays visible: the spinning states'
-    # energies E0, E1 bound the bottom of the valley.
-    cap = 1.5 * max(float(bv.E0), float(bv.E1))
+    U, Vt = _trimmed_grid(top, lam, D, coordinate, n, level)
+    if not np.isfinite(Vt).any():
+        raise ValueError(f"level = {level!r} J lies below V everywhere on the plotted range")
+    DD = np.broadcast_to(D[:, None], U.shape)
     fig, ax = _axes(ax, projection="3d")
-    ax.plot_surface(TH, DD * 1e3, np.minimum(Vs, cap) * 1e3, cmap="viridis", linewidth=0)
-    ax.set_zlim(None, cap * 1e3)
-    ax.set_xlabel("θ [rad]")
-    ax.set_ylabel("D [10⁻³ kg m²/s]")
-    ax.set_zlabel("V [mJ]")
-    ax.set_title(f"V(cos θ, D, λ), λ = {lam:.4g} kg m³/s")
+    vmin = float(np.nanmin(Vt)) * ENERGY_SCALE
+    vmax = level * ENERGY_SCALE
+    surf = ax.plot_surface(
+        U, DD * D_SCALE, Vt * ENERGY_SCALE,
+        rstride=1, cstride=1, cmap=cmap, vmin=vmin, vmax=vmax, linewidth=0, antialiased=False,
+    )  # fmt: skip
+    u = _coordinate_grid(coordinate, 3)[0]
+    ax.set_zlim(vmin, vmax)
+    ax.set_xlim(u[0], u[-1])
+    ax.set_ylim(D_lo * D_SCALE, D_hi * D_SCALE)
+    if azim is None:
+        azim = -105.0 if coordinate == "z" else -75.0
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_xticks(np.linspace(-1.0, 1.0, 5) if coordinate == "z" else np.arange(0.0, 3.5, 0.5))
+    for axis in (ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(5))
+    ax.set_xlabel(_COORDINATE_LABELS[coordinate])
+    ax.set_ylabel(D_LABEL, labelpad=12)  # clear of the tick labels in the default views
+    ax.set_zlabel(f"V [{ENERGY_UNIT}]", labelpad=6)
+    if coordinate == "z":
+        ax.set_title(rf"$V(\cos\theta, D, \lambda)$, {_lam_text(lam)}")
+    else:
+        ax.set_title(rf"$V$ against $\theta$ and $D$, {_lam_text(lam)}")
+    if colorbar:
+        fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.1, label=f"V [{ENERGY_UNIT}]")
+    return fig
+
+
+def plot_potential_map(
+    top: TippeTop,
+    lam: float,
+    *,
+    D: ArrayLike | None = None,
+    coordinate: str = "z",
+    trajectory: Trajectory | None = None,
+    level: float | None = None,
+    cmap: str = "viridis",
+    n: int = 241,
+    n_levels: int = 25,
+    minimum: bool = True,
+    colorbar: bool = True,
+    ax: Axes | None = None,
+) -> Figure:
+    """V(cos θ, D, λ) as a filled-contour map over (D, z), with the well's track and a run's path.
+
+    The minimum of V(·, D, λ) sits at z_min(D) (:func:`mett.potential_minimum`); it moves from
+    z = 1 at D0 to z = −1 at D1. A gliding top keeps λ and drifts from D0 towards D1 while z
+    oscillates in the well (RR14 §3), so its path (D(t), cos θ(t)) follows the track.
+
+    Parameters
+    ----------
+    top : TippeTop
+    lam : float
+        Jellett integral λ (kg m³/s), > 0.
+    D : array_like, optional
+        Increasing grid of the Routh integral D (kg m²/s). Default: 161 values over [D1, D0]
+        (:func:`mett.boundary_values`), widened to the trajectory's D(t) if one is given.
+    coordinate : {"z", "theta"}, default "z"
+        Vertical axis: z = cos θ or θ (rad).
+    trajectory : Trajectory, optional
+        A simulated run with this λ; its (D(t), cos θ(t)) (or (D(t), θ(t))) is drawn on top.
+    level : float, optional
+        V (J) above which the map is left blank (masked); default :func:`default_level`.
+    cmap : str, default "viridis"
+    n : int
+        Samples along z (or θ).
+    n_levels : int
+        Number of filled-contour levels between min V and ``level``.
+    minimum : bool, default True
+        Draw the track z_min(D) of the well's minimum.
+    colorbar : bool, default True
+        Draw a colour bar of V (mJ).
+    ax : Axes, optional
+
+    Returns
+    -------
+    Figure
+        Lines carry the labels "well minimum" and "trajectory" (data in the plotted units:
+        D in 10⁻³ kg m²/s, z or θ in rad).
+    """
+    from .estimates import potential_minimum
+
+    lam = _validate.positive_jellett(lam)
+    coordinate = _coordinate(coordinate)
+    level = _level(top, lam, level)
+    if D is None:
+        lo, hi = _D_range(top, lam, None)
+        if trajectory is not None:
+            lo, hi = min(lo, float(np.min(trajectory.D))), max(hi, float(np.max(trajectory.D)))
+        Dg = np.linspace(lo, hi, 161)
+    else:
+        Dg = _validate.as_finite_array("D", D).ravel()
+        if Dg.size < 2 or np.any(np.diff(Dg) <= 0):
+            raise ValueError("D must be an increasing grid of at least 2 values (kg m²/s)")
+    u, Vs = _V_grid(top, lam, Dg, coordinate, n)
+    if not (Vs <= level).any():
+        raise ValueError(f"level = {level!r} J lies below V everywhere on the plotted range")
+    # Values above the top contour level are left unfilled (contourf draws no band above it),
+    # which cuts the map along the smooth curve V = level; only the infinite poles are masked.
+    data = np.ma.masked_invalid(Vs.T) * ENERGY_SCALE
+    fig, ax = _axes(ax)
+    vmin = float(np.min(Vs[np.isfinite(Vs)])) * ENERGY_SCALE
+    levels = np.linspace(vmin, level * ENERGY_SCALE, n_levels)
+    cs = ax.contourf(Dg * D_SCALE, u, data, levels=levels, cmap=cmap, extend="neither")
+    ax.contour(Dg * D_SCALE, u, data, levels=levels[::4], colors="w", linewidths=0.4, alpha=0.6)
+    if minimum:
+        zmin = np.array([potential_minimum(top, float(d), lam) for d in Dg])
+        track = zmin if coordinate == "z" else np.arccos(np.clip(zmin, -1.0, 1.0))
+        ax.plot(
+            Dg * D_SCALE, track, color="w", ls="--", lw=1.4, label="well minimum",
+            path_effects=[patheffects.withStroke(linewidth=2.6, foreground="k")],
+        )  # fmt: skip
+    if trajectory is not None:
+        y = np.cos(trajectory.theta) if coordinate == "z" else np.asarray(trajectory.theta)
+        x = np.asarray(trajectory.D) * D_SCALE
+        ax.plot(x, y, color="C1", lw=0.6, label="trajectory")
+        ax.plot([x[0]], [y[0]], "o", color="C1", ms=6, mec="k", clip_on=False, label="start")
+        ax.plot([x[-1]], [y[-1]], "s", color="C1", ms=6, mec="k", clip_on=False, label="end")
+    ax.set_xlim(Dg[0] * D_SCALE, Dg[-1] * D_SCALE)
+    ax.set_ylim(u[0], u[-1])
+    ax.set_xlabel(D_LABEL)
+    ax.set_ylabel(_COORDINATE_LABELS[coordinate])
+    if coordinate == "z":
+        ax.set_title(rf"$V(\cos\theta, D, \lambda)$, {_lam_text(lam)}")
+    else:
+        ax.set_title(rf"$V$ over $(D, \theta)$, {_lam_text(lam)}")
+    if colorbar:
+        fig.colorbar(cs, ax=ax, label=f"V [{ENERGY_UNIT}]", ticks=MaxNLocator(6))
+    if minimum or trajectory is not None:
+        ax.legend(loc="best", fontsize="small", framealpha=0.85)
     return fig
 
 
@@ -93,33 +403,115 @@ def plot_potential(
     lam: float,
     *,
     E: float | None = None,
+    color: str | None = None,
+    label: str | None = None,
     ax: Axes | None = None,
 ) -> Figure:
-    """V(z, D, λ) against z = cos θ, with the energy level and the turning points when E is given."""
+    """V(z, D, λ) against z = cos θ (mJ); with the level Ẽ = E and its turning points if E is given.
+
+    The view is zoomed on the well: with ``E`` the range shows the band between the turning
+    points, without it the well from its floor up to the lower of the curve's values at the edges
+    of the zoom. Several calls on one axes add curves: each takes the axes' next colour (or
+    ``color``), is labelled by its D, and widens the limits; the title (λ) is set by the first.
+
+    Parameters
+    ----------
+    top : TippeTop
+    D, lam : float
+        Routh integral D (kg m²/s) and Jellett integral λ (kg m³/s).
+    E : float, optional
+        Modified energy Ẽ (J) of a state; draws the level and the turning points.
+    color : str, optional
+        Colour of the curve (default: the axes' next colour).
+    label : str, optional
+        Legend entry of the curve (default "D = …").
+    ax : Axes, optional
+    """
+    D = _validate.finite_scalar("D", D)
+    lam = _validate.finite_scalar("lam", lam)
+    fresh = ax is None or not ax.has_data()
     fig, ax = _axes(ax)
     z = np.linspace(-0.999, 0.999, 1201)
     v = potential.V(top, z, D, lam)
-    zm = separation.band(top, 0.0, D, lam).z_min if E is None else None
     if E is not None:
+        E = _validate.finite_scalar("E", E)
         b = separation.band(top, E, D, lam)
         zm = b.z_min
+    else:
+        from .estimates import potential_minimum
+
+        zm = potential_minimum(top, D, lam)
     vmin = float(potential.V(top, zm, D, lam))
-    top_level = E if E is not None else vmin
-    span = max(top_level - vmin, 1e-12 * abs(vmin)) * 4 + 1e-9
-    ax.plot(z, v, color="C0", label="V(z, D, λ)")
-    ax.set_ylim(vmin - 0.1 * span, vmin + span)
-    inside = z[v <= vmin + span]
-    if inside.size:  # zoom on the well
-        margin = 0.15 * (inside[-1] - inside[0]) + 1e-3
-        ax.set_xlim(max(-1.0, inside[0] - margin), min(1.0, inside[-1] + margin))
+    if E is not None and E > vmin:
+        top_level = vmin + 4.0 * (E - vmin)
+    else:
+        # from the curve: the well up to 2 m g R α above its floor, or to the higher end of the
+        # curve if the whole curve is shallower than that
+        depth = 2.0 * top.m * top.g * top.R * top.alpha
+        top_level = min(vmin + depth, float(max(v[0], v[-1])))
+    span = top_level - vmin
+    inside = z[v <= top_level]
+    margin = 0.1 * (inside[-1] - inside[0]) + 1e-3 if inside.size else 0.0
+    xlim = (
+        (max(-1.0, inside[0] - margin), min(1.0, inside[-1] + margin)) if inside.size else (-1, 1)
+    )
+    ylim = ((vmin - 0.08 * span) * ENERGY_SCALE, (vmin + 1.05 * span) * ENERGY_SCALE)
+    (curve,) = ax.plot(
+        z, v * ENERGY_SCALE, color=color, label=label if label is not None else _D_text(D)
+    )
+    c = curve.get_color()
     if E is not None:
-        ax.axhline(E, color="C1", ls="--", label="Ẽ")
+        ax.axhline(E * ENERGY_SCALE, color=c, ls="--", lw=0.9, label=r"$\tilde E$")
         if b.kind != "none":
-            ax.plot([b.z_low, b.z_high], [E, E], "o", color="C3", label="turning points")
-    ax.set_xlabel("z = cos θ")
-    ax.set_ylabel("V [J]")
-    ax.set_title(f"D = {D:.4g} kg m²/s, λ = {lam:.4g} kg m³/s")
-    ax.legend(loc="best")
+            ax.plot([b.z_low, b.z_high], [E * ENERGY_SCALE] * 2, "o", color=c, mec="k",
+                    label="turning points", clip_on=False)  # fmt: skip
+    if fresh:
+        ax.set_xlim(*xlim)
+        ax.set_ylim(*ylim)
+        ax.set_title(rf"$V(z, D, \lambda)$, {_lam_text(lam)}")
+    else:  # widen to the union of the old and the new view
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        ax.set_xlim(min(x0, xlim[0]), max(x1, xlim[1]))
+        ax.set_ylim(min(y0, ylim[0]), max(y1, ylim[1]))
+        if not ax.get_title():
+            ax.set_title(rf"$V(z, D, \lambda)$, {_lam_text(lam)}")
+    ax.set_xlabel(_COORDINATE_LABELS["z"])
+    ax.set_ylabel(f"V [{ENERGY_UNIT}]")
+    ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_potential_slices(
+    top: TippeTop,
+    Ds: ArrayLike,
+    lam: float,
+    *,
+    cmap: str = "viridis",
+    ax: Axes | None = None,
+) -> Figure:
+    """Several slices V(z, D, λ) at the Routh values ``Ds`` (kg m²/s), one colour each.
+
+    Colours run along a sequential map (``cmap``, cut before its pale end) in the order of ``Ds``;
+    each curve is labelled with its D. Built on :func:`plot_potential`.
+    """
+    Ds = _validate.as_finite_array("Ds", Ds).ravel()
+    if Ds.size == 0:
+        raise ValueError("Ds must hold at least one value of D (kg m²/s)")
+    fig, ax = _axes(ax)
+    lines = []
+    for D, color in zip(Ds, _sequential_colors(Ds.size, cmap), strict=True):
+        plot_potential(top, float(D), lam, color=color, ax=ax)
+        lines.append(ax.lines[-1])
+    # one view for all: every floor, and the walls of the highest well
+    floors = [float(np.min(ln.get_ydata())) for ln in lines]
+    lo = min(floors)
+    depth = 2.0 * top.m * top.g * top.R * top.alpha * ENERGY_SCALE
+    hi = max(floors) + max(depth, 0.3 * (max(floors) - lo))
+    z_in = np.concatenate([ln.get_xdata()[ln.get_ydata() <= hi] for ln in lines])
+    pad = 0.03 * (z_in.max() - z_in.min()) + 1e-3
+    ax.set_xlim(max(-1.0, z_in.min() - pad), min(1.0, z_in.max() + pad))
+    ax.set_ylim(lo - 0.05 * (hi - lo), hi)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     return fig
 
 
@@ -156,9 +548,9 @@ SERIES: dict[str, tuple[str, str, float]] = {
     "nu_x": (r"$\nu_x$", "m/s", 1.0),
     "nu_y": (r"$\nu_y$", "m/s", 1.0),
     "gn": (r"$g_n$", "N", 1.0),
-    "E": (r"$E$", "mJ", 1e3),
-    "E_mod": (r"$\tilde E$", "mJ", 1e3),
-    "D": (r"$D$", "10⁻³ kg m²/s", 1e3),
+    "E": (r"$E$", ENERGY_UNIT, ENERGY_SCALE),
+    "E_mod": (r"$\tilde E$", ENERGY_UNIT, ENERGY_SCALE),
+    "D": (r"$D$", "10⁻³ kg m²/s", D_SCALE),
     "lam": (r"$\lambda$", "kg m³/s", 1.0),
     "x": ("x", "m", 1.0),
     "y": ("y", "m", 1.0),
@@ -244,11 +636,12 @@ def plot_D_E_curve(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     fig, ax = _axes(ax)
     lam = float(np.median(traj.lam))
     bv = thresholds.boundary_values(traj.top, lam)
-    ax.plot(traj.D * 1e3, traj.E_mod * 1e3, lw=0.8, label="(D(t), Ẽ(t))")
-    ax.plot([bv.D0 * 1e3], [bv.E0 * 1e3], "o", color="C2", label="(D0, E0): upright spin")
-    ax.plot([bv.D1 * 1e3], [bv.E1 * 1e3], "s", color="C3", label="(D1, E1): inverted spin")
+    eS, dS = ENERGY_SCALE, D_SCALE
+    ax.plot(traj.D * dS, traj.E_mod * eS, lw=0.8, label="(D(t), Ẽ(t))")
+    ax.plot([bv.D0 * dS], [bv.E0 * eS], "o", color="C2", label="(D0, E0): upright spin")
+    ax.plot([bv.D1 * dS], [bv.E1 * eS], "s", color="C3", label="(D1, E1): inverted spin")
     ax.set_xlabel("D [10⁻³ kg m²/s]")
-    ax.set_ylabel("Ẽ [mJ]")
+    ax.set_ylabel(f"Ẽ [{ENERGY_UNIT}]")
     ax.legend(loc="best")
     return fig
 
@@ -270,22 +663,20 @@ def plot_deforming_potential(
     z, Vs, theta = analysis.deforming_potential(traj, times)
     fig, ax = _axes(ax)
     th = np.arccos(z)
-    cmap = plt.get_cmap("viridis")
-    vmin = Vs.min()
+    vmin = Vs.min() * ENERGY_SCALE
     s = traj.at(np.asarray(times))
     E_mod = np.atleast_1d(_modified_energy(traj, s))
-    for i, t in enumerate(times):
-        color = cmap(i / max(len(times) - 1, 1))
-        ax.plot(th, Vs[i] * 1e3, color=color, lw=1.0, label=f"t = {t:.2f} s")
-        ax.plot(theta[i], float(potential.V(traj.top, np.cos(theta[i]), *_DL(traj, s, i))) * 1e3,
-                "o", color=color)  # fmt: skip
-    top_level = max(E_mod.max(), vmin) * 1e3
-    ax.set_ylim(
-        vmin * 1e3 - 0.05 * (top_level - vmin * 1e3), top_level + 0.6 * (top_level - vmin * 1e3)
-    )
+    for i, (t, color) in enumerate(zip(times, _sequential_colors(len(times)), strict=True)):
+        ax.plot(th, Vs[i] * ENERGY_SCALE, color=color, lw=1.2, label=f"t = {t:.2f} s")
+        v_dot = float(potential.V(traj.top, np.cos(theta[i]), *_DL(traj, s, i)))
+        # clip_on=False: the last dot sits on the θ = π edge of the axes
+        ax.plot(theta[i], v_dot * ENERGY_SCALE, "o", color=color, mec="k", mew=0.6,
+                clip_on=False, zorder=3)  # fmt: skip
+    top_level = max(E_mod.max() * ENERGY_SCALE, vmin)
+    ax.set_ylim(vmin - 0.05 * (top_level - vmin), top_level + 0.6 * (top_level - vmin))
     ax.set_xlim(0, np.pi)
     ax.set_xlabel("θ [rad]")
-    ax.set_ylabel("V(cos θ, D(t), λ) [mJ]")
+    ax.set_ylabel(f"V(cos θ, D(t), λ) [{ENERGY_UNIT}]")
     ax.set_title("the deforming potential; dots: θ(t)")
     ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small")
     return fig
@@ -317,22 +708,23 @@ def animate_deforming_potential(
     z, Vs, theta = analysis.deforming_potential(traj, times)
     th = np.arccos(z)
     fig, ax = _axes(None)
-    (curve,) = ax.plot(th, Vs[0] * 1e3, color="C0")
-    (dot,) = ax.plot([], [], "o", color="C3")
+    (curve,) = ax.plot(th, Vs[0] * ENERGY_SCALE, color="C0")
+    (dot,) = ax.plot([], [], "o", color="C3", clip_on=False, zorder=3)
     s = traj.at(times)
     vdot = np.array(
         [float(potential.V(traj.top, np.cos(theta[i]), *_DL(traj, s, i))) for i in range(frames)]
     )
-    lo, hi = Vs.min() * 1e3, np.max(np.atleast_1d(_modified_energy(traj, s))) * 1e3
+    lo = Vs.min() * ENERGY_SCALE
+    hi = np.max(np.atleast_1d(_modified_energy(traj, s))) * ENERGY_SCALE
     ax.set_ylim(lo - 0.05 * (hi - lo), hi + 0.5 * (hi - lo))
     ax.set_xlim(0, np.pi)
     ax.set_xlabel("θ [rad]")
-    ax.set_ylabel("V [mJ]")
+    ax.set_ylabel(f"V(cos θ, D(t), λ) [{ENERGY_UNIT}]")
     title = ax.set_title("")
 
     def update(i):
-        curve.set_ydata(Vs[i] * 1e3)
-        dot.set_data([theta[i]], [vdot[i] * 1e3])
+        curve.set_ydata(Vs[i] * ENERGY_SCALE)
+        dot.set_data([theta[i]], [vdot[i] * ENERGY_SCALE])
         title.set_text(f"t = {times[i]:.2f} s")
         return curve, dot, title
 
@@ -353,6 +745,8 @@ def plot_axis_trace(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     ax.plot(x, y, zz, lw=0.7, color="C1", label="axis 3̂(t)")
     ax.plot([x[0]], [y[0]], [zz[0]], "o", color="C2", label="start")
     ax.plot([x[-1]], [y[-1]], [zz[-1]], "s", color="C3", label="end")
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # three ticks each: the default ones overlap
+        axis.set_ticks([-1.0, 0.0, 1.0])
     ax.set_xlabel("x")
     ax.set_ylabel("y")
     ax.set_zlabel("z")
@@ -365,9 +759,11 @@ _KIND_STYLE = {
     "upright": ("o", "C0"),
     "tumbling": ("^", "C2"),
     "inverted": ("s", "C3"),
+    "not settled": ("D", "C1"),
     "contact_lost": ("x", "k"),
     "failed": ("x", "0.5"),
     "invalid": ("x", "0.7"),
+    "error": ("x", "C3"),
 }
 
 
@@ -377,8 +773,8 @@ def plot_phase_diagram(
 ) -> Figure:  # fmt: skip
     """End states of a sweep (:func:`mett.sweeps.sweep`) in the plane of two of its columns.
 
-    Points are drawn by their simulated end state (upright / tumbling / inverted; contact loss and
-    failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
+    Points are drawn by their simulated end state (upright / tumbling / inverted, "not settled"
+    for runs too short to tell; contact loss and failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
     the eccentricity ``alpha`` (default: the sweep's, if it did not vary): λ = λ_thres is the line
     λ/λ_thres = 1 and λ = λ_0 the curve λ_0/λ_thres = ((1 − α)/(1 + α))² √((1 + α − γ)/(α + γ − 1))
     (theory.md §7); between them the top ends tumbling.

@@ -6,17 +6,20 @@ fix them instead). Any preset accepts ``a`` (the CM offset αR, in metres) in pl
 
 >>> from mett import presets
 >>> presets.names()
-('cohen1977', 'rutstam2012', 'rutstam2013', 'seed000', 'ueda2005')
+('cohen1977', 'maple-tippe-top', 'rutstam2012', 'rutstam2013', 'ueda2005')
 >>> top = presets.get("rutstam2013", mu=0.1)
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from .top import TippeTop
+from . import _validate
+from ._validate import MettDeprecationWarning
+from .top import FIELD_RANGE, TippeTop
 
 __all__ = ["Preset", "describe", "get", "names"]
 
@@ -76,8 +79,9 @@ _PRESETS: dict[str, Preset] = {
             _fractions(2 / 5, 2 / 5),
         ),
         Preset(
-            "seed000",
-            "The Maple/Poincaré paper (seed 000), Table 1 converted from CGS: I1 = 45 g cm² = 4.5e-6 "
+            "maple-tippe-top",
+            "Utilization of Maple-based Physics Computation in Determining the Dynamics of Tippe Top "
+            "(no authors or year in the text; key from the title), Table 1 converted from CGS: I1 = 45 g cm² = 4.5e-6 "
             "kg m², I3 = 50 g cm² = 5.0e-6 kg m², m = 13 g, R = 1.3 cm (D = 2.6 cm is the diameter), "
             "g = 981 cm/s².",
             "The paper gives no eccentricity: alpha (or a = αR) must be passed. Its μ and its spin "
@@ -104,7 +108,18 @@ def names() -> tuple[str, ...]:
     return tuple(sorted(_PRESETS))
 
 
+_DEPRECATED = {"seed000": "maple-tippe-top"}  # refmap: keep (old name -> new name)
+
+
 def _lookup(name: str) -> Preset:
+    if isinstance(name, str) and name in _DEPRECATED:
+        new = _DEPRECATED[name]
+        warnings.warn(
+            f"preset {name!r} is deprecated; use {new!r}",  # refmap: keep
+            MettDeprecationWarning,
+            stacklevel=3,
+        )
+        name = new
     try:
         return _PRESETS[name]
     except (KeyError, TypeError):
@@ -129,8 +144,10 @@ def get(name: str, **overrides: Any) -> TippeTop:
 
     Raises
     ------
+    TypeError
+        A value that is not a real number.
     ValueError
-        Unknown preset or field, ``alpha`` missing where the source does not give it (seed000), or
+        Unknown preset or field, ``alpha`` missing where the source does not give it (maple-tippe-top), or
         nonphysical values.
     """
     p = _lookup(name)
@@ -142,19 +159,26 @@ def get(name: str, **overrides: Any) -> TippeTop:
             f"allowed: {', '.join(sorted(allowed))}"
         )
     params: dict[str, Any] = dict(p.defaults)
+    overrides = dict(overrides)
     a = overrides.pop("a", None)
     params.update(overrides)
+    # m and R enter a/R and the inertia fractions: check them first, so the error names them
+    for field, unit in (("m", "kg"), ("R", "m")):
+        params[field] = _validate.bounded_scalar(field, params[field], *FIELD_RANGE, unit=unit)
     if a is not None:
         if "alpha" in overrides:
             raise ValueError("give either alpha or a (= alpha*R), not both")
-        params["alpha"] = float(a) / float(params["R"])
+        a = _validate.finite_scalar("a", a)
+        if not 0.0 < a < params["R"]:
+            raise ValueError(f"a = alpha*R must lie in (0, R) = (0, {params['R']!r}) m; got {a!r}")
+        params["alpha"] = a / params["R"]
     if params.get("alpha") is None:
         raise ValueError(
             f"preset {name!r} does not fix the eccentricity: pass alpha in (0, 1) or a = alpha*R "
             "(the source gives neither)"
         )
     if p.inertia is not None:
-        I1, I3 = p.inertia(float(params["m"]), float(params["R"]))
+        I1, I3 = p.inertia(params["m"], params["R"])
         params.setdefault("I1", I1)
         params.setdefault("I3", I3)
     return TippeTop(**params)

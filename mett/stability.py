@@ -53,18 +53,27 @@ def spin_jacobian(top: TippeTop, lam: float, pole: str = "inverted") -> np.ndarr
     """
     from .dynamics.gliding import gliding_rhs
 
+    _validate.instance("top", top, "TippeTop")
     lam = _validate.positive_jellett(lam)
     y0 = _spin_state(top, lam, pole)
     p = _params(top)
     scale = np.maximum(np.abs(y0), [top.R, top.R, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
-    scale[2:4] = top.R * abs(y0[6]) / top.I3  # velocities ~ R ω3
-    scale[4:7] = abs(y0[6])
+    # velocities ~ R ω3, angular momenta ~ I3 ω3; floored at the gravity scale √(g/R) so that a
+    # tiny λ does not give a zero (or underflowing) complex step
+    w_floor = math.sqrt(top.g / top.R)
+    scale[2:4] = top.R * max(abs(y0[6]) / top.I3, w_floor)
+    scale[4:7] = top.I3 * max(abs(y0[6]) / top.I3, w_floor)
     J = np.empty((10, 10))
-    for k in range(10):
-        h = 1e-30 * scale[k]
-        yc = y0.astype(complex)
-        yc[k] += 1j * h
-        J[:, k] = np.imag(gliding_rhs(0.0, yc, p)) / h
+    with np.errstate(all="ignore"):  # an overflow shows as a non-finite J, refused below
+        for k in range(10):
+            h = 1e-30 * scale[k]
+            yc = y0.astype(complex)
+            yc[k] += 1j * h
+            J[:, k] = np.imag(gliding_rhs(0.0, yc, p)) / h
+    if not np.all(np.isfinite(J)):
+        raise ValueError(
+            f"lam = {lam!r} is too large: the linearisation at that spin overflows double precision"
+        )
     return J
 
 
@@ -89,7 +98,8 @@ def spin_eigenvalues(top: TippeTop, lam: float, pole: str = "inverted") -> np.nd
     Raises
     ------
     ValueError
-        If ``lam`` is not positive and finite, or ``pole`` is not one of the two names.
+        If ``lam`` is not positive and finite (or so large that the linearisation overflows), or
+        ``pole`` is not one of the two names.
     """
     J = spin_jacobian(top, lam, pole)
     ev = np.linalg.eigvals(J[np.ix_(_HORIZONTAL, _HORIZONTAL)])
@@ -125,7 +135,7 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
     from .dynamics import MODELS
     from .integrals import jellett
 
-    lam = float(jellett(top, state))
+    lam = float(jellett(top, state))  # checks the types of top and state
     J = spin_jacobian(top, lam, "upright")
     A = J[np.ix_(_HORIZONTAL, _HORIZONTAL)]
     ev, vecs = np.linalg.eig(A)
@@ -137,18 +147,25 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
         )
     model = MODELS["gliding"]
     p = model.params(top, {})
-    dy = model.initial(state, p) - _spin_state(top, lam, "upright")
-    coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+    with np.errstate(over="ignore", invalid="ignore"):
+        dy = model.initial(state, p) - _spin_state(top, lam, "upright")
+    if not np.all(np.isfinite(dy)):
+        raise ValueError(
+            "state is not near the upright spin (its deviation overflows double precision): the "
+            "linear escape prediction does not apply"
+        )
     unstable = ev.real > 0.5 * sigma
-    # 3̂_x, 3̂_y rows of the unstable part: its size is sin θ of the unstable component.
-    u = vecs[4:6][:, unstable] * coef[unstable]
-    amplitude = float(np.sqrt(np.sum(np.abs(u) ** 2)))
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge deviation: inf, refused below
+        coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+        # 3̂_x, 3̂_y rows of the unstable part: its size is sin θ of the unstable component.
+        u = vecs[4:6][:, unstable] * coef[unstable]
+        amplitude = float(np.sqrt(np.sum(np.abs(u) ** 2)))
     if amplitude == 0.0:
         raise ValueError(
             "the state has no component in the unstable modes (e.g. exactly upright): "
             "the linear prediction never leaves the spin"
         )
-    if amplitude >= 1.0:
+    if not amplitude < 1.0:  # NaN from an overflowing deviation too
         raise ValueError(
             f"the state is not near the upright spin (unstable-mode amplitude {amplitude:.3g} "
             ">= 1): the linear escape prediction does not apply"

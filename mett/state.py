@@ -110,8 +110,13 @@ class State:
         ``ν_x = −R θ̇ (1 − α cos θ)`` and ``ν_y = R sin θ (ω3 + φ̇ (α − cos θ))`` (theory.md §1).
         With ``thetadot = 0`` the centre of mass is at rest.
         """
+        _validate.instance("top", top, "TippeTop")
         th = _validate.theta(theta)
+        thetadot = _validate.as_finite_array("thetadot", thetadot)
+        phidot = _validate.as_finite_array("phidot", phidot)
+        omega3 = _validate.as_finite_array("omega3", omega3)
         c, s = np.cos(th), np.sin(th)
-        nu_x = -top.R * np.asarray(thetadot, dtype=float) * (1.0 - top.alpha * c)
-        nu_y = top.R * s * (np.asarray(omega3, dtype=float) + np.asarray(phidot) * (top.alpha - c))
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused by State
+            nu_x = -top.R * thetadot * (1.0 - top.alpha * c)
+            nu_y = top.R * s * (omega3 + phidot * (top.alpha - c))
         return cls(theta=th, thetadot=thetadot, phidot=phidot, omega3=omega3, nu_x=nu_x, nu_y=nu_y)

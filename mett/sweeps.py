@@ -13,10 +13,13 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import importlib.util
 import itertools
 import json
 import math
 import os
+import sys
+import warnings
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor, Future, as_completed
 from pathlib import Path
@@ -39,17 +42,51 @@ GRID_NAMES = (*_TOP_FIELDS, *_STATE_FIELDS, *_DERIVED)
 _CHECKPOINT_VERSION = 1
 # θ within this of a pole counts as that pole when classifying a simulated end state
 _POLE_TOL = 0.05
+# A run has settled when, over its last _SETTLE_WINDOW (a fraction of the run), θ moved less than
+# _SETTLE_THETA (rad) and the top lost less than _SETTLE_ENERGY of all the energy it lost in the
+# run: the end states (spins, tumbling) are steady and dissipate nothing, while a top still
+# inverting or climbing keeps losing energy at a comparable rate (measured on the thesis top:
+# settled runs lose < 0.1 % of their loss in the last quarter, unsettled ones 29-74 %).
+_SETTLE_WINDOW = 0.25
+_SETTLE_THETA = 0.05
+_SETTLE_ENERGY = 0.01
+
+NOT_SETTLED = "not settled"
+"""End label of a completed run whose θ was still moving at ``t_end``: run it longer."""
 
 
-def classify_end(theta_end: float, status: str) -> str:
-    """ "upright", "inverted" or "tumbling" from the final θ; the status if the run did not complete."""
+def classify_end(theta_end: float, status: str, *, settled: bool = True) -> str:
+    """ "upright", "inverted" or "tumbling" from the final θ.
+
+    The run's status instead if it did not complete, and :data:`NOT_SETTLED` if it completed
+    before θ settled (``settled=False``), since θ at ``t_end`` is then not an end state.
+    """
     if status != "completed":
         return status
+    if not settled:
+        return NOT_SETTLED
     if theta_end < _POLE_TOL:
         return "upright"
     if theta_end > math.pi - _POLE_TOL:
         return "inverted"
     return "tumbling"
+
+
+def _settled(traj: Any) -> bool:
+    """Whether θ and the energy were steady over the last quarter of the run (see above)."""
+    import numpy as np
+
+    t0, t1 = float(traj.t[0]), float(traj.t[-1])
+    if not t1 > t0:
+        return False
+    tw = t1 - _SETTLE_WINDOW * (t1 - t0)
+    theta = np.asarray(traj.at(np.linspace(tw, t1, 101)).theta)
+    E = np.asarray(traj.E, dtype=float)
+    lost = abs(E[0] - E[-1])
+    late = abs(float(np.interp(tw, traj.t, E)) - E[-1])
+    # a conservative run (nothing lost, to rounding) is judged by θ alone
+    share = late / lost if lost > 1e-9 * abs(E[0]) else 0.0
+    return bool(np.ptp(theta) < _SETTLE_THETA and share < _SETTLE_ENERGY)
 
 
 def _point_setup(base: dict, point: dict) -> tuple[TippeTop, dict]:
@@ -73,13 +110,35 @@ def _point_setup(base: dict, point: dict) -> tuple[TippeTop, dict]:
     return top, ic
 
 
+_NAN_RESULT = dict(
+    t_invert=math.nan, theta_end=math.nan, omega3_end=math.nan, omega3_start=math.nan,
+    lam=math.nan, lam_ratio=math.nan, gamma=math.nan, predicted="n/a", agree=False,
+)  # fmt: skip
+
+
+def _describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
 def _run_point(base: dict, point: dict) -> dict:
+    """One grid point's row. Never raises: a failure is the row's status and message.
+
+    ``status`` is "invalid" (the point's parameters are refused: ValueError/TypeError while building
+    the top or the state), "error" (the simulation raised), or the simulation's own status; an
+    exception of the prediction only sets ``predicted`` = "error" and keeps the simulated result.
+    """
     from .dynamics import simulate
     from .integrals import jellett
     from .state import State
     from .thresholds import asymptotic_state
 
     row: dict[str, Any] = dict(point)
+
+    def finish(result: dict) -> dict:
+        # the grid's own values stay exact (λ/λ_thres recomputed would differ in the last bit)
+        row.update({k: v for k, v in {**_NAN_RESULT, **result}.items() if k not in point})
+        return row
+
     try:
         top, ic = _point_setup(base, point)
         state = State(
@@ -87,33 +146,38 @@ def _run_point(base: dict, point: dict) -> dict:
             omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
         )  # fmt: skip
         lam = float(jellett(top, state))
+        start = dict(
+            omega3_start=float(ic["omega3"]), lam=lam, lam_ratio=lam / top.lambda_thres,
+            gamma=top.gamma,
+        )  # fmt: skip
+    except (ValueError, TypeError, ArithmeticError) as exc:  # an inadmissible point
+        return finish(dict(status="invalid", message=str(exc), simulated="invalid"))
+    try:
         traj = simulate(top, state, base["t_end"], **base["simulate_kw"])
-        cross = traj.crossings(math.pi / 2)
+    except Exception as exc:  # a sweep records a failing point and goes on
+        return finish(dict(start, status="error", message=_describe(exc), simulated="error"))
+    message = traj.message
+    try:
         predicted = asymptotic_state(top, lam).kind if lam > 0 else "n/a"
-        simulated = classify_end(float(traj.theta[-1]), traj.status)
-        result = dict(
+    except Exception as exc:  # the simulated result is kept
+        predicted = "error"
+        message = "; ".join(filter(None, [message, f"asymptotic_state: {_describe(exc)}"]))
+    cross = traj.crossings(math.pi / 2)
+    settled = traj.status != "completed" or _settled(traj)
+    simulated = classify_end(float(traj.theta[-1]), traj.status, settled=settled)
+    return finish(
+        dict(
+            start,
             t_invert=float(cross[0]) if cross.size else math.nan,
             status=traj.status,
-            message=traj.message,
+            message=message,
             theta_end=float(traj.theta[-1]),
             omega3_end=float(traj.omega3[-1]),
-            omega3_start=float(ic["omega3"]),
-            lam=lam,
-            lam_ratio=lam / top.lambda_thres,
-            gamma=top.gamma,
             predicted=predicted,
             simulated=simulated,
             agree=bool(predicted == simulated),
         )
-        # the grid's own values stay exact (λ/λ_thres recomputed would differ in the last bit)
-        row.update({k: v for k, v in result.items() if k not in point})
-    except ValueError as exc:  # an inadmissible point: recorded, the sweep goes on
-        row.update(
-            t_invert=math.nan, status="invalid", message=str(exc), theta_end=math.nan,
-            omega3_end=math.nan, omega3_start=math.nan, lam=math.nan, lam_ratio=math.nan,
-            gamma=math.nan, predicted="n/a", simulated="invalid", agree=False,
-        )  # fmt: skip
-    return row
+    )
 
 
 def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dict]]:
@@ -146,13 +210,17 @@ def _signature(base: dict, names: list[str], points: list[dict]) -> str:
 
 
 class _Checkpoint:
-    """JSON-lines file: a header with the arguments' signature, then one finished point a line."""
+    """JSON-lines file: a header with the arguments' signature, then one finished point a line.
 
-    def __init__(self, path: Path, signature: str, summary: dict) -> None:
+    An existing file is read and checked (header, signature, every record) before anything is
+    written to it, so a file that is not this sweep's checkpoint is never modified.
+    """
+
+    def __init__(self, path: Path, signature: str, summary: dict, n_points: int) -> None:
         self.path = path
         self.done: dict[int, dict] = {}
         if path.exists() and path.stat().st_size > 0:
-            self._load(signature)
+            self._load(signature, n_points)
         else:
             header = {"mett_sweep": _CHECKPOINT_VERSION, "signature": signature, "args": summary}
             with open(path, "w", encoding="utf-8") as fh:
@@ -161,27 +229,46 @@ class _Checkpoint:
                 os.fsync(fh.fileno())
         self._fh = open(path, "a", encoding="utf-8")
 
-    def _load(self, signature: str) -> None:
+    def _load(self, signature: str, n_points: int) -> None:
         raw = self.path.read_bytes()
         lines = raw.split(b"\n")
-        # A kill in the middle of a write leaves a partial last line: cut it off.
         complete, tail = lines[:-1], lines[-1]
-        if tail:
-            with open(self.path, "r+b") as fh:
-                fh.truncate(len(raw) - len(tail))
+        not_ours = (
+            f"{self.path} exists and is not a mett sweep checkpoint; it was left untouched "
+            "(choose another checkpoint path)"
+        )
         try:
             header = json.loads(complete[0])
-        except (IndexError, json.JSONDecodeError):
-            raise ValueError(f"{self.path} is not a mett sweep checkpoint") from None
+        except (IndexError, UnicodeDecodeError, json.JSONDecodeError):
+            raise ValueError(not_ours) from None
+        if not isinstance(header, dict) or "mett_sweep" not in header:
+            raise ValueError(not_ours)
         if header.get("signature") != signature:
             raise ValueError(
                 f"checkpoint {self.path} was written for different sweep arguments "
                 f"({header.get('args')}); use another path or delete it"
             )
-        for line in complete[1:]:
-            if line.strip():
+        done = {}
+        for lineno, line in enumerate(complete[1:], start=2):
+            if not line.strip():
+                continue
+            try:
                 rec = json.loads(line)
-                self.done[int(rec["index"])] = rec["row"]
+                index, row = int(rec["index"]), rec["row"]
+                if not (0 <= index < n_points and isinstance(row, dict)):
+                    raise ValueError
+            except (UnicodeDecodeError, ValueError, KeyError, TypeError):
+                raise ValueError(
+                    f"{self.path}, line {lineno}: damaged checkpoint record {line[:80]!r}; "
+                    "delete that line (the point will be rerun) or the file"
+                ) from None
+            done[index] = row
+        # Only now, with the file known to be ours: a kill in the middle of a write leaves a
+        # partial last line; cut it off (its point is rerun).
+        if tail:
+            with open(self.path, "r+b") as fh:
+                fh.truncate(len(raw) - len(tail))
+        self.done = done
 
     def write(self, index: int, row: dict) -> None:
         self._fh.write(json.dumps({"index": index, "row": row}) + "\n")
@@ -193,14 +280,84 @@ class _Checkpoint:
         self._fh.close()
 
 
-def _progress_bar(total: int, initial: int, enabled: bool):
-    if not enabled:
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        raise ValueError("progress=True needs tqdm: pip install 'mett[progress]'") from None
+def _want_progress(progress: bool | None) -> bool:
+    """Resolve ``progress`` before any work: None means "if stderr is a terminal and tqdm exists"."""
+    has_tqdm = importlib.util.find_spec("tqdm") is not None
+    if progress is None:
+        try:
+            interactive = sys.stderr is not None and sys.stderr.isatty()
+        except (AttributeError, ValueError):  # a closed or replaced stderr
+            interactive = False
+        return interactive and has_tqdm
+    if progress and not has_tqdm:
+        raise ValueError("progress=True needs tqdm: pip install 'mett[progress]'")
+    return progress
+
+
+def _progress_bar(total: int, initial: int):
+    from tqdm import tqdm
+
     return tqdm(total=total, initial=initial, desc="sweep", unit="run")
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars and arrays as Python numbers and lists (for the checkpoint's JSON)."""
+    import numpy as np
+
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _probe_options(base: dict, points: list[dict]) -> None:
+    """Let :func:`mett.simulate` check the options (model, rtol, atol, backend, …) before any run.
+
+    Runs a very short simulation at the first grid point whose top and state are valid, so
+    ``rtol=2.0`` or ``model="nope"`` is refused once, with simulate's own message, instead of
+    making every row "invalid". ``t_eval`` (which must fit the full ``t_end``) is checked here.
+    """
+    import numpy as np
+
+    from .dynamics import simulate
+    from .state import State
+
+    kw = dict(base["simulate_kw"])
+    if "events" in kw:
+        raise ValueError("a sweep cannot pass events to simulate (they cannot be checkpointed)")
+    t_eval = kw.pop("t_eval", None)
+    if t_eval is not None:
+        te = _validate.as_finite_array("t_eval", t_eval)
+        if te.ndim != 1 or te.size == 0 or te[0] < 0 or te[-1] > base["t_end"]:
+            raise ValueError(
+                f"t_eval must be a non-empty 1-D array within [0, t_end] = [0, {base['t_end']!r}]"
+            )
+        if np.any(np.diff(te) <= 0):
+            raise ValueError("t_eval must be strictly increasing")
+    for point in points:
+        try:
+            top, ic = _point_setup(base, point)
+            state = State(
+                theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
+                omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
+            )  # fmt: skip
+        except (ValueError, TypeError, ArithmeticError):
+            continue  # an invalid point: it becomes an "invalid" row; probe the next one
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # each run reports its own warnings
+            try:
+                simulate(top, state, min(base["t_end"], _PROBE_T_END), **kw)
+            except (ValueError, TypeError) as exc:
+                raise type(exc)(f"invalid simulate option for the sweep: {exc}") from None
+            except Exception:  # a run-time failure is the rows' business
+                pass
+        return
+
+
+_PROBE_T_END = 1e-6  # s: a few steps, enough for simulate to have checked every option
 
 
 def sweep(
@@ -215,7 +372,7 @@ def sweep(
     nu_x: float = 0.0,
     nu_y: float = 0.0,
     executor: Executor | None = None,
-    progress: bool = False,
+    progress: bool | None = None,
     checkpoint: str | os.PathLike | None = None,
     chunksize: int | None = None,
     **simulate_kw: Any,
@@ -236,29 +393,49 @@ def sweep(
     executor : concurrent.futures.Executor, optional
         Where to run: a ``ProcessPoolExecutor``, a Dask ``Client.get_executor()``, …; serial when
         None. Only ``submit`` is used; points travel in chunks of ``chunksize``.
-    progress : bool, default False
-        A tqdm progress bar (optional dependency ``mett[progress]``).
+    progress : bool or None, default None
+        A tqdm progress bar on stderr (optional dependency ``mett[progress]``). None: a bar when
+        stderr is a terminal and tqdm is installed, none in scripts, logs and notebooks' captured
+        output; True insists (ValueError without tqdm); False never.
     checkpoint : path, optional
-        JSON-lines file of finished points; rerunning with the same arguments resumes.
+        JSON-lines file of finished points; rerunning with the same arguments resumes. An existing
+        file that is not this sweep's checkpoint is refused and left untouched.
+    chunksize : int, optional
+        Points per task sent to ``executor`` (default: about 1/32 of the grid), >= 1.
     **simulate_kw
-        Passed to :func:`mett.simulate` (``model``, ``rtol``, …).
+        Passed to :func:`mett.simulate` (``model``, ``rtol``, …); checked once, before the first
+        run, by a microsecond-long simulation at the first valid grid point.
 
     Returns
     -------
     pandas.DataFrame
         One row per grid point, in grid order: the grid values, ``t_invert`` (first θ = π/2, NaN
         if never), ``status``, ``theta_end``, ``omega3_end``, ``lam``, ``lam_ratio`` (λ/λ_thres),
-        ``predicted`` (:func:`mett.asymptotic_state` kind), ``simulated`` (kind read off θ_end),
-        ``agree``, and ``message``.
+        ``predicted`` (:func:`mett.asymptotic_state` kind), ``simulated`` (kind read off θ_end, or
+        "not settled" if θ still moved over the last quarter of the run), ``agree``, and
+        ``message``. A point that fails is a row too: status "invalid" (its parameters are
+        refused), "error" (the simulation raised; ``message`` says what) or the run's own status
+        ("failed", "contact_lost") with the partial run's end values; the sweep goes on.
 
     Raises
     ------
-    ValueError
-        Unknown grid names, bad values, or a checkpoint written for other arguments.
+    ValueError, TypeError
+        Before any run or write: unknown grid names, bad values or options (``rtol``, ``model``,
+        ``chunksize``, …), a checkpoint path in a missing directory, or an existing file that is
+        not this sweep's checkpoint (left untouched) or has a damaged record (path and line named).
     """
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
     t_end = _validate.positive_scalar("t_end", t_end)
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise TypeError(
+            f"executor must be a concurrent.futures.Executor (with submit); got {type(executor).__name__}"
+        )
+    if chunksize is not None:
+        chunksize = _validate.positive_int("chunksize", chunksize)
+    if progress is not None:
+        progress = _validate.boolean("progress", progress)
+    ckpt_path = None if checkpoint is None else _validate.output_path("checkpoint", checkpoint)
     names, points = _grid_points(grid)
     base = {
         "top": dataclasses.asdict(top),
@@ -269,21 +446,25 @@ def sweep(
         "omega3": _validate.finite_scalar("omega3", omega3),
         "nu_x": _validate.finite_scalar("nu_x", nu_x),
         "nu_y": _validate.finite_scalar("nu_y", nu_y),
-        "simulate_kw": dict(simulate_kw),
+        "simulate_kw": {k: _plain(v) for k, v in simulate_kw.items()},
     }
+    _probe_options(base, points)
     try:
         json.dumps(base["simulate_kw"])
-    except TypeError:
+    except (TypeError, ValueError):
         raise ValueError(
-            "simulate options of a sweep must be plain values (numbers, strings)"
+            "simulate options of a sweep must be plain values (numbers, strings, arrays): they "
+            f"are recorded in the checkpoint; got {simulate_kw!r}"
         ) from None
+    signature = _signature(base, names, points)
+    show_progress = _want_progress(progress)
     ckpt = None
-    if checkpoint is not None:
+    if ckpt_path is not None:
         summary = {"names": names, "n_points": len(points), "t_end": t_end}
-        ckpt = _Checkpoint(Path(checkpoint), _signature(base, names, points), summary)
+        ckpt = _Checkpoint(ckpt_path, signature, summary, len(points))
     done = dict(ckpt.done) if ckpt else {}
     todo = [(i, p) for i, p in enumerate(points) if i not in done]
-    bar = _progress_bar(len(points), len(done), progress)
+    bar = _progress_bar(len(points), len(done)) if show_progress else None
     results = dict(done)
 
     def finish(pairs: list[tuple[int, dict]]) -> None:
@@ -302,8 +483,18 @@ def sweep(
             size = chunksize or max(1, math.ceil(len(todo) / 32))
             chunks = [todo[k : k + size] for k in range(0, len(todo), size)]
             futures: list[Future] = [executor.submit(_run_chunk, base, c) for c in chunks]
+            # A chunk whose task failed (a worker died, the executor shut down) is not recorded,
+            # so a rerun redoes it; every other chunk is still collected and checkpointed first.
+            failures: list[BaseException] = []
             for fut in as_completed(futures):
-                finish(fut.result())
+                try:
+                    pairs = fut.result()
+                except Exception as exc:
+                    failures.append(exc)
+                    continue
+                finish(pairs)
+            if failures:
+                raise failures[0]
     finally:
         if ckpt:
             ckpt.close()

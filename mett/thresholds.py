@@ -167,8 +167,10 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
 
     Solves λ(θ_t) = lam on the family's domain. For an admissible top (1 − α < γ < 1 + α) the
     family joins λ_0 (θ_t → 0) to λ_thres (θ_t → π); for group III it runs from λ_0 to ∞ as θ_t
-    approaches θ_f = arccos(α/(1 − γ)). Where several θ_t share the same λ, the one closest to the
-    upright end (reached first by a top started near θ = 0) is returned.
+    approaches θ_f = arccos(α/(1 − γ)). Where several θ_t share the same λ (a folded family,
+    classes Ib and IIb of :mod:`mett.classification`), the one closest to the upright end is
+    returned, stable or not; :func:`mett.classification.tumbling_states` lists them all and
+    :func:`mett.classification.tumbling_is_stable` tells which are stable.
 
     Raises
     ------
@@ -204,23 +206,36 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
 
 
 class AsymptoticState(NamedTuple):
-    """Predicted end state of a gliding top started near θ = 0 (theory.md §7)."""
+    """Predicted end state of a gliding top with a given Jellett integral (theory.md §7).
+
+    When two steady states are stable for that λ (the classes Ia, Ib, IIb, IIc of
+    :mod:`mett.classification`), ``kind`` is "bistable", ``theta`` and ``omega3`` are NaN (no single
+    answer) and ``candidates`` lists both; a top started close enough to θ = 0 then stays upright
+    whenever "upright" is among them.
+    """
 
     kind: str
-    """"upright", "tumbling" or "inverted"."""
+    """"upright", "tumbling", "inverted" or "bistable"."""
     theta: float
-    """θ∞ (rad): 0, θ_t(λ) or π."""
+    """θ∞ (rad): 0, θ_t(λ) or π; NaN if bistable."""
     omega3: float
-    """ω3∞ (rad/s) from the Jellett integral: λ/(R I3 (1 − α)), the tumbling ω3, or −λ/(R I3 (1 + α))."""
+    """ω3∞ (rad/s) from the Jellett integral: λ/(R I3 (1 − α)), the tumbling ω3, or −λ/(R I3 (1 + α));
+    NaN if bistable."""
+    candidates: tuple[AsymptoticState, ...] = ()
+    """Every stable steady state with this λ, by increasing θ (one entry, equal to this state, unless
+    bistable)."""
 
 
 def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
-    """End state of a top started near the upright position with Jellett integral ``lam`` > 0.
+    """End state of a gliding top with Jellett integral ``lam`` > 0, for every λ.
 
-    The rule (theory.md §7; groups of Ueda–Sasaki–Watanabe): the upright spin is stable for
-    λ <= λ_0 and the top stays there; otherwise it leaves it, and it ends inverted if the inverted
-    spin is stable (λ > λ_thres), else on the tumbling family at θ_t(λ). Group I (λ_0 = ∞) always
-    stays upright; group III (λ_thres = ∞) ends tumbling for λ > λ_0.
+    The candidates are the asymptotically stable steady states with this λ
+    (:func:`mett.classification.stable_states`): the upright spin for λ <= λ_0, the inverted spin
+    for λ >= λ_thres, and the tumbling states θ_t(λ) on a rising part of the tumbling family. For
+    the classic tops (class IIa, e.g. the thesis body) exactly one exists: upright up to λ_0,
+    tumbling between λ_0 and λ_thres, inverted above (theory.md §7; Ueda–Sasaki–Watanabe's groups).
+    Where two exist the answer is kind "bistable" with both in ``candidates`` instead of a guess:
+    the end state then depends on the initial state, not on λ alone.
 
     Raises
     ------
@@ -228,14 +243,13 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
         If ``lam`` is not a positive finite number.
     """
     lam = _validate.positive_jellett(lam)
-    if lam <= top.lambda_0:
-        return AsymptoticState("upright", 0.0, pole_spins(top, lam)[0])
-    if lam > top.lambda_thres:
-        return AsymptoticState("inverted", math.pi, pole_spins(top, lam)[1])
-    tum = tumbling_state(top, lam)
-    if tum is None:  # pragma: no cover - the family spans (λ_0, λ_thres) whenever this branch runs
-        raise RuntimeError(f"no tumbling state for lam = {lam!r} between lambda_0 and lambda_thres")
-    return AsymptoticState("tumbling", tum.theta, tum.omega3)
+    from .classification import stable_states
+
+    found = stable_states(top, lam)
+    if len(found) == 1:
+        st = found[0]
+        return st._replace(candidates=(st,))
+    return AsymptoticState("bistable", math.nan, math.nan, tuple(found))
 
 
 def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -> float:

@@ -10,16 +10,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from . import _validate
+
+if TYPE_CHECKING:
+    from .stem import StemmedTop
 
 __all__ = ["TippeTop"]
 
 # Relative tolerance of the rational condition sigma = (1-gamma)/(gamma+alpha^2-1): inertias typed
 # as decimals (e.g. 131/350 m R^2 rounded) should still count as rational.
 _RATIONAL_RTOL = 1e-9
+
+FIELD_RANGE = (1e-50, 1e50)
+"""Valid magnitudes of m, R, I1, I3, g (μ: [0, 1e50]), in their SI units: wide enough for any
+unit system, narrow enough that every product of a few of them (m g R, m R², λ², …) stays finite."""
+
+_UNITS = {"m": "kg", "R": "m", "I1": "kg m^2", "I3": "kg m^2", "g": "m/s^2"}
 
 
 @dataclass(frozen=True)
@@ -29,7 +38,7 @@ class TippeTop:
     Parameters
     ----------
     m : float
-        Mass (kg), > 0.
+        Mass (kg). Like R, I1, I3 and g it must lie in ``FIELD_RANGE`` = [1e-50, 1e50].
     R : float
         Radius of the spherical part (m), > 0.
     alpha : float
@@ -39,9 +48,23 @@ class TippeTop:
     I3 : float
         Moment of inertia about the symmetry axis (kg m²); ``0 < I3 <= 2 I1`` (triangle inequality).
     mu : float, default 0.3
-        Coefficient of the viscous-type friction law ``F_f = -mu g_n v_A`` (s/m), >= 0.
+        Coefficient of the viscous-type friction law ``F_f = -mu g_n v_A`` (s/m), in
+        [0, 1e50].
     g : float, default 9.82
         Gravitational acceleration (m/s²), > 0.
+
+    Raises
+    ------
+    TypeError
+        A field that is not a real number (a string, a boolean, None).
+    ValueError
+        A field outside its range.
+
+    Warns
+    -----
+    PhysicalityWarning
+        I3 > m R², or I1 > (4 − α²) m R² − I3/2 (no body within 2R of the sphere's centre has
+        that much inertia): legal, but not a top shaped like the model.
 
     Notes
     -----
@@ -65,22 +88,37 @@ class TippeTop:
 
     def __post_init__(self) -> None:
         for name in ("m", "R", "I1", "I3", "g"):
-            object.__setattr__(self, name, _validate.positive_scalar(name, getattr(self, name)))
+            value = _validate.bounded_scalar(
+                name, getattr(self, name), *FIELD_RANGE, unit=_UNITS[name]
+            )
+            object.__setattr__(self, name, value)
         alpha = _validate.finite_scalar("alpha", self.alpha)
         if not 0.0 < alpha < 1.0:
             raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")
         object.__setattr__(self, "alpha", alpha)
-        object.__setattr__(self, "mu", _validate.positive_scalar("mu", self.mu, allow_zero=True))
+        mu = _validate.bounded_scalar("mu", self.mu, 0.0, FIELD_RANGE[1], unit="s/m")
+        object.__setattr__(self, "mu", mu)
         if self.I3 > 2.0 * self.I1:
             raise ValueError(
                 f"I3 must lie in (0, 2*I1] = (0, {2.0 * self.I1!r}] for a rigid body; got {self.I3!r}"
             )
-        if self.I3 > self.m * self.R**2:
-            warnings.warn(
-                f"I3 = {self.I3:g} kg m^2 exceeds m R^2 = {self.m * self.R**2:g} kg m^2: no "
-                "axisymmetric body inside the sphere of radius R has that much spin inertia",
+        mR2 = self.m * self.R * self.R  # no overflow: each factor is within FIELD_RANGE
+        # Second moments about the CM: 2 I1 + I3 = 2 ∫|r|² dm = 2 (∫|r_c|² dm − m α² R²), r_c from
+        # the geometric centre. A body inside the sphere (|r_c| <= R) has I3 <= m R²; with a peg
+        # reaching at most 2R from the centre, 2 I1 + I3 <= 2 (4 − α²) m R².
+        if self.I3 > mR2:
+            _validate.warn(
+                f"I3 = {self.I3:g} kg m^2 exceeds m R^2 = {mR2:g} kg m^2: no axisymmetric body "
+                "inside the sphere of radius R has that much spin inertia",
                 _validate.PhysicalityWarning,
-                stacklevel=3,
+            )
+        i1_max = (4.0 - alpha * alpha) * mR2 - 0.5 * self.I3
+        if self.I1 > i1_max:
+            _validate.warn(
+                f"I1 = {self.I1:g} kg m^2 exceeds (4 - alpha^2) m R^2 - I3/2 = {i1_max:g} kg m^2: "
+                "no body within 2R of the sphere's centre (the sphere and a peg no longer than R) "
+                "has that much inertia about a horizontal axis",
+                _validate.PhysicalityWarning,
             )
 
     # --- derived dimensionless parameters -------------------------------------------------
@@ -117,6 +155,14 @@ class TippeTop:
         return "II"
 
     @property
+    def subgroup(self) -> str:
+        """Class by the stability of the steady states: Ia, Ib, IIa, IIb, IIc or III
+        (:func:`mett.classification.subgroup`; Ciocci & Langerock 2007)."""
+        from .classification import subgroup
+
+        return subgroup(self)
+
+    @property
     def lambda_thres(self) -> float:
         """Jellett threshold above which the inverted spin is asymptotically stable (theory.md §7)."""
         from .thresholds import lambda_thres
@@ -145,6 +191,16 @@ class TippeTop:
         den = gam + a * a - 1.0
         return (1.0 - gam) / den if den != 0 else math.inf
 
+    def with_stem(self, radius: float, distance: float) -> StemmedTop:
+        """This top with a stem: a sphere of radius ``radius`` (m) whose centre lies on the symmetry
+        axis ``distance`` (m) from the ball's centre, on the side away from the centre of mass.
+
+        See :class:`mett.stem.StemmedTop` (touchdown angle, the equivalent top on the stem).
+        """
+        from .stem import StemmedTop
+
+        return StemmedTop(self, radius, distance)
+
     # --- constructors -------------------------------------------------------------------
     def replace(self, **fields: float) -> TippeTop:
         """Return a copy with some fields changed (validated again)."""
@@ -165,9 +221,9 @@ class TippeTop:
         ValueError
             If the resulting I1 violates I3 <= 2 I1 (γ < 1/2), or any input is nonphysical.
         """
-        m = _validate.positive_scalar("m", m)
-        R = _validate.positive_scalar("R", R)
-        I3 = _validate.positive_scalar("I3", I3)
+        m = _validate.bounded_scalar("m", m, *FIELD_RANGE, unit="kg")
+        R = _validate.bounded_scalar("R", R, *FIELD_RANGE, unit="m")
+        I3 = _validate.bounded_scalar("I3", I3, *FIELD_RANGE, unit="kg m^2")
         alpha = _validate.finite_scalar("alpha", alpha)
         if not 0.0 < alpha < 1.0:
             raise ValueError(f"alpha must lie in (0, 1); got {alpha!r}")

@@ -46,13 +46,27 @@ def test_theta_rides_in_the_deforming_potential(thesis_trajectory):
 
 
 def test_turning_points_are_zeros_of_thetadot(thesis_trajectory):
-    tp = analysis.turning_points(thesis_trajectory)
+    tp = analysis.theta_extrema(thesis_trajectory)
     assert tp.t.size > 200
     thd = thesis_trajectory.at(tp.t[::25]).thetadot
     scale = np.abs(thesis_trajectory.thetadot).max()
     assert np.abs(thd).max() < 1e-9 * scale
     assert set(np.unique(tp.kind)) == {-1, 1}
     assert np.all(np.diff(tp.kind) != 0)  # maxima and minima alternate
+
+
+def test_old_turning_points_name_warns_and_kind_constants_name_the_extrema(thesis_trajectory):
+    with pytest.warns(mett.MettDeprecationWarning, match="theta_extrema"):
+        old = analysis.turning_points(thesis_trajectory)
+    new = analysis.theta_extrema(thesis_trajectory)
+    np.testing.assert_array_equal(old.t, new.t)
+    tmax = new.t[new.kind == analysis.TurningPoints.MAX]
+    tmin = new.t[new.kind == analysis.TurningPoints.MIN]
+    assert tmax.size + tmin.size == new.t.size
+    # a maximum of θ is where θ̇ goes from + to −
+    eps = 1e-6
+    assert np.all(thesis_trajectory.at(tmax[:20] - eps).thetadot > 0)
+    assert np.all(thesis_trajectory.at(tmax[:20] + eps).thetadot < 0)
 
 
 def test_observed_periods_against_the_rolling_estimates(thesis_trajectory):
@@ -73,7 +87,7 @@ def test_observed_periods_against_the_rolling_estimates(thesis_trajectory):
     long = np.flatnonzero(pc.observed >= T1)
     assert long.size == 1 and 6.3 < pc.t[long[0]] < 6.7
     t_a, t_b = pc.t[long[0]] - pc.observed[long[0]] / 2, pc.t[long[0]] + pc.observed[long[0]] / 2
-    t_min = analysis.turning_points(thesis_trajectory).t
+    t_min = analysis.theta_extrema(thesis_trajectory).t
     t_min = t_min[(t_min > t_a + 1e-9) & (t_min < t_b - 1e-9)]
     assert t_min.size == 1  # one minimum of θ in between, then the shoulder
     after = np.linspace(t_min[0], t_b, 400)[5:-5]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -14,12 +15,33 @@ def run(*args: str) -> subprocess.CompletedProcess:
     )
 
 
+# --- in-process: mett.cli.main(argv) -------------------------------------------------------------
 def assert_one_line_error(out: subprocess.CompletedProcess, needle: str) -> None:
-    """Bad arguments: exit status 2, one line on stderr naming the problem, no traceback."""
+    """Bad arguments (a subprocess): exit status 2, one line on stderr naming the problem."""
     assert out.returncode == 2
     assert "Traceback" not in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1, out.stderr
     assert needle in out.stderr
+
+
+def call(argv, capsys) -> tuple[int, str, str]:
+    """Run ``mett argv`` in this process: (exit status, stdout, stderr)."""
+    from mett.cli import main
+
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse: usage errors, --help, --version
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def assert_error(result, needle: str) -> None:
+    code, _, err = result
+    assert code == 2, err
+    assert "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1, err
+    assert needle in err
 
 
 def test_info_prints_thesis_thresholds():
@@ -56,8 +78,8 @@ def test_info_with_explicit_parameters():
         ([], "required"),
     ],
 )
-def test_bad_arguments_give_one_line_and_exit_2(args, needle):
-    assert_one_line_error(run(*args), needle)
+def test_bad_arguments_give_one_line_and_exit_2(args, needle, capsys):
+    assert_error(call(args, capsys), needle)
 
 
 def test_simulate_prints_inversion_time_and_writes_outputs(tmp_path):
@@ -79,19 +101,30 @@ def test_simulate_prints_inversion_time_and_writes_outputs(tmp_path):
     assert png.stat().st_size > 10_000
 
 
-def test_period_from_a_state_and_from_integrals():
-    out = run(
-        "period", "--preset", "rutstam2013", "--theta0", "1", "--omega3", "100", "--phidot", "5"
+def test_period_from_a_state_and_from_integrals(capsys):
+    state = [
+        "period",
+        "--preset",
+        "rutstam2013",
+        "--theta0",
+        "1",
+        "--omega3",
+        "100",
+        "--phidot",
+        "5",
+    ]
+    code, out, err = call(state, capsys)
+    assert code == 0, err
+    assert "0.05501395" in out  # the rolling top's nutation period (docs/theory)
+    code, out, err = call([*state, "--json"], capsys)
+    data = json.loads(out)
+    assert data["nutation_period"] == pytest.approx(0.05501395, abs=5e-9)
+    E, D, lam = (repr(data[k]) for k in ("E_mod", "D", "lam"))
+    code, out, err = call(
+        ["period", "--preset", "rutstam2013", "--E", E, "--D", D, "--lam", lam, "--json"], capsys
     )
-    assert out.returncode == 0, out.stderr
-    assert "0.05501395" in out.stdout  # theory.md §5
-    line = next(ln for ln in out.stdout.splitlines() if ln.startswith("E [J]"))
-    E, D, lam = (float(x.strip(",")) for x in line.split()[-3:])
-    out2 = run(
-        "period", "--preset", "rutstam2013", "--E", repr(E), "--D", repr(D), "--lam", repr(lam)
-    )
-    assert out2.returncode == 0, out2.stderr
-    assert "0.05501395" in out2.stdout
+    assert code == 0, err
+    assert json.loads(out)["nutation_period"] == pytest.approx(data["nutation_period"], rel=1e-12)
 
 
 def test_figures_command_writes_every_figure(tmp_path):
@@ -109,18 +142,270 @@ def test_figures_command_writes_every_figure(tmp_path):
     [
         (["simulate", "--preset", "rutstam2013", "--theta0", "0.1", "--omega3", "155"], "--t-end"),
         (["simulate", "--preset", "rutstam2013", "--theta0", "4", "--omega3", "1", "--t-end", "1"],
-         "theta must lie in [0, pi]"),
+         "argument --theta0: must lie in [0, pi]"),
         (["simulate", "--preset", "rutstam2013", "--theta0", "0.1", "--omega3", "1", "--t-end", "-1"],
-         "t_end"),
+         "--t-end"),
         (["simulate", "--preset", "rutstam2013", "--theta0", "0.1", "--omega3", "1", "--t-end", "1",
           "--model", "magic"], "invalid choice"),
         (["simulate", "--preset", "rutstam2013", "--theta0", "0.1", "--omega3", "1", "--t-end", "1",
-          "--out", "x.txt"], "--out must end in .csv or .npz"),
+          "--out", "x.txt"], "--out must end in one of .csv, .npz"),
         (["period", "--preset", "rutstam2013", "--E", "0.001", "--D", "1e-3", "--lam", "1e-6"],
          "no admissible motion"),
         (["period", "--preset", "rutstam2013", "--E", "0.01"], "give all of --E --D --lam"),
         (["period", "--preset", "rutstam2013"], "give --E --D --lam"),
     ],
 )  # fmt: skip
-def test_bad_arguments_of_the_other_commands(args, needle):
-    assert_one_line_error(run(*args), needle)
+def test_bad_arguments_of_the_other_commands(args, needle, capsys):
+    assert_error(call(args, capsys), needle)
+
+
+THESIS = ["--preset", "rutstam2013"]
+SIM = ["simulate", *THESIS, "--theta0", "0.1", "--omega3", "155", "--t-end", "0.05"]
+SWEEP = ["sweep", *THESIS, "--grid", "mu=0.1:0.3:2", "--t-end", "0.05"]
+
+
+def test_version(capsys):
+    import mett
+
+    code, out, _ = call(["--version"], capsys)
+    assert code == 0 and out.strip() == f"mett {mett.__version__}"
+
+
+def test_help_shows_defaults(capsys):
+    code, out, _ = call(["simulate", "--help"], capsys)
+    assert code == 0
+    out = " ".join(out.split())  # undo the line wrapping
+    assert "--thetadot THETADOT θ̇(0) [rad/s] (default: 0.0)" in out
+    assert "(default: 1e-10)" in out and "(default: gliding)" in out
+    assert "(default: None)" not in out and "(default: False)" not in out
+    code, out, _ = call(["sweep", "--help"], capsys)
+    out = " ".join(out.split())
+    assert "(default: sweep.csv)" in out and "(default: 1)" in out
+
+
+def test_info_json_matches_the_library(capsys):
+    from mett import presets
+    from mett.thresholds import lambda_E, lambda_roll
+
+    top = presets.get("rutstam2013")
+    code, out, err = call(["info", *THESIS, "--json"], capsys)
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["I1"] == top.I1 and data["gamma"] == top.gamma and data["group"] == top.group
+    assert data["lambda_thres"] == top.lambda_thres and data["lambda_E"] == lambda_E(top)
+    assert data["lambda_roll"] == lambda_roll(top) and data["rational"] is True
+    assert data["min_omega3_to_invert"]["omega3"] == pytest.approx(77.31, abs=0.01)
+    assert data["units"]["lambda"] == "kg m^3/s"
+
+
+def test_text_output_is_aligned(capsys):
+    for argv in (["info", *THESIS], ["period", *THESIS, "--theta0", "1", "--omega3", "100"]):
+        code, out, _ = call(argv, capsys)
+        assert code == 0
+        lines = out.splitlines()
+        # every value starts in one column: after the longest label and two spaces
+        col = max(len(ln.split("  ")[0]) for ln in lines) + 2
+        assert all(ln[col - 2 : col] == "  " and ln[col] != " " for ln in lines), out
+
+
+def test_period_with_the_centre_of_mass_at_rest(capsys):
+    """--cm-at-rest: the METT energy is Ẽ (not E), and θ̇(0) = 0 makes θ0 a turning point."""
+    import math
+
+    import mett
+
+    top = mett.presets.get("rutstam2013")
+    code, out, err = call(
+        ["period", *THESIS, "--theta0", "0.3", "--omega3", "155", "--cm-at-rest", "--json"], capsys
+    )
+    assert code == 0, err
+    data = json.loads(out)
+    state = mett.State.with_cm_at_rest(top, theta=0.3, omega3=155.0)
+    assert data["E_mod"] == float(mett.modified_energy(top, state))
+    # E would be the wrong energy: it differs by far more than the tolerance below
+    assert abs(data["E_mod"] - float(mett.energy(top, state))) > 1e-3
+    # Ẽ = V(z0) at θ̇ = 0: z0 = cos θ0 is one of the turning points
+    assert min(abs(data["z_low"] - math.cos(0.3)), abs(data["z_high"] - math.cos(0.3))) < 1e-9
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        ([*SIM, "--out", "/nonexistent-dir/x.csv"], "--out: the directory"),
+        ([*SIM, "--plot", "/nonexistent-dir/theta.png"], "--plot: the directory"),
+        ([*SIM, "--plot", "theta.xyz"], "--plot must end in one of"),
+        ([*SIM, "--out", "x.txt"], "--out must end in one of .csv, .npz"),
+        ([*SIM, "--rtol", "5"], "argument --rtol: must lie in (0, 1)"),
+        ([*SIM, "--rtol", "nan"], "argument --rtol: must be a finite number"),
+        ([*SIM[:-1], "0"], "argument --t-end: must lie in (0, inf)"),
+        ([*SIM, "--theta0", "4"], "argument --theta0: must lie in [0, pi]"),
+        ([*SIM, "--m", "inf"], "argument --m: must be a finite number"),
+        ([*SWEEP, "--out", "/nonexistent-dir/dir/s.csv"], "--out: the directory"),
+        ([*SWEEP, "--rtol", "5"], "argument --rtol: must lie in (0, 1)"),
+        ([*SWEEP, "--workers", "-3"], "argument --workers: must lie in [1, 4096]"),
+        ([*SWEEP, "--grid", "mu=0:nan:3"], "start and stop must be finite"),
+        ([*SWEEP, "--grid", "mu=0:1:-3"], "--grid num must lie in"),
+        ([*SWEEP, "--grid", "mu=0:1:3"], "--grid 'mu' is given twice"),
+        ([*SWEEP, "--scheduler", "tcp://127.0.0.1:1"], "cannot reach the Dask scheduler"),
+        ([*SWEEP, "--scheduler", "tcp://127.0.0.1"], "tcp://HOST:PORT"),
+        (["period", *THESIS, "--E", "1e300", "--D", "1e200", "--lam", "1"], "error:"),
+        (["period", *THESIS, "--theta0", "0.1"], "give --E --D --lam"),
+        (["info", *THESIS, "--theta0", "-1"], "argument --theta0: must lie in [0, pi]"),
+    ],
+)  # fmt: skip
+def test_errors_are_one_line_and_exit_2_before_any_work(argv, needle, capsys, monkeypatch):
+    import mett.dynamics
+    import mett.sweeps
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the command started working before rejecting its arguments")
+
+    monkeypatch.setattr(mett.dynamics, "simulate", no_work)
+    monkeypatch.setattr(mett.sweeps, "sweep", no_work)
+    assert_error(call(argv, capsys), needle)
+
+
+def test_paths_are_checked_before_the_run(tmp_path, capsys, monkeypatch):
+    import mett.sweeps
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ckpt").mkdir()
+    calls = []
+    monkeypatch.setattr(mett.sweeps, "sweep", lambda *a, **k: calls.append(1))
+    assert_error(call([*SWEEP, "--checkpoint", "ckpt"], capsys), "--checkpoint must be a file")
+    assert_error(call([*SWEEP, "--out", "ckpt"], capsys), "--out must be a file")
+    assert_error(
+        call([*SWEEP, "--checkpoint", "s.csv", "--out", "s.csv"], capsys), "must be different"
+    )
+    (tmp_path / "afile").write_text("x")
+    assert_error(call(["figures", "--out", "afile"], capsys), "--out must be a directory")
+    assert_error(call(["figures", "--out", "afile/sub"], capsys), "is a file")
+    assert calls == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "ckpt"]
+
+
+def test_simulate_writes_a_trajectory_that_loads(tmp_path, capsys):
+    from mett import State, Trajectory
+
+    path = tmp_path / "t.npz"
+    code, out, err = call([*SIM, "--cm-at-rest", "--model", "gliding", "--out", path], capsys)
+    assert code == 0, err
+    traj = Trajectory.load(path)
+    assert traj.status == "completed" and traj.t[-1] == 0.05 and traj.model == "gliding"
+    assert traj.initial_state.nu_y != 0.0  # the --cm-at-rest start
+    assert traj.initial_state.theta == State(theta=0.1).theta
+    assert f"wrote                   {path}" in out
+
+
+def test_simulate_json_agrees_with_the_library(capsys):
+    import math
+
+    import mett
+
+    code, out, err = call([*SIM[:-1], "7", "--json"], capsys)
+    assert code == 0, err
+    data = json.loads(out)
+    top = mett.presets.get("rutstam2013")
+    traj = mett.simulate(top, mett.State(theta=0.1, omega3=155.0), 7.0)
+    assert data["status"] == traj.status == "completed"
+    assert data["t_invert"] == float(traj.crossings(math.pi / 2)[0])
+    assert data["theta_end"] == float(traj.theta[-1]) and data["t_end"] == 7.0
+    assert data["predicted"]["kind"] == "inverted" and data["prediction_error"] is None
+    assert data["lambda_ratio"] == pytest.approx(2.00485, abs=1e-5)
+
+
+def test_simulate_reports_a_failed_prediction_but_keeps_the_run(tmp_path, capsys, monkeypatch):
+    import mett.thresholds
+
+    def broken(top, lam):
+        raise ValueError("no tumbling state\nbetween lambda_0 and lambda_thres")
+
+    monkeypatch.setattr(mett.thresholds, "asymptotic_state", broken)
+    code, out, err = call([*SIM, "--out", tmp_path / "t.csv"], capsys)
+    assert code == 0, err
+    assert "unavailable (no tumbling state between lambda_0 and lambda_thres)" in out
+    assert (tmp_path / "t.csv").stat().st_size > 1000
+
+
+def test_figures_preset_passes_the_top_to_the_gallery(tmp_path, capsys, monkeypatch):
+    import mett.gallery
+    from mett import presets
+
+    seen = {}
+
+    def fake_generate(out_dir, **kw):
+        seen.update(kw, out_dir=out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)  # as the real one does
+        path = out_dir / f"{next(iter(mett.gallery.FIGURES))}.png"
+        path.write_bytes(b"png")
+        return [path]
+
+    monkeypatch.setattr(mett.gallery, "generate", fake_generate)
+    code, out, err = call(["figures", "--preset", "ueda2005", "--out", tmp_path / "f"], capsys)
+    assert code == 0, err
+    assert seen["top"] == presets.get("ueda2005") and seen["progress"] is False
+    assert (tmp_path / "f" / "README.md").exists()
+    seen.clear()
+    code, _, _ = call(["figures", "--out", tmp_path / "g", "--no-animation"], capsys)
+    assert code == 0 and "top" not in seen and seen["animation"] is False  # the thesis top
+    code, _, _ = call(
+        ["figures", "--preset", "rutstam2013", "--mu", "0.1", "--out", tmp_path], capsys
+    )
+    assert seen["top"] == presets.get("rutstam2013", mu=0.1)
+
+
+class _Terminal:
+    """A stand-in stderr that says it is a terminal."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def isatty(self) -> bool:
+        return True
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def test_progress_only_on_a_terminal_unless_asked(tmp_path, capsys, monkeypatch):
+    import sys
+
+    import pandas as pd
+
+    import mett.sweeps
+
+    seen = []
+
+    def fake_sweep(top, grid, **kw):
+        seen.append(kw["progress"])
+        return pd.DataFrame({"simulated": ["inverted"], "agree": [True]})
+
+    monkeypatch.setattr(mett.sweeps, "sweep", fake_sweep)
+    out = ["--out", tmp_path / "s.csv"]
+    assert call([*SWEEP, *out], capsys)[0] == 0  # captured stderr: not a terminal
+    assert call([*SWEEP, *out, "--progress"], capsys)[0] == 0
+    monkeypatch.setattr(sys, "stderr", _Terminal(sys.stderr))
+    assert call([*SWEEP, *out], capsys)[0] == 0
+    assert call([*SWEEP, *out, "--no-progress"], capsys)[0] == 0
+    assert seen == [False, True, True, False]
+
+
+def test_no_carriage_returns_in_a_log(tmp_path, capsys):
+    code, out, err = call([*SWEEP, "--out", tmp_path / "s.csv"], capsys)
+    assert code == 0, err
+    assert "\r" not in out + err
+
+
+def test_warnings_are_one_line_each(capsys):
+    code, out, err = call(["info", "--preset", "seed000", "--alpha", "0.3"], capsys)
+    assert code == 0
+    lines = err.strip().splitlines()
+    assert lines and all(ln.startswith("mett: warning: ") for ln in lines), err
+    assert "I3" in err
+
+
+def test_traceback_option_shows_the_exception(capsys):
+    from mett.cli import main
+
+    with pytest.raises(ValueError, match="without --preset"):
+        main(["--traceback", "info", "--m", "0.02"])

@@ -9,10 +9,16 @@ from mett import presets
 
 
 def test_names_are_the_documented_presets():
-    assert presets.names() == ("cohen1977", "rutstam2012", "rutstam2013", "seed000", "ueda2005")
+    assert presets.names() == (
+        "cohen1977",
+        "maple-tippe-top",
+        "rutstam2012",
+        "rutstam2013",
+        "ueda2005",
+    )
 
 
-@pytest.mark.parametrize("name", [n for n in presets.names() if n != "seed000"])
+@pytest.mark.parametrize("name", [n for n in presets.names() if n != "maple-tippe-top"])
 def test_every_preset_builds_and_documents_its_source(name):
     top = presets.get(name)
     assert isinstance(top, mett.TippeTop)
@@ -45,31 +51,40 @@ def test_overrides_keep_inertia_fractions():
     assert fixed.I1 == 3e-6
 
 
-def test_seed000_needs_alpha_and_warns_about_its_inertia():
+def test_maple_tippe_top_needs_alpha_and_warns_about_its_inertia():
     with pytest.raises(ValueError, match="pass alpha"):
-        presets.get("seed000")
+        presets.get("maple-tippe-top")
     with pytest.warns(mett.PhysicalityWarning):
-        top = presets.get("seed000", alpha=0.3)
+        top = presets.get("maple-tippe-top", alpha=0.3)
     assert (top.m, top.R, top.I1, top.I3, top.g) == (0.013, 0.013, 4.5e-6, 5.0e-6, 9.81)
     assert top.gamma == pytest.approx(0.9)
     assert top.sigma == pytest.approx(0.4394, abs=1e-4)
     with pytest.warns(mett.PhysicalityWarning):
-        via_a = presets.get("seed000", a=0.0039)
+        via_a = presets.get("maple-tippe-top", a=0.0039)
     assert via_a.alpha == pytest.approx(0.3)
 
 
-def test_seed000_rational_eccentricity():
-    # seed000-errata.md: σ = (1 − γ)/(γ + α² − 1) at α = 0.5724.
+def test_maple_tippe_top_rational_eccentricity():
+    # docs/maple-tippe-top-errata.md: σ = (1 − γ)/(γ + α² − 1) at α = 0.5724.
     with pytest.warns(mett.PhysicalityWarning):
-        top = presets.get("seed000", alpha=0.5724)
+        top = presets.get("maple-tippe-top", alpha=0.5724)
     assert top.sigma == pytest.approx(
         (1 - top.gamma) / (top.gamma + top.alpha**2 - 1), rel=5e-4
     )  # 0.5724 is rounded
 
 
+def test_old_preset_name_still_works_and_warns_that_it_is_deprecated():
+    with pytest.warns(mett.MettDeprecationWarning, match="use 'maple-tippe-top'"):
+        old = presets.get("seed000", alpha=0.3)  # refmap: keep
+    with pytest.warns(mett.PhysicalityWarning):
+        assert old == presets.get("maple-tippe-top", alpha=0.3)
+    assert issubclass(mett.MettDeprecationWarning, DeprecationWarning)
+
+
 def test_unknown_preset_lists_known_names():
     with pytest.raises(
-        ValueError, match="unknown preset 'nope'; known presets: cohen1977, rutstam2012"
+        ValueError,
+        match="unknown preset 'nope'; known presets: cohen1977, maple-tippe-top, rutstam2012",
     ):
         presets.get("nope")
 

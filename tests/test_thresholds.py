@@ -80,7 +80,12 @@ def test_asymptotic_state_regimes(thesis_top):
 
 def test_group_one_never_inverts():
     top = mett.TippeTop(m=0.02, R=0.02, alpha=0.3, I1=0.6 * 3.2e-6, I3=3.2e-6)
-    assert asymptotic_state(top, 100 * top.lambda_thres).kind == "upright"
+    # the upright spin is stable for every λ; above λ_thres the inverted one is stable too, so
+    # the end state depends on the start (a top started near θ = 0 stays upright)
+    st = asymptotic_state(top, 100 * top.lambda_thres)
+    assert st.kind == "bistable"
+    assert [c.kind for c in st.candidates] == ["upright", "inverted"]
+    assert asymptotic_state(top, 0.5 * top.lambda_thres).kind == "upright"
     assert min_spin_for_inversion(top, 0.1) == math.inf
 
 
@@ -103,3 +108,12 @@ def test_end_state_needs_positive_jellett(thesis_top, lam):
         asymptotic_state(thesis_top, lam)
     with pytest.raises(ValueError, match="lam must"):
         tumbling_state(thesis_top, lam)
+
+
+@pytest.mark.parametrize("gamma", [0.75, 0.85])
+def test_asymptotic_state_at_lambda_thres_of_a_folded_family(thesis_top, gamma):
+    # regression: the sweeps example asked for γ = 0.75, 0.85 at λ = λ_thres and got a RuntimeError
+    top = thesis_top.replace(I1=gamma * thesis_top.I3)
+    st = asymptotic_state(top, top.lambda_thres)
+    assert st.kind == "inverted" and st.theta == math.pi
+    assert st.omega3 == pytest.approx(-top.lambda_thres / (top.R * top.I3 * (1 + top.alpha)))

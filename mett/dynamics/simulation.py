@@ -366,7 +366,7 @@ def simulate(
         if name not in table:
             raise ValueError(f"model {mdl.name!r}: start_phase gave unknown phase {name!r}")
         phase = table[name]
-    run = _Run(mdl, top, params, y0, backend, phase)
+    run = _Run(mdl, top, params, y0, backend, phase, state=state, options=model_options)
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
@@ -477,7 +477,8 @@ def _solve_hybrid(
         if ev.jump is not None:
             y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
         switches.append((t_sw, run.phase.name, ev.target))
-        run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw)
+        run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw,
+                   state=run.state, options=run.options)  # fmt: skip
     kw = dict(seg.kw)
     kw["nfev"] = nfev
     kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
@@ -516,9 +517,13 @@ class _Run:
         backend: str,
         phase: Phase,
         t0: float = 0.0,
+        *,
+        state: State | None = None,
+        options: dict | None = None,
     ) -> None:
         self.mdl, self.top, self.params, self.y0, self.backend = mdl, top, params, y0, backend
         self.phase, self.t0 = phase, t0
+        self.state, self.options = state, options  # kept on the Trajectory (saved with it)
         self.collect = False  # True: result() returns the pieces, for a hybrid run to join
         self.switch: tuple[int, float] | None = None  # (event index, time) of a "switch" stop
 
@@ -535,6 +540,8 @@ class _Run:
             status=status,
             message=message,
             backend=self.backend,
+            initial_state=self.state,
+            options=self.options,
             **kw,
         )
 
@@ -604,9 +611,12 @@ def _solve_scipy(
 
         def model_event(t: float, y: np.ndarray, fn: Callable = ev.fn) -> float:
             try:
-                return float(fn(t, y, params))
+                value = float(fn(t, y, params))
             except ArithmeticError:
                 return math.nan
+            # a zero at the start of a phase is no event, as on the compiled backend (a switch
+            # event that vanishes where its phase begins must not switch straight back)
+            return math.nan if value == 0.0 and t == t0 else value
 
         model_event.terminal = 1  # type: ignore[attr-defined]
         model_event.direction = ev.direction  # type: ignore[attr-defined]

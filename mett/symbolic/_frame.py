@@ -1,8 +1,8 @@
-"""Symbols and the Resal frame shared by the symbolic derivations (theory.md §1).
+"""Symbols and the Resal frame shared by the symbolic derivations (docs/theory/model.md#conventions).
 
 Vectors are sympy column matrices of their components in the Resal frame (1̂, 2̂, 3̂): 3̂ is the
 symmetry axis, 2̂ = ẑ × 3̂ / sin θ the line of nodes, 1̂ = 2̂ × 3̂. The frame itself is *derived* here
-from the Goldstein z-x-z lab coordinates of theory.md §1 (:func:`resal_frame`), so that the
+from the Goldstein z-x-z lab coordinates of docs/theory/model.md#conventions (:func:`resal_frame`), so that the
 components of ẑ, x̂, ŷ and the frame's angular velocity Ω = φ̇ ẑ + θ̇ 2̂ are computed, not assumed.
 """
 
@@ -16,7 +16,7 @@ __all__ = ["PARAMS", "STATE", "S", "inertial_derivative", "resal_frame"]
 
 
 class _Symbols:
-    """The library's symbols, named as in the numeric core (theory.md §1)."""
+    """The library's symbols, named as in the numeric core (docs/theory/model.md#conventions)."""
 
     def __init__(self) -> None:
         # θ ∈ (0, π) inside the derivations: sin θ > 0 lets sympy cancel √(sin²θ).
@@ -61,7 +61,7 @@ _RATES = {
 def resal_frame() -> dict[str, sp.Matrix]:
     """Resal-frame components of ẑ, x̂, ŷ and of the frame's angular velocity Ω.
 
-    Derived from the lab coordinates of theory.md §1: 3̂ = (sin θ sin φ, −sin θ cos φ, cos θ),
+    Derived from the lab coordinates of docs/theory/model.md#conventions: 3̂ = (sin θ sin φ, −sin θ cos φ, cos θ),
     2̂ = ẑ × 3̂ / sin θ, 1̂ = 2̂ × 3̂, x̂ = (sin φ, −cos φ, 0), ŷ = (cos φ, sin φ, 0). With Q the matrix
     whose columns are 1̂, 2̂, 3̂, a lab vector u has Resal components Qᵀu, and Ω is read off the
     skew matrix Qᵀ Q̇.

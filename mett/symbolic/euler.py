@@ -1,6 +1,6 @@
-"""The gliding tippe top's Euler-angle equations, derived from the vector form (theory.md §2).
+"""The gliding tippe top's Euler-angle equations, derived from the vector form (docs/theory/equations.md#equations-of-motion).
 
-Newton–Euler with the contact constraint (Rutstam 2012 §2; theory.md §2.1)::
+Newton–Euler with the contact constraint (Rutstam 2012 §2; docs/theory/equations.md#vector-form)::
 
     m r̈ = F − m g ẑ,   L̇ = a × F,   F = g_n ẑ − μ g_n v_A,
     (r + a)·ẑ = 0,     v_A = ṙ + ω × a = ν_x x̂ + ν_y ŷ,
@@ -11,7 +11,7 @@ The derivative of the contact constraint is v_A·ẑ = 0 (because ȧ·ẑ = (ω 
 writing v_A = ν_x x̂ + ν_y ŷ imposes it, and ṙ = ν − ω × a. Everything is written in the Resal frame
 (:mod:`mett.symbolic._frame`), where ω = (−φ̇ sin θ, θ̇, ω3), and the six scalar equations (three of
 Newton, three of Euler) are linear in the six unknowns θ̈, φ̈, ω̇3, ν̇_x, ν̇_y, g_n.
-The result is the formula sheet theory.md §2.2 (Rutstam 2012 §2; thesis eqs (10)–(15)).
+The result is docs/theory/equations.md#euler-form (Rutstam 2012 §2; thesis eqs (10)–(15)).
 """
 
 from __future__ import annotations
@@ -85,7 +85,7 @@ def _explicit() -> dict[str, sp.Expr]:
 
 
 def gliding_euler_equations(explicit: bool = True) -> dict[str, sp.Expr]:
-    """Euler-angle equations of the rolling-and-gliding tippe top, derived (theory.md §2.2).
+    """Euler-angle equations of the rolling-and-gliding tippe top, derived (docs/theory/equations.md#euler-form).
 
     State (θ, θ̇, φ̇, ω3, ν_x, ν_y); parameters (m, R, α, I1, I3, μ, g). Derived from the vector form
     (:func:`newton_euler_residuals`), reproducing Rutstam (2012) §2 / thesis eqs (10)–(15)::
@@ -93,7 +93,7 @@ def gliding_euler_equations(explicit: bool = True) -> dict[str, sp.Expr]:
         θ̈   = (s/I1)(I1 φ̇² c − I3 ω3 φ̇ − Rα g_n) + (Rμ g_n ν_x/I1)(1 − α c)
         φ̈   = [I3 θ̇ ω3 − 2 I1 θ̇ φ̇ c − μ g_n ν_y R(α − c)] / (I1 s)
         ω̇3  = −μ g_n ν_y R s / I3
-        ν̇_x = …,  ν̇_y = …  (theory.md §2.2)
+        ν̇_x = …,  ν̇_y = …  (docs/theory/equations.md#euler-form)
         g_n = [m g I1 + m R α (c (I1 φ̇² s² + I1 θ̇²) − I3 φ̇ ω3 s²)]
               / [I1 + m R² α² s² − m R² α s (1 − α c) μ ν_x]
 

@@ -1,4 +1,4 @@
-"""The integrals λ, D, E, Ẽ and the Main Equation for the Tippe Top, derived (theory.md §1, §3–§5).
+"""The integrals λ, D, E, Ẽ and the Main Equation for the Tippe Top, derived (docs/theory/model.md#conventions, docs/theory/equations.md#integrals, docs/theory/mett.md#the-main-equation, docs/theory/mett.md#rational).
 
 * :func:`integrals` writes Jellett's λ = −L·a, Routh's D = I3 ω3 √d(cos θ), the energy E and the
   modified energy Ẽ = E − ½ m|ν|² + m ν·(ω × a) from the vectors of the model (Resal frame).
@@ -8,7 +8,7 @@
 
   and checks on the way that the θ̇-linear term vanishes.
 * :func:`rational_potential` imposes σ = (1 − γ)/(γ + α² − 1), under which d(z) is a perfect
-  square and V is rational in z (Rutstam 2013, RCD; RR14; theory.md §5).
+  square and V is rational in z (Rutstam 2013, RCD; RR14; docs/theory/mett.md#rational).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ _sqd = sp.Symbol("sqrt_d", positive=True)
 
 
 def d_expr(z: sp.Expr | None = None) -> sp.Expr:
-    """d(z) = γ + σ(α − z)² + σγ(1 − z²), γ = I1/I3, σ = m R²/I3 (theory.md §1).
+    """d(z) = γ + σ(α − z)² + σγ(1 − z²), γ = I1/I3, σ = m R²/I3 (docs/theory/model.md#conventions).
 
     Equivalently I3² d = I1 I3 + m R² I3 (α − z)² + m R² I1 (1 − z²). D = I3 ω3 √d(cos θ).
     """
@@ -48,14 +48,14 @@ def _vectors() -> dict[str, sp.Matrix]:
 
 @cache
 def integrals() -> dict[str, sp.Expr]:
-    """λ, D, E and Ẽ as functions of the state (θ, θ̇, φ̇, ω3, ν_x, ν_y) (theory.md §1, §3).
+    """λ, D, E and Ẽ as functions of the state (θ, θ̇, φ̇, ω3, ν_x, ν_y) (docs/theory/model.md#conventions, docs/theory/equations.md#integrals).
 
     Returns
     -------
     dict
         ``lam`` = −L·a (Jellett), ``D`` = I3 ω3 √d(cos θ) (Routh), ``E`` = ½ m|ṙ|² + ½ ω·L +
         m g R(1 − α cos θ) with ṙ = ν − ω × a, and ``E_mod`` = E − ½ m|ν|² + m ν·(ω × a), which
-        contains no ν (theory.md §3: Ẽ = ½ m|ω × a|² + ½ ω·L + U).
+        contains no ν (docs/theory/equations.md#integrals: Ẽ = ½ m|ω × a|² + ½ ω·L + U).
     """
     v = _vectors()
     omega, L, a, nu = v["omega"], v["L"], v["a"], v["nu"]
@@ -139,7 +139,7 @@ def mett_decomposition() -> dict[str, sp.Expr]:
 
 
 def mett_potential() -> tuple[sp.Expr, sp.Expr]:
-    """(g(z), V(z, D, λ)) of the METT Ẽ = g(z) θ̇² + V(z, D, λ), derived (theory.md §4; R12 §3).
+    """(g(z), V(z, D, λ)) of the METT Ẽ = g(z) θ̇² + V(z, D, λ), derived (docs/theory/mett.md#the-main-equation; R12 §3).
 
     Expected (and tested)::
 
@@ -158,7 +158,7 @@ def mett_potential() -> tuple[sp.Expr, sp.Expr]:
 
 @cache
 def rational_potential() -> dict[str, sp.Expr]:
-    """The METT under the rational condition σ = (1 − γ)/(γ + α² − 1) (theory.md §5; R13; RR14).
+    """The METT under the rational condition σ = (1 − γ)/(γ + α² − 1) (docs/theory/mett.md#rational; R13; RR14).
 
     The condition is solved for I1 (γ = 1 − σα²/(1 + σ), σ = m R²/I3). Then
     d(z) = σ(1 − γ)(z − α/(1 − γ))², and since α/(1 − γ) > 1 the root is outside [−1, 1], so

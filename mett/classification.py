@@ -1,0 +1,641 @@
+"""Steady states of the gliding top, their stability, and the six classes of tops in the (α, γ) plane.
+
+For a Jellett integral λ the gliding top (viscous friction, :mod:`mett.dynamics.gliding`) has three
+kinds of steady motion: the upright spin (θ = 0), the inverted spin (θ = π) and the *tumbling* states
+of :func:`mett.thresholds.tumbling_state` (θ = θ_t fixed, contact point at rest, the body precessing
+steadily about the vertical). Friction dissipates the energy E while λ is conserved, so the states
+that can be approached are the minima of the *amended potential*
+
+    U_λ(θ) = λ² / (2 R² [I1 sin²θ + I3 (cos θ − α)²]) + m g R (1 − α cos θ),
+
+the least energy a top with Jellett integral λ and inclination θ can have (minimising E over the
+velocities at fixed λ gives a CM at rest and ω ∥ a; Ebenfeld & Scheck 1995, Ciocci & Langerock 2007
+use the same reduction). Its interior critical points are exactly the tumbling family, and its end
+points the two spins. A tumbling state is a minimum of U_λ iff λ(θ_t) increases with θ_t there, which
+(with z = cos θ_t, u = 1 − γ, w = α − u z > 0) is the sign of
+
+    S(z) = u [γ (1 − z²) + (z − α)²] − 4 w²:   stable iff S < 0.
+
+The same answer comes from linearising the equations of motion: :func:`tumbling_eigenvalues`
+linearises the vector form in the frame that precesses with the state and reduces it by the symmetry
+and the two integrals (|3̂| and λ), leaving five eigenvalues whose largest real part changes sign
+exactly where λ'(θ_t) does (checked in ``tests/test_classification.py`` against an independent
+linearisation of the Euler-angle form and against simulations started next to tumbling states).
+
+S is a concave quadratic in z whose vertex z = α/u lies outside [−1, 1] for group II, so the
+tumbling family is monotone or has a single fold. That gives six classes, as many as the six groups
+Ia–III that Ciocci & Langerock (2007) derive from the existence and stability of the steady
+states; the criteria below are derived here, and which letter a, b, c names which case is our
+assignment, not checked against their text:
+
+| class | where | tumbling family λ(θ_t) and stable states |
+| --- | --- | --- |
+| Ia | γ ≤ 1 − α, S(−1) ≥ 0 | falls from ∞ (θ_f) to λ_thres (π), every tumbling state unstable; upright always stable, inverted too for λ ≥ λ_thres (bistable) |
+| Ib | γ ≤ 1 − α, S(−1) < 0 | falls from ∞ to a fold λ_min < λ_thres, then rises to λ_thres: stable tumbling near π for λ_min < λ < λ_thres next to the upright spin (bistable for every λ > λ_min) |
+| IIa | group II, S(1) ≤ 0 | rises from λ_0 to λ_thres: upright, tumbling, inverted in turn |
+| IIb | group II, S(1) > 0 > S(−1) | falls from λ_0 to λ_min, rises to λ_thres; bistable for λ_min < λ < λ_0 (upright with tumbling, and with inverted where λ_0 > λ_thres, i.e. γ < (1 − α²)(1 + 3α²)/(1 + 6α² + α⁴)) |
+| IIc | group II, S(−1) ≥ 0 | falls from λ_0 to λ_thres, every tumbling state unstable; both spins stable for λ_thres ≤ λ ≤ λ_0 |
+| III | γ ≥ 1 + α | rises from λ_0 to ∞ at θ_f: upright, then tumbling below θ_f |
+
+(group II is 1 − α < γ < 1 + α; θ_f = arccos(α/(1 − γ)).) Ia and IIc exist only for
+α < 7 − 4√3 ≈ 0.0718, in wedges either side of γ = 1 − α; for γ ≥ 1 every group-II top is IIa.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import _validate
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from .thresholds import AsymptoticState, TumblingState
+    from .top import TippeTop
+
+__all__ = [
+    "SAMPLE_POINTS",
+    "SUBGROUPS",
+    "SubgroupBoundaries",
+    "amended_potential",
+    "bistable_range",
+    "classify",
+    "fold_lambda",
+    "plot_subgroups",
+    "stable_states",
+    "subgroup",
+    "subgroup_boundaries",
+    "tumbling_eigenvalues",
+    "tumbling_is_stable",
+    "tumbling_states",
+]
+
+SUBGROUPS = ("Ia", "Ib", "IIa", "IIb", "IIc", "III")
+"""The six classes, in the order of the module table."""
+
+SAMPLE_POINTS = {
+    "Ia": (0.02, 0.8),
+    "Ib": (0.3, 0.6),
+    "IIa": (0.3, 0.9357),
+    "IIb": (0.3, 0.75),
+    "IIc": (0.02, 0.981),
+    "III": (0.3, 1.4),
+}
+"""One (α, γ) per class, simulated in ``tests/test_classification.py`` and marked on the diagram."""
+
+ALPHA_WEDGE = 7.0 - 4.0 * math.sqrt(3.0)
+"""α below which the classes Ia and IIc exist: S(−1) = 0 has real roots iff 1 − 6α + α² >= 8α."""
+
+
+# --- the amended potential and the fold indicator -------------------------------------------
+
+
+def amended_potential(top: TippeTop, lam: float, theta: ArrayLike) -> np.ndarray:
+    """Least energy (J) of a gliding top with Jellett integral ``lam`` and inclination ``theta``.
+
+    U_λ(θ) = λ²/(2 R² [I1 sin²θ + I3 (cos θ − α)²]) + m g R (1 − α cos θ): the energy minimised over
+    the velocities at fixed θ and λ (CM at rest, ω ∥ a). Friction lowers E at fixed λ, so the
+    attainable end states are its minima; its interior critical points are the tumbling states and
+    U_λ(0), U_λ(π) are the energies E0, E1 of the two spins (:func:`mett.boundary_values`).
+
+    Parameters
+    ----------
+    top : TippeTop
+    lam : float
+        Jellett integral λ > 0 (kg m² s⁻¹).
+    theta : array_like
+        Inclination(s) in [0, π] (rad).
+    """
+    lam = _validate.positive_jellett(lam)
+    th = _validate.theta(theta)
+    c, s = np.cos(th), np.sin(th)
+    Q = top.I1 * s * s + top.I3 * (c - top.alpha) ** 2
+    with np.errstate(over="ignore"):  # λ ≳ 1e154: the energy overflows to inf, correctly rounded
+        kinetic = np.square(np.float64(lam) / top.R) / (2.0 * Q)
+    return kinetic + top.m * top.g * top.R * (1.0 - top.alpha * c)
+
+
+def _S(alpha: ArrayLike, gamma: ArrayLike, z: ArrayLike) -> np.ndarray:
+    """Fold indicator: sign(S) = −sign(dλ/dθ_t) on the tumbling family (module docstring)."""
+    u = 1.0 - np.asarray(gamma, dtype=float)
+    a = np.asarray(alpha, dtype=float)
+    z = np.asarray(z, dtype=float)
+    q = (1.0 - u) * (1.0 - z * z) + (z - a) ** 2
+    return u * q - 4.0 * (a - u * z) ** 2
+
+
+def tumbling_is_stable(top: TippeTop, theta: ArrayLike) -> np.ndarray:
+    """Whether the tumbling state at θ_t = ``theta`` is asymptotically stable (bool array).
+
+    Stable iff it is a minimum of the amended potential, iff λ(θ_t) increases with θ_t, iff
+    S(cos θ_t) < 0 (module docstring). False where the family does not exist.
+    """
+    th = _validate.theta(theta)
+    z = np.cos(th)
+    exists = top.alpha - (1.0 - top.gamma) * z > 0.0
+    return exists & (_S(top.alpha, top.gamma, z) < 0.0)
+
+
+# --- classes in the (α, γ) plane ------------------------------------------------------------
+
+
+def _span(x: np.ndarray) -> str:
+    return repr(float(x)) if x.ndim == 0 else f"values in [{x.min():g}, {x.max():g}]"
+
+
+def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
+    """Class (``"Ia"`` … ``"III"``) of tops with eccentricity ``alpha`` and γ = I1/I3 = ``gamma``.
+
+    Vectorised over broadcast ``alpha``, ``gamma``; the criteria are those of the module table,
+    which do not need α < 1 (a top resting on its stem has its CM outside the stem sphere, α > 1:
+    :mod:`mett.stem`). Returns a str array (0-d for scalar input).
+
+    Raises
+    ------
+    ValueError
+        If alpha or gamma is not positive and finite.
+    """
+    a = _validate.as_finite_array("alpha", alpha)
+    g = _validate.as_finite_array("gamma", gamma)
+    if np.any(a <= 0.0):
+        raise ValueError(f"alpha must lie in (0, inf); got {_span(a)}")
+    if np.any(g <= 0.0):
+        raise ValueError(f"gamma must lie in (0, inf); got {_span(g)}")
+    a, g = np.broadcast_arrays(a, g)
+    s_up, s_inv = _S(a, g, 1.0), _S(a, g, -1.0)
+    out = np.where(
+        g <= 1.0 - a,
+        np.where(s_inv >= 0.0, "Ia", "Ib"),
+        np.where(
+            g >= 1.0 + a,
+            "III",
+            np.where(s_up <= 0.0, "IIa", np.where(s_inv >= 0.0, "IIc", "IIb")),
+        ),
+    )
+    return out.astype("<U3")
+
+
+def subgroup(top: TippeTop) -> str:
+    """Class of ``top`` among Ia, Ib, IIa, IIb, IIc, III (module table; Ciocci & Langerock 2007).
+
+    All presets shipped with mett are IIa (e.g. the thesis body, α = 0.3, γ = 0.936).
+    """
+    return str(classify(top.alpha, top.gamma))
+
+
+class SubgroupBoundaries(NamedTuple):
+    """The curves γ(α) separating the classes (NaN where a curve does not exist)."""
+
+    group_I: np.ndarray
+    """γ = 1 − α (groups I | II)."""
+    group_III: np.ndarray
+    """γ = 1 + α (groups II | III)."""
+    IIa: np.ndarray
+    """Lower edge of IIa: S(1) = 0, γ = 1 − u₁ with u₁ = [b₊ − √(b₊² − 64α²)]/8, b₊ = 1 + 6α + α²."""
+    IIc: np.ndarray
+    """Upper edge of IIc: S(−1) = 0, γ = 1 − u₋, u₋ = [b₋ − √(b₋² − 64α²)]/8, b₋ = 1 − 6α + α²."""
+    Ia: np.ndarray
+    """Lower edge of Ia: S(−1) = 0, γ = 1 − u₊, u₊ = [b₋ + √(b₋² − 64α²)]/8."""
+    spins_equal: np.ndarray
+    """λ_0 = λ_thres: γ = (1 − α²)(1 + 3α²)/(1 + 6α² + α⁴); below it (in group II) both spins
+    are stable for λ_thres < λ < λ_0."""
+
+
+def subgroup_boundaries(alpha: ArrayLike) -> SubgroupBoundaries:
+    """Boundaries of the classes in the (α, γ) plane as functions of α (module table).
+
+    S(±1) = −4u² + u b_± − 4α² with u = 1 − γ and b_± = 1 ± 6α + α²; each boundary is a root u of
+    one of these quadratics.
+    """
+    a = _validate.as_finite_array("alpha", alpha)
+    if np.any((a <= 0.0) | (a >= 1.0)):
+        raise ValueError(f"alpha must lie in (0, 1); got {_span(a)}")
+    bp = 1.0 + 6.0 * a + a * a
+    bm = 1.0 - 6.0 * a + a * a
+    # bp² − 64α² = (bp − 8α)(bp + 8α) = (1 − α)² (bp + 8α) >= 0: factored to keep it exact.
+    u1 = (bp - np.sqrt((1.0 - a) ** 2 * (bp + 8.0 * a))) / 8.0
+    disc = bm * bm - 64.0 * a * a
+    with np.errstate(invalid="ignore"):
+        root = np.where((disc >= 0.0) & (bm > 0.0), np.sqrt(np.maximum(disc, 0.0)), np.nan)
+    spins = (1.0 - a * a) * (1.0 + 3.0 * a * a) / (1.0 + 6.0 * a * a + a**4)
+    return SubgroupBoundaries(
+        1.0 - a, 1.0 + a, 1.0 - u1, 1.0 - (bm - root) / 8.0, 1.0 - (bm + root) / 8.0, spins
+    )
+
+
+# --- tumbling states with a given λ ------------------------------------------------------------
+
+
+def _domain(top: TippeTop) -> tuple[float, float]:
+    from .thresholds import _tumbling_domain
+
+    return _tumbling_domain(top)
+
+
+def _fold_theta(top: TippeTop) -> float | None:
+    """θ_t where λ(θ_t) turns (S = 0 inside the family's domain), or None if it is monotone."""
+    a, u = top.alpha, 1.0 - top.gamma
+    if u == 0.0:
+        return None
+    X = (
+        u * (top.gamma + a * a) - a * a
+    )  # S(z) = −3u²(z − α/u)² + X, so S = 0 at z = α/u ∓ √(X/3)/|u|
+    if X <= 0.0:
+        return None
+    z = (a - math.copysign(math.sqrt(X / 3.0), u)) / u
+    lo, hi = _domain(top)
+    if math.cos(hi) < z < math.cos(lo):
+        return math.acos(z)
+    return None
+
+
+def fold_lambda(top: TippeTop) -> float | None:
+    """λ_min (kg m² s⁻¹) at the fold of the tumbling family (classes Ib, IIb), or None if monotone."""
+    from .thresholds import tumbling_lambda
+
+    th = _fold_theta(top)
+    return None if th is None else float(tumbling_lambda(top, th))
+
+
+def _state_at(top: TippeTop, th: float) -> TumblingState:
+    from .thresholds import TumblingState
+
+    a = top.alpha
+    phidot = math.sqrt(
+        top.m * top.g * top.R * a / (top.I3 * (a - (1.0 - top.gamma) * math.cos(th)))
+    )
+    return TumblingState(float(th), phidot, phidot * (math.cos(th) - a))
+
+
+def _state_from_lambda(top: TippeTop, th: float, lam: float) -> TumblingState:
+    """The tumbling state at θ_t = ``th`` with its precession from λ = R φ̇ [I1 sin²θ + I3 (cos θ − α)²],
+    so that its Jellett integral is ``lam`` to rounding even where λ(θ_t) is steep (near θ_f the
+    closed form of φ̇ at the rounded θ_t is off by λ'(θ_t)·ulp(θ_t))."""
+    from .thresholds import TumblingState
+
+    c, s = math.cos(th), math.sin(th)
+    phidot = lam / (top.R * (top.I1 * s * s + top.I3 * (c - top.alpha) ** 2))
+    return TumblingState(float(th), phidot, phidot * (c - top.alpha))
+
+
+def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
+    """Every tumbling state with Jellett integral ``lam``, by increasing θ_t (0, 1 or 2 of them).
+
+    The family is cut at its fold (if any) into monotone pieces and λ(θ_t) = lam is solved on each
+    with Brent's method; the spins themselves (θ_t = 0, π) are not included.
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is not positive and finite.
+    """
+    from scipy import optimize
+
+    from .thresholds import tumbling_lambda
+
+    lam = _validate.positive_jellett(lam)
+    lo, hi = _domain(top)
+    cuts = [lo, hi]
+    fold = _fold_theta(top)
+    if fold is not None:
+        cuts.insert(1, fold)
+
+    def resid(t: float) -> float:
+        return float(tumbling_lambda(top, t)) - lam
+
+    def end_value(t: float) -> float:
+        v = resid(t)
+        return math.inf if math.isnan(v) else v  # λ → ∞ at θ_f, the family's open end
+
+    out = []
+    for a, b in itertools.pairwise(cuts):
+        ra, rb = end_value(a), end_value(b)
+        if math.isinf(ra) or math.isinf(rb):
+            # step in from θ_f until λ is finite and above lam
+            t_inf, t_fin = (a, b) if math.isinf(ra) else (b, a)
+            r_fin = ra if t_fin == a else rb
+            if r_fin >= 0.0:
+                continue
+            t = t_fin
+            for k in range(1, 1100):
+                t_next = t_inf + (t_fin - t_inf) * 2.0**-k
+                if t_next == t_inf:
+                    break
+                t = t_next
+                if resid(t) > 0.0:
+                    break
+            else:  # pragma: no cover - 2⁻¹¹⁰⁰ underflows: the loop always breaks above
+                pass
+            if not resid(t) > 0.0:
+                # θ_t(lam) lies closer to θ_f than the spacing of doubles: the nearest θ it is
+                out.append(_state_from_lambda(top, t, lam))
+                continue
+            a, b = (t, t_fin) if t_inf == a else (t_fin, t)
+            ra, rb = resid(a), resid(b)
+        # a root at a pole is the spin itself (λ = λ_0 or λ_thres exactly), not a tumbling state
+        tol = 1e-12 * lam
+        if (a == 0.0 and abs(ra) <= tol) or (b == math.pi and abs(rb) <= tol):
+            continue
+        if ra * rb < 0.0:
+            th = optimize.brentq(resid, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+            if 0.0 < th < math.pi:
+                out.append(_state_from_lambda(top, th, lam))
+    return sorted(out, key=lambda s: s.theta)
+
+
+def stable_states(top: TippeTop, lam: float) -> list[AsymptoticState]:
+    """All asymptotically stable steady states with Jellett integral ``lam``, by increasing θ.
+
+    The upright spin counts for λ <= λ_0, the inverted one for λ >= λ_thres (the tumbling branch
+    that ends there joins it), and the tumbling states with λ'(θ_t) > 0 (:func:`tumbling_is_stable`).
+    There is always at least one; two means the end state depends on the start (bistable).
+    """
+    from .thresholds import AsymptoticState
+
+    lam = _validate.positive_jellett(lam)
+    R, I3, a = top.R, top.I3, top.alpha
+    out = []
+    if lam <= top.lambda_0:
+        out.append(AsymptoticState("upright", 0.0, lam / (R * I3 * (1.0 - a))))
+    for st in tumbling_states(top, lam):
+        if tumbling_is_stable(top, st.theta):
+            out.append(AsymptoticState("tumbling", st.theta, st.omega3))
+    if lam >= top.lambda_thres:
+        out.append(AsymptoticState("inverted", math.pi, -lam / (R * I3 * (1.0 + a))))
+    return out
+
+
+def bistable_range(top: TippeTop) -> tuple[float, float] | None:
+    """The open interval of λ (kg m² s⁻¹) with two stable steady states, or None (IIa, III).
+
+    Ia: (λ_thres, ∞) (both spins); Ib: (λ_min, ∞); IIb: (λ_min, λ_0); IIc: (λ_thres, λ_0), where
+    λ_min is the fold value (:func:`fold_lambda`). The spins alone are both stable on
+    [λ_thres, λ_0] whenever λ_thres < λ_0.
+    """
+    cls = subgroup(top)
+    if cls in ("IIa", "III"):
+        return None
+    if cls in ("Ia", "IIc"):
+        return (top.lambda_thres, top.lambda_0)
+    return (fold_lambda(top), top.lambda_0)
+
+
+# --- linear stability of a tumbling state -----------------------------------------------------
+
+
+def _rotating_system(top: TippeTop, theta: float):
+    """Tumbling state y* = [ẋ, ẏ, L, 3̂] (3̂ in the xz plane), its precession rate Ω and F(y).
+
+    F(y) = f(y) − Ω ẑ × y (applied to each horizontal/3-vector part) is the gliding vector field
+    in the frame turning with the precession; y* is an equilibrium of it.
+    """
+    from .dynamics.gliding import gliding_rhs
+
+    st = _state_at(top, theta)
+    a, I1, I3 = top.alpha, top.I1, top.I3
+    e = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    w = st.phidot * (np.array([0.0, 0.0, 1.0]) - a * e)  # ω ∥ a = R(α3̂ − ẑ), ω·3̂ = ω3
+    L = I1 * w + (I3 - I1) * float(w @ e) * e
+    y = np.concatenate(([0.0, 0.0], L, e))
+    p = (top.m, top.R, top.R * a, I1, I3, top.mu, top.g)
+    Om = st.phidot
+
+    def turn(v):
+        out = np.zeros_like(v)
+        for k in (0, 2, 5):  # ẑ × (vx, vy, ·) on the velocity, L and 3̂ parts
+            out[k], out[k + 1] = -v[k + 1], v[k]
+        return out
+
+    def F(v):
+        full = np.concatenate((np.zeros(2, dtype=v.dtype), v))
+        return gliding_rhs(0.0, full, p)[2:] - Om * turn(v)
+
+    def jellett(v):
+        n = (v[5] * v[5] + v[6] * v[6] + v[7] * v[7]) ** 0.5
+        return -(v[2] * (top.R * a * v[5] / n) + v[3] * (top.R * a * v[6] / n)
+                 + v[4] * (top.R * a * v[7] / n - top.R))  # fmt: skip
+
+    return y, st, F, jellett, turn
+
+
+def _complex_step(fun, y0: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    cols = []
+    for k in range(len(y0)):
+        h = 1e-30 * scale[k]
+        yc = y0.astype(complex)
+        yc[k] += 1j * h
+        cols.append(np.atleast_1d(np.imag(fun(yc))) / h)
+    return np.array(cols).T
+
+
+def tumbling_eigenvalues(top: TippeTop, theta: float) -> np.ndarray:
+    """Eigenvalues (1/s) of the gliding top linearised at the tumbling state θ_t = ``theta``.
+
+    The vector form of :mod:`mett.dynamics.gliding` is written in the frame precessing with the
+    state (where the state is an equilibrium; the CM position is cyclic and dropped), linearised
+    with a complex-step Jacobian, restricted to the subspace where the integrals |3̂| and λ keep
+    their values (their gradients are left null vectors, so it is invariant) and divided by the
+    rotation about ẑ (a right null vector). Five eigenvalues remain.
+
+    Parameters
+    ----------
+    top : TippeTop
+    theta : float
+        θ_t inside the family's domain, 0 < θ_t < π (rad); the spins at 0 and π are
+        :func:`mett.spin_eigenvalues`' business.
+
+    Returns
+    -------
+    ndarray of complex, shape (5,)
+        Largest real part first. The state is asymptotically stable (up to drift along the family
+        and the symmetry) if all real parts are negative; the largest is real and changes sign
+        with λ'(θ_t) (:func:`tumbling_is_stable`).
+
+    Raises
+    ------
+    ValueError
+        If ``theta`` is not inside (0, π) or the family does not exist there.
+    """
+    from scipy.linalg import null_space
+
+    th = float(_validate.theta(theta))
+    lo, hi = _domain(top)
+    exists = top.alpha - (1.0 - top.gamma) * math.cos(th) > 0.0
+    if not (0.0 < th < math.pi and exists):
+        raise ValueError(
+            f"theta must lie inside the tumbling family's domain ({lo:.6g}, {hi:.6g}) without the "
+            f"poles 0 and pi; got {theta!r}"
+        )
+    if math.sin(th) < 1e-8:
+        raise ValueError(
+            f"theta must be at least 1e-8 rad from the poles 0 and pi (the tumbling state merges into "
+            f"the spin there: use mett.spin_eigenvalues); got {theta!r}"
+        )
+    y, st, F, jellett, turn = _rotating_system(top, th)
+    Lmag = float(np.linalg.norm(y[2:5]))
+    scale = np.array([top.R * st.phidot] * 2 + [Lmag] * 3 + [1.0] * 3)
+    J = _complex_step(F, y, scale)
+    grad_lam = _complex_step(jellett, y, scale)[0]
+    grad_norm = np.concatenate((np.zeros(5), 2.0 * y[5:]))
+    W = null_space(np.vstack([grad_lam / np.linalg.norm(grad_lam), grad_norm]))  # 8 × 6
+    A = W.T @ J @ W
+    u = W.T @ turn(y)
+    P = null_space(u[None, :] / np.linalg.norm(u))  # 6 × 5, quotient by the rotation
+    ev = np.linalg.eigvals(P.T @ A @ P)
+    return ev[np.argsort(-ev.real, kind="stable")]
+
+
+# --- the figure ---------------------------------------------------------------------------------
+
+_CLASS_COLORS = {
+    "Ia": "#c6dbef",
+    "Ib": "#6baed6",
+    "IIa": "#fdd49e",
+    "IIb": "#fc8d59",
+    "IIc": "#d7301f",
+    "III": "#a1d99b",
+}
+
+
+def _draw_classes(ax, alpha, gamma, n, labels) -> None:
+    from matplotlib.colors import ListedColormap
+
+    def centres(lo: float, hi: float) -> np.ndarray:
+        edges = np.linspace(lo, hi, n + 1)
+        return 0.5 * (edges[1:] + edges[:-1])
+
+    A, G = np.meshgrid(centres(*alpha), centres(*gamma))
+    names = classify(A, G)
+    code = np.zeros(A.shape)
+    for i, name in enumerate(SUBGROUPS):
+        code[names == name] = i
+    cmap = ListedColormap([_CLASS_COLORS[c] for c in SUBGROUPS])
+    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(SUBGROUPS) - 0.5, shading="auto")
+    a = np.linspace(max(alpha[0], 1e-4), alpha[1], 2000)
+    b = subgroup_boundaries(a)
+    for curve, style in ((b.group_I, "k-"), (b.group_III, "k-"), (b.IIa, "k--"), (b.IIc, "k:"),
+                         (b.Ia, "k:")):  # fmt: skip
+        ax.plot(a, curve, style, lw=1.0)
+    ax.plot(a, b.spins_equal, color="0.25", lw=1.0, ls="-.", label="λ₀ = λ_thres")
+    for name, (x, y) in labels.items():
+        ax.text(x, y, name, ha="center", va="center", fontsize=10, weight="bold")
+    ax.set_xlim(*alpha)
+    ax.set_ylim(*gamma)
+
+
+def plot_subgroups(
+    *,
+    points: dict[str, tuple[float, float]] | None = None,
+    samples: list[tuple[float, float]] | None = None,
+    n: int = 500,
+    ax=None,
+) -> Figure:
+    """The (α, γ) plane coloured by class (Ia … III), with its boundary curves.
+
+    Solid: γ = 1 ∓ α (groups I | II | III); dashed: lower edge of IIa (S(1) = 0); dotted: the
+    S(−1) = 0 edges of the wedges Ia and IIc (α < 7 − 4√3, magnified in the inset); dash-dotted:
+    λ_0 = λ_thres, below which (in group II) both spins are stable for λ_thres < λ < λ_0. The grey
+    line γ = 1/2 is the rigid-body bound I3 <= 2 I1.
+
+    Parameters
+    ----------
+    points : dict, optional
+        Labelled (α, γ) points to mark, e.g. the presets.
+    samples : list of (float, float), optional
+        (α, γ) of simulated sample points, drawn as triangles.
+    n : int
+        Grid size per axis of the colour map.
+    ax : matplotlib Axes, optional
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig = plt.figure(figsize=(7.6, 5.6), layout="constrained")
+        ax = fig.add_subplot()
+    fig = ax.figure
+    labels = {"Ib": (0.4, 0.56), "IIa": (0.32, 1.02), "IIb": (0.5, 0.62), "III": (0.15, 1.45)}
+    _draw_classes(ax, (0.0, 0.6), (0.45, 1.7), n, labels)
+    ax.axhline(0.5, color="0.45", lw=0.8)
+    ax.text(0.01, 0.49, "γ = 1/2 (I3 = 2 I1)", ha="left", va="top", fontsize=7)
+    for name, (x, y) in (points or {}).items():
+        ax.plot(x, y, "o", ms=4, mfc="white", mec="black")
+        ax.annotate(name, (x, y), xytext=(4, 2), textcoords="offset points", fontsize=7)
+    if samples:
+        sa, sg = np.asarray(samples, dtype=float).T
+        ax.plot(sa, sg, "^", ms=5, color="black", ls="none", label="simulated samples")
+    ax.legend(loc="upper left", fontsize=8)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=_CLASS_COLORS[c]) for c in SUBGROUPS]
+    ax.figure.legend(handles, SUBGROUPS, loc="outside right upper", fontsize=8, title="class")
+    ins = ax.inset_axes((0.56, 0.5, 0.42, 0.46))
+    _draw_classes(ins, (0.0, 0.08), (0.88, 1.01), n, {"Ia": (0.012, 0.95), "IIc": (0.025, 0.983),
+                                                        "IIb": (0.071, 0.966), "Ib": (0.06, 0.905),
+                                                        "IIa": (0.02, 1.004)})  # fmt: skip
+    for x, y in (points or {}).values():
+        if x <= 0.08 and 0.88 <= y <= 1.01:
+            ins.plot(x, y, "o", ms=4, mfc="white", mec="black")
+    for x, y in samples or ():
+        if x <= 0.08 and 0.88 <= y <= 1.01:
+            ins.plot(x, y, "^", ms=5, color="black")
+    ins.tick_params(labelsize=7)
+    ins.set_title("α < 0.08", fontsize=8)
+    ax.indicate_inset_zoom(ins, edgecolor="0.3")
+    ax.set_xlabel("α (CM offset / R)")
+    ax.set_ylabel("γ = I1/I3")
+    ax.set_title("Classes of tippe tops by their steady states (gliding model)")
+    return fig
+
+
+def plot_tumbling_families(*, ax=None) -> Figure:
+    """Bifurcation diagrams of the six classes: the steady states in the (θ, λ) plane.
+
+    One panel per class at its :data:`SAMPLE_POINTS` (α, γ): the tumbling family λ(θ_t), solid
+    where stable (λ'(θ_t) > 0) and dashed where unstable, and the spins on the edges θ = 0
+    (stable for λ <= λ_0) and θ = π (stable for λ >= λ_thres). λ is in units of min(λ_0, λ_thres).
+    A horizontal line λ = const meets the solid lines in the candidates of
+    :func:`mett.asymptotic_state`.
+
+    Parameters
+    ----------
+    ax : array of 6 matplotlib Axes, optional
+    """
+    import matplotlib.pyplot as plt
+
+    from .thresholds import tumbling_lambda
+    from .top import TippeTop
+
+    if ax is None:
+        fig, axes = plt.subplots(2, 3, figsize=(9.6, 5.8), layout="constrained", sharex=True)
+    else:
+        axes = np.asarray(ax)
+        fig = axes.flat[0].figure
+    ymax = 3.0
+    for a_, (name, (alpha, gamma)) in zip(axes.flat, SAMPLE_POINTS.items(), strict=True):
+        top = TippeTop(m=0.02, R=0.02, alpha=alpha, I1=gamma * 3.2e-6, I3=3.2e-6)
+        scale = min(top.lambda_0, top.lambda_thres)
+        lo, hi = _domain(top)
+        th = np.linspace(lo, hi, 3001)[1:-1]
+        lam = tumbling_lambda(top, th) / scale
+        stable = tumbling_is_stable(top, th)
+        a_.plot(th, np.where(stable, lam, np.nan), "C0-", lw=1.8, label="stable")
+        a_.plot(th, np.where(stable, np.nan, lam), "C3--", lw=1.2, label="unstable")
+        lam0, lamt = top.lambda_0 / scale, top.lambda_thres / scale
+        a_.plot([0, 0], [0, min(lam0, ymax)], "C0-", lw=5, solid_capstyle="butt")
+        a_.plot([0, 0], [min(lam0, ymax), ymax], "C3-", lw=2)
+        a_.plot([math.pi, math.pi], [min(lamt, ymax), ymax], "C0-", lw=5, solid_capstyle="butt")
+        a_.plot([math.pi, math.pi], [0, min(lamt, ymax)], "C3-", lw=2)
+        a_.set_ylim(0, ymax)
+        a_.set_xlim(-0.08, math.pi + 0.08)
+        a_.set_title(f"{name}: α = {alpha:g}, γ = {gamma:g}", fontsize=9)
+        a_.tick_params(labelsize=8)
+    for a_ in axes[-1]:
+        a_.set_xlabel("θ (rad)")
+    for a_ in axes[:, 0]:
+        a_.set_ylabel("λ / min(λ₀, λ_thres)")
+    axes.flat[0].legend(fontsize=7, loc="upper center")
+    fig.suptitle("Steady states of the gliding top: tumbling family and spins (thick: stable)")
+    return fig

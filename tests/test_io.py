@@ -1,0 +1,295 @@
+"""Keeping results: Trajectory.save/load round trips, to_dataframe, and the empty dense query."""
+
+from __future__ import annotations
+
+import json
+import math
+import zipfile
+
+import numpy as np
+import pytest
+
+import mett
+from mett import State, Trajectory, analysis, presets
+from mett.dynamics.trajectory import FORMAT_VERSION, SERIES
+
+
+@pytest.fixture(scope="module")
+def top():
+    return presets.get("rutstam2013")
+
+
+@pytest.fixture(scope="module")
+def thesis(top):
+    """The thesis run through its inversion (compiled DOP853), with a user event."""
+
+    def horizontal(t, s):
+        return s.theta - math.pi / 2
+
+    return mett.simulate(top, State(theta=0.1, omega3=155.0), 7.0, events=[horizontal])
+
+
+def _array_attrs(traj: Trajectory) -> dict[str, np.ndarray]:
+    return {"t": traj.t, "states": traj.states, **{k: getattr(traj, k) for k in SERIES}}
+
+
+def assert_same_run(a: Trajectory, b: Trajectory) -> None:
+    """Everything saved is equal; arrays bit for bit (dtype, shape and values)."""
+    for name, arr in _array_attrs(a).items():
+        other = getattr(b, name)
+        assert other.dtype == arr.dtype and other.shape == arr.shape, name
+        assert np.array_equal(other, arr), name
+    assert b.top == a.top
+    assert b.initial_state == a.initial_state
+    assert (b.model, b.options, b.params) == (a.model, a.options, a.params)
+    assert (b.status, b.message, b.t_contact_lost) == (a.status, a.message, a.t_contact_lost)
+    assert (b.nfev, b.backend) == (a.nfev, a.backend)
+    assert len(b.t_events) == len(a.t_events)
+    for ea, eb in zip(a.t_events, b.t_events, strict=True):
+        assert np.array_equal(ea, eb)
+
+
+def test_round_trip_is_exact_for_the_compiled_run(thesis, tmp_path):
+    path = thesis.save(tmp_path / "thesis.npz")
+    loaded = Trajectory.load(path)
+    assert_same_run(thesis, loaded)
+    assert loaded.initial_state == State(theta=0.1, omega3=155.0)
+    assert thesis.t_events[0].size >= 1  # the event fired: its times are part of the round trip
+    # the dense output is the solver's own: at(), crossings() equal bit for bit
+    tt = np.linspace(0.0, thesis.t_final, 2001)
+    assert np.array_equal(loaded.states_at(tt), thesis.states_at(tt))
+    sa, sb = thesis.at(tt), loaded.at(tt)
+    for k in ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y"):
+        assert np.array_equal(getattr(sa, k), getattr(sb, k)), k
+    assert np.array_equal(loaded.crossings(math.pi / 2), thesis.crossings(math.pi / 2))
+    assert loaded.crossings(math.pi / 2)[0] == pytest.approx(5.8797, abs=1e-4)
+    # derived analyses run on the loaded trajectory and agree with the original's
+    assert np.array_equal(analysis.mett_residual(loaded), analysis.mett_residual(thesis))
+    tp_a, tp_b = analysis.turning_points(thesis), analysis.turning_points(loaded)
+    assert tp_a.t.size > 2 and np.array_equal(tp_a.t, tp_b.t)
+
+
+def test_round_trip_of_the_scipy_dop853_run_keeps_its_interpolant(top, tmp_path):
+    traj = mett.simulate(top, State(theta=0.1, omega3=155.0), 3.0, backend="scipy")
+    loaded = Trajectory.load(traj.save(tmp_path / "s.npz"))
+    assert_same_run(traj, loaded)
+    tt = np.linspace(0.0, 3.0, 3001)
+    # scipy's DOP853 interpolant and the stored coefficients are the same polynomial
+    assert np.array_equal(loaded.states_at(tt), traj.states_at(tt))
+
+
+def test_other_scipy_methods_interpolate_by_hermite_after_load(top, tmp_path):
+    traj = mett.simulate(
+        top, State(theta=0.5, omega3=155.0), 1.0, backend="scipy", method="RK45", rtol=1e-8
+    )
+    loaded = Trajectory.load(traj.save(tmp_path / "rk45.npz"))
+    assert_same_run(traj, loaded)
+    steps = np.asarray(traj._sol.ts)
+    # through the step states (to rounding), close (interpolation error) between them
+    a, b = loaded.states_at(steps), traj.states_at(steps)
+    assert np.max(np.abs(a - b)) <= 1e-14 * np.max(np.abs(b))
+    mids = 0.5 * (steps[1:] + steps[:-1])
+    err = np.max(np.abs(loaded.theta_at(mids) - traj.theta_at(mids)))
+    assert 0.0 < err < 1e-6
+    level = float(np.median(traj.theta))
+    th_a = traj.crossings(level)
+    assert th_a.size > 10
+    assert np.allclose(loaded.crossings(level), th_a, atol=1e-6, rtol=0)
+
+
+@pytest.mark.parametrize(
+    ("model", "kw", "state"),
+    [
+        ("gliding-hst", {"l": 0.005}, State(theta=0.3, omega3=100.0)),
+        ("frictionless-routhian", {"vertical_cm": False}, State(theta=0.5, omega3=100.0)),
+        ("rolling", {}, State(theta=1.0, omega3=100.0, phidot=5.0)),
+    ],
+)
+def test_model_options_round_trip(top, tmp_path, model, kw, state):
+    traj = mett.simulate(top, state, 0.2, model=model, **kw)
+    assert traj.options == kw
+    loaded = Trajectory.load(traj.save(tmp_path / "m.npz"))
+    assert_same_run(traj, loaded)
+    assert loaded.options == kw
+
+
+def test_contact_lost_and_failed_runs_round_trip(top, tmp_path):
+    # a failure before the first step: the constant dense output of the start
+    failed = mett.simulate(top, State(theta=0.0, omega3=10.0), 1.0, model="gliding-euler")
+    assert failed.status == "failed" and failed.t.size == 1
+    loaded = Trajectory.load(failed.save(tmp_path / "f.npz"))
+    assert_same_run(failed, loaded)
+    assert loaded.at(0.0) == failed.at(0.0)
+    # contact lost at t = 0 (a top dropped with a large downward θ̇ at θ = π/2)
+    lost = mett.simulate(top, State(theta=1.5, thetadot=-400.0, omega3=0.0), 1.0)
+    assert lost.status == "contact_lost"
+    loaded = Trajectory.load(lost.save(tmp_path / "c.npz"))
+    assert_same_run(lost, loaded)
+    assert loaded.t_contact_lost == lost.t_contact_lost
+
+
+def test_t_eval_run_keeps_its_start_state(top, tmp_path):
+    state = State.with_cm_at_rest(top, theta=0.2, omega3=150.0)
+    traj = mett.simulate(top, state, 1.0, t_eval=np.linspace(0.5, 1.0, 11))
+    assert traj.t[0] == 0.5 and traj.initial_state == state
+    loaded = Trajectory.load(traj.save(tmp_path / "te.npz"))
+    assert_same_run(traj, loaded)
+
+
+def test_the_file_is_a_plain_npz_readable_without_mett(thesis, tmp_path):
+    path = thesis.save(tmp_path / "plain.npz")
+    with np.load(path, allow_pickle=False) as data:
+        assert np.array_equal(data["theta"], thesis.theta)
+        meta = json.loads(str(data["mett_trajectory"]))
+    assert meta["format"] == "mett.Trajectory" and meta["format_version"] == FORMAT_VERSION
+    assert meta["top"]["type"] == "mett.top:TippeTop"
+    assert meta["top"]["I1"] == thesis.top.I1 and meta["status"] == "completed"
+    assert meta["initial_state"]["omega3"] == 155.0 and meta["model"] == "gliding"
+
+
+def _rewrite_meta(path, **changes) -> None:
+    with np.load(path, allow_pickle=False) as data:
+        files = {k: np.array(data[k]) for k in data.files}
+    meta = json.loads(str(files["mett_trajectory"]))
+    meta.update(changes)
+    files["mett_trajectory"] = np.array(json.dumps(meta))
+    np.savez(path, **files)
+
+
+def test_load_refuses_a_newer_format_version(thesis, tmp_path):
+    path = thesis.save(tmp_path / "new.npz")
+    _rewrite_meta(path, format_version=FORMAT_VERSION + 1)
+    with pytest.raises(ValueError, match=rf"format version {FORMAT_VERSION + 1}.*upgrade mett"):
+        Trajectory.load(path)
+    _rewrite_meta(path, format_version="1")
+    with pytest.raises(ValueError, match="invalid format_version"):
+        Trajectory.load(path)
+
+
+def test_load_refuses_what_is_not_a_trajectory(thesis, tmp_path):
+    other = tmp_path / "other.npz"
+    np.savez(other, theta=np.zeros(3))
+    with pytest.raises(ValueError, match="not a mett trajectory"):
+        Trajectory.load(other)
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"not a zip file at all")
+    with pytest.raises(ValueError, match="not a readable mett trajectory"):
+        Trajectory.load(garbage)
+    with pytest.raises(ValueError, match="existing trajectory file"):
+        Trajectory.load(tmp_path / "missing.npz")
+    truncated = tmp_path / "truncated.npz"
+    raw = thesis.save(tmp_path / "full.npz").read_bytes()
+    truncated.write_bytes(raw[: len(raw) // 2])
+    with pytest.raises(ValueError, match="not a readable mett trajectory"):
+        Trajectory.load(truncated)
+    damaged = thesis.save(tmp_path / "damaged.npz")
+    with np.load(damaged, allow_pickle=False) as data:
+        files = {k: np.array(data[k]) for k in data.files}
+    files["theta"] = files["theta"][:-1]  # one sample short
+    np.savez(damaged, **files)
+    with pytest.raises(ValueError, match="damaged mett trajectory file"):
+        Trajectory.load(damaged)
+    unknown = thesis.save(tmp_path / "unknown_model.npz")
+    _rewrite_meta(unknown, model="magic")
+    with pytest.raises(ValueError, match="model 'magic'"):
+        Trajectory.load(unknown)
+
+
+def test_mett_dataclass_options_round_trip_and_foreign_classes_are_refused(thesis, tmp_path):
+    # a model option that is a mett dataclass (e.g. a friction law object) is stored by name
+    thesis.options = {"law": State(theta=0.2, omega3=3.0), "n": [1, 2.5, None]}
+    try:
+        path = thesis.save(tmp_path / "opt.npz")
+    finally:
+        thesis.options = {}
+    loaded = Trajectory.load(path)
+    assert loaded.options == {"law": State(theta=0.2, omega3=3.0), "n": [1, 2.5, None]}
+    # a file can only name mett's own classes: nothing else is imported or called
+    _rewrite_meta(path, top={"type": "os:system", "command": "true"})
+    with pytest.raises(ValueError, match="refusing to rebuild 'os:system'"):
+        Trajectory.load(path)
+    _rewrite_meta(path, top={"type": "mett.top:NoSuchTop"})
+    with pytest.raises(ValueError, match="does not exist in this mett"):
+        Trajectory.load(path)
+
+
+def test_save_validates_the_path_before_writing(thesis, tmp_path):
+    with pytest.raises(ValueError, match="directory of path must exist"):
+        thesis.save(tmp_path / "missing" / "x.npz")
+    assert not (tmp_path / "missing").exists()
+    with pytest.raises(ValueError, match=r"must end in \.npz"):
+        thesis.save(tmp_path / "x.csv")
+    (tmp_path / "d.npz").mkdir()
+    with pytest.raises(ValueError, match="not a directory"):
+        thesis.save(tmp_path / "d.npz")
+    with pytest.raises(TypeError, match="path must be a str"):
+        thesis.save(3)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.npz"]
+
+
+def test_a_failed_save_leaves_the_existing_file_intact(thesis, tmp_path):
+    path = thesis.save(tmp_path / "keep.npz")
+    before = path.read_bytes()
+    thesis.options = {"friction": object()}  # not storable: refused before anything is written
+    try:
+        with pytest.raises(TypeError, match="option 'friction' must be a plain value"):
+            thesis.save(path)
+    finally:
+        thesis.options = {}
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.npz"]  # no temporary left behind
+
+
+def test_to_dataframe(thesis):
+    df = thesis.to_dataframe()
+    assert list(df.columns) == ["t", *SERIES]
+    assert len(df) == len(thesis)
+    for name, arr in thesis.as_dict().items():
+        assert np.array_equal(df[name].to_numpy(), arr)
+    assert df.attrs == {"model": "gliding", "status": "completed", "message": thesis.message}
+    first = thesis.theta[0]
+    df.loc[0, "theta"] = 99.0  # a copy: the trajectory is unchanged
+    assert thesis.theta[0] == first
+
+
+def test_dense_queries_with_no_times_return_empty_results(thesis):
+    s = thesis.at([])
+    assert isinstance(s, State) and s.shape == (0,)
+    assert s.theta.dtype == float and s.nu_y.shape == (0,)
+    assert thesis.at(np.empty((0, 3))).shape == (0, 3)
+    assert thesis.theta_at([]).shape == (0,)
+    assert thesis.states_at([]).shape == (thesis.states.shape[0], 0)
+    # scalars and arrays still work as before
+    assert float(thesis.at(0.0).theta) == pytest.approx(0.1, abs=1e-15)
+    with pytest.raises(ValueError, match="simulated interval"):
+        thesis.at([0.0, 100.0])
+
+
+def test_initial_state_of_a_trajectory_built_without_it(top):
+    traj = mett.simulate(top, State(theta=0.4, omega3=120.0, phidot=3.0), 0.1, backend="scipy")
+    rebuilt = Trajectory(
+        t=traj.t,
+        states=traj.states,
+        model=mett.dynamics.MODELS["gliding"],
+        top=top,
+        params=traj.params,
+        solution=traj._sol,
+        status="completed",
+        message="",
+    )
+    s = rebuilt.initial_state
+    assert s.theta == pytest.approx(0.4, abs=1e-15) and s.omega3 == pytest.approx(120.0, rel=1e-15)
+    assert s.phidot == pytest.approx(3.0, rel=1e-14) and rebuilt.options == {}
+
+
+def test_loading_does_not_import_pickle_payloads(thesis, tmp_path):
+    """A file with an object array is refused (allow_pickle=False), not executed."""
+    path = thesis.save(tmp_path / "p.npz")
+    with zipfile.ZipFile(path, "a") as zf:
+        import io
+
+        buf = io.BytesIO()
+        np.save(buf, np.array([{"a": 1}], dtype=object), allow_pickle=True)
+        zf.writestr("evil.npy", buf.getvalue())
+    with pytest.raises(ValueError, match="not a readable mett trajectory"):
+        Trajectory.load(path)

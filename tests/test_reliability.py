@@ -1,0 +1,373 @@
+"""Regression tests of the fault-tolerance rules (docs/reliability.md): one test per finding.
+
+Bad input is refused before any work or write with a ValueError/TypeError naming the argument;
+numerical trouble is a clean error or a status, never a raw OverflowError/ZeroDivisionError/
+LinAlgError; a sweep never loses a row or touches a file that is not its checkpoint; warnings are
+MettWarning subclasses reported at the caller's line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import mett
+from mett import _validate, analysis
+from mett.sweeps import NOT_SETTLED, sweep
+
+TOP = mett.presets.get("rutstam2013")
+
+
+# --- State ---------------------------------------------------------------------------------------
+def test_state_does_not_alias_the_callers_arrays():
+    th = np.array([0.1, 0.2, 0.3])
+    w3 = np.array([100.0, 120.0, 140.0])
+    s = mett.State(theta=th, omega3=w3)
+    th[:] = np.nan
+    w3[0] = -1.0
+    assert np.all(np.isfinite(s.theta)) and s.theta[0] == 0.1
+    assert s.omega3[0] == 100.0
+    with pytest.raises(ValueError):  # and the State's own arrays are read-only
+        s.theta[0] = 3.0
+
+
+@pytest.mark.parametrize("bad", ["0.1", b"0.1", True, None, 1j, ["0.1", 0.2]])
+def test_state_refuses_non_numbers_with_type_error(bad):
+    with pytest.raises(TypeError, match="theta must be"):
+        mett.State(theta=bad)
+
+
+# --- TippeTop ------------------------------------------------------------------------------------
+def test_huge_radius_is_a_value_error_with_the_valid_range():
+    with pytest.raises(ValueError, match=r"R must lie in \[1e-50, 1e\+50\] m; got 1e\+300"):
+        TOP.replace(R=1e300)
+    with pytest.raises(ValueError, match=r"R must lie in \[1e-50, 1e\+50\]"):
+        mett.TippeTop.rational(m=0.02, R=1e300, alpha=0.3, I3=1e-6)
+
+
+@pytest.mark.parametrize(("field", "bad"), [("m", "0.02"), ("R", True), ("mu", False), ("g", None)])
+def test_top_refuses_strings_and_booleans(field, bad):
+    with pytest.raises(TypeError, match=f"{field} must be a real number"):
+        TOP.replace(**{field: bad})
+
+
+def test_huge_I1_warns_at_the_callers_line():
+    with pytest.warns(mett.PhysicalityWarning, match="I1 = .* exceeds") as record:
+        TOP.replace(I1=1e6 * TOP.I3)
+    assert record[0].filename == __file__
+
+
+def test_physical_tops_do_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name in ("rutstam2013", "rutstam2012", "cohen1977", "ueda2005"):
+            mett.presets.get(name)
+        # γ up to 1 + α (group III) is still a physical body
+        TOP.replace(I1=1.3 * TOP.I3)
+
+
+# --- presets -------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [
+        ({"R": 0}, r"R must lie in \[1e-50, 1e\+50\] m; got 0.0"),
+        ({"R": 0, "a": 0.006}, r"R must lie in"),
+        ({"m": -1.0}, r"m must lie in"),
+        ({"a": 0.5}, r"a = alpha\*R must lie in \(0, R\)"),
+    ],
+)
+def test_preset_overrides_are_checked_before_use(kw, message):
+    with pytest.raises(ValueError, match=message):
+        mett.presets.get("rutstam2013", **kw)
+
+
+def test_preset_physicality_warning_points_at_the_caller():
+    with pytest.warns(mett.PhysicalityWarning, match="exceeds m R") as record:
+        mett.presets.get("seed000", alpha=0.3)
+    assert record[0].filename == __file__
+
+
+def test_warn_refuses_foreign_categories_and_attributes_to_the_caller():
+    with pytest.raises(TypeError, match="MettWarning subclass"):
+        _validate.warn("x", UserWarning)
+    with pytest.warns(mett.MettWarning) as record:
+        _validate.warn("from the test")
+    assert record[0].filename == __file__
+    assert issubclass(_validate.AccuracyWarning, mett.MettWarning)
+
+
+# --- integrals, asymptotics, stability ------------------------------------------------------------
+def test_energy_at_huge_spin_is_a_value_error_not_overflow():
+    s = mett.State(theta=0.1, omega3=1e155)
+    for fn in (mett.energy, mett.modified_energy):
+        with pytest.raises(ValueError, match=r"state: the .*energy overflows .*omega3 = 1e\+155"):
+            fn(TOP, s)
+    # λ and D are representable there, and exact: linear in ω3
+    lam = float(mett.jellett(TOP, s))
+    assert lam == pytest.approx(1e155 * float(mett.jellett(TOP, mett.State(theta=0.1, omega3=1))))
+    assert math.isfinite(float(mett.routh(TOP, s)))
+
+
+def test_integrals_refuse_wrong_argument_types():
+    with pytest.raises(TypeError, match="state must be a State"):
+        mett.energy(TOP, [0.1, 0, 0, 155, 0, 0])
+    with pytest.raises(TypeError, match="top must be a TippeTop"):
+        mett.jellett("rutstam2013", mett.State(theta=0.1))
+
+
+def test_high_spin_at_tiny_spin_is_a_value_error():
+    with pytest.raises(ValueError, match=r"omega3 = 1e-300 .* outside double precision"):
+        mett.high_spin(TOP, math.pi / 2, 1e-300)
+    # the scaling laws hold wherever the result is finite: width ∝ ω3⁻², frequency ∝ ω3
+    a, b = mett.high_spin(TOP, 1.0, 1e3), mett.high_spin(TOP, 1.0, 1e9)
+    assert b.width == pytest.approx(a.width * 1e-12, rel=1e-12)
+    assert b.frequency == pytest.approx(a.frequency * 1e6, rel=1e-12)
+
+
+def test_spin_eigenvalues_at_tiny_lambda_are_the_continuous_limit():
+    for pole in ("inverted", "upright"):
+        tiny = mett.spin_eigenvalues(TOP, 1e-300, pole)
+        small = mett.spin_eigenvalues(TOP, 1e-13, pole)
+        assert np.all(np.isfinite(tiny))
+        np.testing.assert_allclose(np.sort_complex(tiny), np.sort_complex(small), atol=1e-4)
+    # without spin the inverted top (CM above the contact) falls: a positive real eigenvalue
+    assert mett.spin_eigenvalues(TOP, 1e-300, "inverted")[0].real > 1.0
+    with pytest.raises(ValueError, match="lam = 1e\\+300 is too large"):
+        mett.spin_eigenvalues(TOP, 1e300)
+
+
+# --- period_comparison ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def short_runs():
+    s = mett.State(theta=0.1, omega3=155.0)
+    return (
+        mett.simulate(TOP, s, t_end=1.0),
+        mett.simulate(TOP, mett.State(theta=0.1, omega3=-155.0), t_end=1.0),
+        mett.simulate(TOP, s, t_end=1.0, t_eval=[0.0, 1.0]),
+    )
+
+
+def test_period_comparison_of_the_mirror_image_top_equals_the_original(short_runs):
+    plain, mirror, _ = short_runs
+    assert float(mirror.lam[0]) < 0
+    a, b = analysis.period_comparison(plain), analysis.period_comparison(mirror)
+    assert a.t.size > 10 and a.t.size == b.t.size
+    np.testing.assert_allclose(b.observed, a.observed, rtol=1e-7)
+    np.testing.assert_allclose(b.rolling, a.rolling, rtol=1e-7)
+    assert b.estimates == pytest.approx(a.estimates, rel=1e-9)
+
+
+def test_period_comparison_on_a_two_sample_run_uses_the_dense_output(short_runs):
+    plain, _, two = short_runs
+    assert two.t.size == 2
+    a, b = analysis.period_comparison(plain), analysis.period_comparison(two)
+    np.testing.assert_allclose(b.observed, a.observed, rtol=1e-9)
+
+
+def test_period_comparison_without_two_maxima_is_empty():
+    one = mett.simulate(TOP, mett.State(theta=0.1, omega3=155.0), t_end=1e-3)
+    res = analysis.period_comparison(one)
+    assert res.t.size == res.observed.size == res.rolling.size == 0
+    assert res.estimates.T_D0 > 0
+    with pytest.raises(TypeError, match=r"traj must be a mett\.Trajectory"):
+        analysis.period_comparison(TOP)
+
+
+# --- sweeps ---------------------------------------------------------------------------------------
+def _tiny(**kw):
+    return sweep(TOP, {"mu": [0.3]}, t_end=0.05, progress=False, **kw)
+
+
+@pytest.mark.parametrize(
+    "content",
+    [b"my notes\nsecond line without newline", b"PK\x03\x04\x00binary npz\xff\xfe", b"[1, 2]\n"],
+)
+def test_checkpoint_never_modifies_a_file_that_is_not_one(tmp_path, content):
+    path = tmp_path / "notes.txt"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match="is not a mett sweep checkpoint; it was left untouched"):
+        _tiny(checkpoint=path)
+    assert path.read_bytes() == content
+
+
+def test_damaged_checkpoint_record_names_path_and_line(tmp_path):
+    path = tmp_path / "ckpt.jsonl"
+    sweep(TOP, {"mu": [0.2, 0.3, 0.4]}, t_end=0.05, progress=False, checkpoint=path)
+    lines = path.read_text().splitlines()
+    lines[2] = lines[2][:20] + "#" + lines[2][21:]
+    damaged = "\n".join(lines) + "\n"
+    path.write_text(damaged)
+    with pytest.raises(ValueError, match=f"{path}, line 3: damaged checkpoint record"):
+        sweep(TOP, {"mu": [0.2, 0.3, 0.4]}, t_end=0.05, progress=False, checkpoint=path)
+    assert path.read_text() == damaged
+
+
+@pytest.mark.parametrize(
+    ("kw", "error", "message"),
+    [
+        ({"rtol": 2.0}, ValueError, r"rtol must lie in \(0, 1\)"),
+        ({"model": "nope"}, ValueError, "unknown model 'nope'"),
+        ({"bogus": 1}, TypeError, "bogus"),
+        ({"chunksize": -1}, ValueError, "chunksize must be an integer >= 1"),
+        ({"chunksize": 2.5}, TypeError, "chunksize must be an integer"),
+        ({"progress": "yes"}, TypeError, "progress must be True or False"),
+        ({"executor": "pool"}, TypeError, "executor must be a concurrent.futures.Executor"),
+        ({"t_eval": [0.0, 5.0]}, ValueError, "t_eval must be"),
+    ],
+)
+def test_bad_sweep_options_are_refused_before_any_write(tmp_path, kw, error, message):
+    path = tmp_path / "ckpt.jsonl"
+    with pytest.raises(error, match=message):
+        sweep(TOP, {"mu": [0.2, 0.3]}, t_end=0.05, checkpoint=path, **{"progress": False, **kw})
+    assert not path.exists()
+
+
+def test_checkpoint_paths_are_checked_before_any_run(tmp_path, monkeypatch):
+    calls = []
+    monkeypatch.setattr(mett.dynamics, "simulate", lambda *a, **k: calls.append(a))
+    with pytest.raises(ValueError, match=r"directory .* does not exist"):
+        _tiny(checkpoint=tmp_path / "missing" / "c.jsonl")
+    with pytest.raises(ValueError, match="must be a file, not a directory"):
+        _tiny(checkpoint=tmp_path)
+    assert calls == []
+
+
+def test_a_point_whose_simulation_raises_is_a_row_and_the_sweep_goes_on(monkeypatch):
+    real = mett.dynamics.simulate
+
+    def flaky(top, state, t_end, **kw):
+        if top.mu == 0.4:
+            raise RuntimeError("solver exploded")
+        return real(top, state, t_end, **kw)
+
+    monkeypatch.setattr(mett.dynamics, "simulate", flaky)
+    table = sweep(TOP, {"mu": [0.3, 0.4, 0.5]}, t_end=0.05, progress=False)
+    assert list(table["status"]) == ["completed", "error", "completed"]
+    assert table["message"].iloc[1] == "RuntimeError: solver exploded"
+    assert table["simulated"].iloc[1] == "error" and math.isnan(table["theta_end"].iloc[1])
+    assert table["lam"].iloc[1] == pytest.approx(table["lam"].iloc[0])  # start values kept
+
+
+def test_a_failing_prediction_keeps_the_simulated_row(monkeypatch):
+    import mett.thresholds
+
+    def broken(top, lam):
+        raise ValueError("no tumbling state here")
+
+    monkeypatch.setattr(mett.thresholds, "asymptotic_state", broken)
+    table = _tiny()
+    row = table.iloc[0]
+    assert row["status"] == "completed" and row["predicted"] == "error"
+    assert "asymptotic_state: ValueError: no tumbling state here" in row["message"]
+    assert math.isfinite(row["theta_end"])
+
+
+def test_folded_tumbling_family_points_do_not_kill_the_sweep():
+    # the docs example's γ = 0.75 column (α = 0.3), where the tumbling family folds: at λ = λ_thres
+    # asymptotic_state raised, and the sweep with it
+    table = sweep(TOP, {"lam_ratio": [0.2, 1.0], "gamma": [0.75]}, t_end=0.5, progress=False)
+    assert len(table) == 2 and list(table["status"]) == ["completed", "completed"]
+    assert set(table["simulated"]) <= {"upright", "tumbling", "inverted", NOT_SETTLED}
+    assert set(table["predicted"]) <= {"upright", "tumbling", "inverted", "error"}
+    assert np.all(np.isfinite(table["theta_end"]))
+
+
+def test_unsettled_run_is_labelled_not_settled():
+    # λ = 2 λ_thres inverts in ~6 s; after 0.5 s the top is still near θ0 = 0.1
+    table = sweep(TOP, {"lam_ratio": [2.0]}, t_end=0.5, progress=False)
+    assert table["theta_end"].iloc[0] < 0.2
+    assert table["simulated"].iloc[0] == NOT_SETTLED and not table["agree"].iloc[0]
+
+
+def test_progress_defaults_to_off_when_stderr_is_not_a_terminal(capsys):
+    pytest.importorskip("tqdm")
+    sweep(TOP, {"mu": [0.3]}, t_end=0.05)
+    assert "sweep" not in capsys.readouterr().err
+
+
+# --- validators ----------------------------------------------------------------------------------
+def test_validators():
+    assert _validate.boolean("flag", np.True_) is True
+    for bad in ("no", 0, None):
+        with pytest.raises(TypeError, match="flag must be True or False"):
+            _validate.boolean("flag", bad)
+    assert _validate.positive_int("n", np.int64(3)) == 3
+    with pytest.raises(TypeError):
+        _validate.positive_int("n", True)
+    with pytest.raises(ValueError, match="n must be an integer >= 1; got 0"):
+        _validate.positive_int("n", 0)
+    with pytest.raises(TypeError, match="x must be a real number"):
+        _validate.finite_scalar("x", "1.0")
+    with pytest.raises(TypeError, match="single real number"):
+        _validate.finite_scalar("x", np.array([1.0, 2.0]))
+    with pytest.raises(ValueError, match="rectangular"):
+        _validate.as_finite_array("x", [[1.0], [1.0, 2.0]])
+    with pytest.raises(ValueError, match="empty string"):
+        _validate.output_path("out", "")
+    with pytest.raises(TypeError, match="out must be a path"):
+        _validate.output_path("out", 3)
+    assert json.loads(json.dumps(_validate.finite_scalar("x", np.float32(0.5)))) == 0.5
+
+
+def test_escape_time_of_an_absurd_state_is_a_value_error_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="not near the upright spin"):
+            mett.escape_time(TOP, mett.State(theta=3.125, thetadot=1e300, omega3=-15.0))
+        est = mett.escape_time(TOP, mett.State(theta=0.1, omega3=155.0))
+    assert 0 < est.amplitude < 1 and est.time > 0
+
+
+def test_progress_without_tqdm_is_refused_before_the_checkpoint_is_written(tmp_path, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "tqdm" else real(name, *a)
+    )
+    path = tmp_path / "c.jsonl"
+    with pytest.raises(ValueError, match=r"progress=True needs tqdm"):
+        sweep(TOP, {"mu": [0.3]}, t_end=0.05, progress=True, checkpoint=path)
+    assert not path.exists()
+
+
+class _OneChunkFails:
+    """An executor (serial) whose second task fails, as if its worker had died."""
+
+    def __init__(self) -> None:
+        self.n = 0
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+
+        fut: Future = Future()
+        self.n += 1
+        if self.n == 2:
+            fut.set_exception(RuntimeError("worker died"))
+        else:
+            fut.set_result(fn(*args))
+        return fut
+
+
+def test_a_failed_executor_task_keeps_every_other_row_in_the_checkpoint(tmp_path):
+    path = tmp_path / "c.jsonl"
+    grid = {"mu": [0.2, 0.3, 0.4]}
+    with pytest.raises(RuntimeError, match="worker died"):
+        sweep(TOP, grid, t_end=0.05, progress=False, checkpoint=path, executor=_OneChunkFails(),
+              chunksize=1)  # fmt: skip
+    records = [json.loads(line) for line in path.read_text().splitlines()[1:]]
+    assert sorted(r["index"] for r in records) == [0, 2]  # the failed chunk is not recorded
+    resumed = sweep(TOP, grid, t_end=0.05, progress=False, checkpoint=path)
+    fresh = sweep(TOP, grid, t_end=0.05, progress=False)
+    pd.testing.assert_frame_equal(resumed, fresh)
+
+
+def test_sweep_accepts_numpy_option_values():
+    atol = np.full(10, 1e-12)
+    table = sweep(TOP, {"mu": [0.3]}, t_end=0.05, progress=False, atol=atol, rtol=np.float64(1e-9))
+    assert list(table["status"]) == ["completed"]
