@@ -193,3 +193,14 @@ def test_order_follows_the_tolerance():
     assert taylor.order_for(1e-10) == 13
     assert taylor.order_for(1e-12) == 15
     assert taylor.order_for(1e-16) == 20
+
+
+def test_save_and_load_keep_the_taylor_dense_output(tmp_path):
+    traj = simulate(TOP, THESIS, 2.0, backend="taylor", rtol=1e-12)
+    path = tmp_path / "run.npz"
+    traj.save(path)
+    back = mett.Trajectory.load(path)
+    tt = np.linspace(0.0, 2.0, 501)
+    np.testing.assert_array_equal(back.states_at(tt), traj.states_at(tt))
+    np.testing.assert_array_equal(back.theta, traj.theta)
+    assert back.backend == "taylor"
