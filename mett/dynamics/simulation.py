@@ -11,6 +11,9 @@ Two backends run the same models (design.md, "Numerical design"):
   numba is imported on the first compiled run, not by ``import mett``.
 * ``backend="scipy"``: :func:`scipy.integrate.solve_ivp` with the pure-Python right-hand side, any of
   its methods; the reference path of the tests.
+* ``backend="taylor"``: the adaptive Taylor-series integrator of :mod:`.taylor`, whose recurrences
+  are generated from the same ``rhs_into`` source and compiled with LLVM; its dense output is the
+  Taylor polynomial of each step, and events are located on those polynomials.
 
 The compiled DOP853 takes the same steps as scipy's (same tableau, error norm and controller), so
 both backends agree to rounding: the thesis run's first θ = π/2 time to ~1e-12 s (tests/
@@ -43,7 +46,7 @@ memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the glid
 plus the Trajectory's series, about 140 MB more. Measured on the thesis top (rtol = 1e-10; 1e6
 steps reach t = 74 000 s once the top has settled, about 3000 s while it still nutates fast): the
 process peaks at 0.96 GB RSS, of which 0.19 GB is the interpreter with numpy, scipy and numba."""
-_BACKENDS = ("auto", "compiled", "scipy")
+_BACKENDS = ("auto", "compiled", "scipy", "taylor")
 
 
 def _check_state(state: Any) -> State:
@@ -246,7 +249,7 @@ def simulate(
     method : str, default "DOP853"
         Integration method: DOP853 on either backend, or another method of
         :func:`scipy.integrate.solve_ivp` ("RK45", "Radau", …) on the scipy backend.
-    backend : {"auto", "compiled", "scipy"}, default "auto"
+    backend : {"auto", "compiled", "scipy", "taylor"}, default "auto"
         ``"compiled"``: mett's numba DOP853 with the model's compiled right-hand side (the first
         call in a process loads it from numba's cache, about 0.5 s, or compiles it, a few seconds
         once per installation); DOP853 only. ``"scipy"``: :func:`scipy.integrate.solve_ivp` with
@@ -254,7 +257,11 @@ def simulate(
         steps and agree to rounding. ``"auto"``: compiled for DOP853 (every model has a compiled
         twin), scipy for other methods. ``Trajectory.backend`` says which ran. The compiled
         backend keeps every step in memory and stops with status "failed" after
-        :data:`MAX_STEPS` steps.
+        :data:`MAX_STEPS` steps. ``"taylor"``: the adaptive Taylor-series integrator
+        (:mod:`mett.dynamics.taylor`; order p = ⌈−½ ln rtol⌉ + 1, the step of Jorba & Zou 2005),
+        generated from the same equations and compiled with LLVM (a few seconds per model and
+        order, once per installation: the machine code is cached on disk); its dense output is
+        each step's Taylor polynomial. DOP853 only in ``method`` (it is not used).
     max_step : float, default inf
         Largest step (s).
     **options
@@ -321,7 +328,12 @@ def simulate(
     compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
     if backend == "auto":
         backend = "compiled" if method == "DOP853" and compilable else "scipy"
-    elif backend == "compiled":
+    elif backend in ("compiled", "taylor"):
+        if backend == "taylor" and method != "DOP853":
+            raise ValueError(
+                f"method {method!r} is for the DOP853 and scipy backends; the taylor backend "
+                "chooses its own order from rtol"
+            )
         if method != "DOP853":
             raise ValueError(
                 f"the compiled backend implements method 'DOP853' only; got method {method!r} "
@@ -364,8 +376,9 @@ def simulate(
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
+    solvers = {"compiled": _solve_compiled, "scipy": _solve_scipy, "taylor": _solve_taylor}
     solve = functools.partial(
-        _solve_compiled if backend == "compiled" else _solve_scipy,
+        solvers[backend],
         t_end=t_end,
         rtol=rtol,
         atol_arr=atol_arr,
@@ -756,6 +769,65 @@ def _solve_compiled(
         return run.result(t_out, Y, dense, "completed", msg, **kw)
     if stopped_by is not None:
         return run.stopped(t_out, Y, dense, stopped_by, float(sol.event_t[-1]), **kw)
+    if sol.status < 0:
+        return run.result(t_out, Y, dense, "failed", failure, **kw)
+    return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
+
+
+def _solve_taylor(
+    run: _Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method, collect=False
+) -> Any:
+    """The Taylor-series backend (:mod:`.taylor`): ``run.phase``'s jet at the order of ``rtol``.
+
+    The per-step truncation error of component i is held at ≈ max(atol_i, rtol |y_i|) (the
+    step-size norm of Jorba & Zou scaled by σ_i = atol_i/rtol). Model events are located on the
+    Taylor polynomials; user events after the run on the dense output, as for DOP853.
+    """
+    from . import taylor
+
+    mdl, params = run.mdl, run.params
+    run.collect = collect
+    ph = run.phase
+    kernel = taylor.kernel(
+        ph.rhs_into, [ev.fn for ev in ph.events], run.y0.size, len(params),
+        taylor.order_for(rtol), f"{mdl.name}_{ph.name}",
+    )  # fmt: skip
+    sol = taylor.solve(
+        kernel, (run.t0, t_end), run.y0, params, scales=atol_arr / rtol,
+        direction=[ev.direction for ev in ph.events], max_step=max_step, max_steps=MAX_STEPS,
+    )[0]  # fmt: skip
+    dense = sol.dense
+    t_stop = float(dense.t[-1])
+    nfev = sol.n_steps  # one jet per step (a jet of order p costs about p²/4 right-hand sides)
+    if sol.status < 0:
+        base = taylor.STATUS_MESSAGES[sol.status]
+        if sol.status == taylor.MAX_STEPS:
+            base = f"maximum number of steps ({MAX_STEPS}) reached"
+        failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
+        if sol.n_steps == 0:
+            return run.at_start("failed", failure, nfev=nfev)
+    kw: dict[str, Any] = {"nfev": nfev, "t_events": []}
+    user_stop = None
+    if events:
+        try:
+            t_user, t_term, k_term = _user_events_after_run(events, run, dense)
+        except _UserEventError as err:
+            raise err.exc from None
+        if t_term is not None and t_term <= t_stop:
+            dense, t_stop, user_stop = dense.truncate(t_term), t_term, k_term
+        kw["t_events"] = [te[te <= t_stop] for te in t_user]
+    if t_eval_arr is None:
+        t_out, Y = dense.t, dense.y.T
+    else:
+        t_out = t_eval_arr[(t_eval_arr >= run.t0) & (t_eval_arr <= t_stop)]
+        if t_out.size == 0 or t_out[-1] < t_stop:
+            t_out = np.append(t_out[t_out < t_stop], t_stop)
+        Y = dense(t_out).reshape(run.y0.size, -1)
+    if user_stop is not None:
+        msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
+        return run.result(t_out, Y, dense, "completed", msg, **kw)
+    if sol.status == taylor.TERMINAL_EVENT:
+        return run.stopped(t_out, Y, dense, sol.event_index, t_stop, **kw)
     if sol.status < 0:
         return run.result(t_out, Y, dense, "failed", failure, **kw)
     return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)

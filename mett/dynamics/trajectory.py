@@ -405,7 +405,8 @@ class Trajectory:
 
         The dense output of a DOP853 run (either backend, the default) is stored as the solver's own
         per-step interpolant coefficients, so :meth:`at` and :meth:`crossings` of the loaded
-        trajectory equal the original's bit for bit. Other scipy methods (RK45, Radau, …) are
+        trajectory equal the original's bit for bit; a run of the Taylor backend is stored as its
+        steps' Taylor polynomials, with the same effect. Other scipy methods (RK45, Radau, …) are
         stored as their step states and right-hand-side values, and the loaded trajectory
         interpolates between the steps with cubic Hermite polynomials: equal at the steps (to
         rounding), and between them within the interpolation error O(h⁴) of the step size h
@@ -645,6 +646,8 @@ def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str
         return {"kind": "constant"}, {"t": ts, "y": np.asarray(sol(ts[0]), dtype=float)}
     if isinstance(sol, DenseOutput):
         return {"kind": "dop853"}, {"t": sol.t, "y": sol.y, "h": sol.h, "F": sol.F}
+    if type(sol).__name__ == "TaylorDense":  # the Taylor backend: each step's polynomial
+        return {"kind": "taylor"}, {"t": sol.t, "y": sol.y, "C": sol.C[:, : sol.n]}
     ts = np.asarray(sol.ts, dtype=float)
     interpolants = list(getattr(sol, "interpolants", []))
     if interpolants and all(type(i).__name__ == "Dop853DenseOutput" for i in interpolants):
@@ -684,4 +687,8 @@ def _decode_dense(desc: dict, arrays: dict[str, np.ndarray]) -> Any:
         )
     if kind == "hermite":
         return _Hermite(arrays["dense_t"], arrays["dense_y"], arrays["dense_dy"])
+    if kind == "taylor":
+        from .taylor import TaylorDense
+
+        return TaylorDense(arrays["dense_t"], arrays["dense_y"], arrays["dense_C"])
     raise ValueError(f"unknown dense output kind {kind!r}")
