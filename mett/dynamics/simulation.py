@@ -735,6 +735,7 @@ def _solve_compiled(
     )
     dense = sol.dense
     t_stop = float(sol.t_steps[-1])
+    failure = None
     if sol.status < 0:
         base = dop853.STATUS_MESSAGES[sol.status]
         if sol.status == dop853.MAX_STEPS:
@@ -742,9 +743,30 @@ def _solve_compiled(
         failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
         if dense.h.size == 0:  # not a single step: nothing to interpolate
             return run.at_start("failed", failure, nfev=sol.nfev)
-    stopped_by = int(sol.event_index[-1]) if sol.status == dop853.TERMINAL_EVENT else None
+    stopped_by = None
+    if sol.status == dop853.TERMINAL_EVENT:
+        stopped_by = (int(sol.event_index[-1]), float(sol.event_t[-1]))
+    return _finish(run, dense, t_stop, _truncate, sol.nfev, stopped_by,
+                   failure, t_end, t_eval_arr, events)  # fmt: skip
 
-    kw: dict[str, Any] = {"nfev": sol.nfev, "t_events": []}
+
+def _finish(
+    run: _Run,
+    dense: Any,
+    t_stop: float,
+    truncate: Callable[[Any, float], Any],
+    nfev: int,
+    stopped_by: tuple[int, float] | None,
+    failure: str | None,
+    t_end: float,
+    t_eval_arr: np.ndarray | None,
+    events: list,
+) -> Any:
+    """The Trajectory of a compiled (DOP853 or Taylor) run that ended at ``t_stop``: user events
+    located on the dense output (a terminal one cuts the run there), the samples (the steps, or
+    ``t_eval``), and the status: stopped by a model event ``stopped_by`` = (index, time), failed
+    (``failure``), or completed."""
+    kw: dict[str, Any] = {"nfev": nfev, "t_events": []}
     user_stop = None
     if events:
         try:
@@ -753,7 +775,7 @@ def _solve_compiled(
             raise err.exc from None  # a user event's exception, unchanged (as on scipy)
         if t_term is not None and t_term <= t_stop:
             # the run would have stopped here: cut it, and its dense output, at the event
-            dense, t_stop, user_stop = _truncate(dense, t_term), t_term, k_term
+            dense, t_stop, user_stop = truncate(dense, t_term), t_term, k_term
         kw["t_events"] = [te[te <= t_stop] for te in t_user]
 
     if t_eval_arr is None:
@@ -768,8 +790,8 @@ def _solve_compiled(
         msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
         return run.result(t_out, Y, dense, "completed", msg, **kw)
     if stopped_by is not None:
-        return run.stopped(t_out, Y, dense, stopped_by, float(sol.event_t[-1]), **kw)
-    if sol.status < 0:
+        return run.stopped(t_out, Y, dense, stopped_by[0], stopped_by[1], **kw)
+    if failure is not None:
         return run.result(t_out, Y, dense, "failed", failure, **kw)
     return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
 
@@ -799,6 +821,7 @@ def _solve_taylor(
     dense = sol.dense
     t_stop = float(dense.t[-1])
     nfev = sol.n_steps  # one jet per step (a jet of order p costs about p²/4 right-hand sides)
+    failure = None
     if sol.status < 0:
         base = taylor.STATUS_MESSAGES[sol.status]
         if sol.status == taylor.MAX_STEPS:
@@ -806,31 +829,11 @@ def _solve_taylor(
         failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
         if sol.n_steps == 0:
             return run.at_start("failed", failure, nfev=nfev)
-    kw: dict[str, Any] = {"nfev": nfev, "t_events": []}
-    user_stop = None
-    if events:
-        try:
-            t_user, t_term, k_term = _user_events_after_run(events, run, dense)
-        except _UserEventError as err:
-            raise err.exc from None
-        if t_term is not None and t_term <= t_stop:
-            dense, t_stop, user_stop = dense.truncate(t_term), t_term, k_term
-        kw["t_events"] = [te[te <= t_stop] for te in t_user]
-    if t_eval_arr is None:
-        t_out, Y = dense.t, dense.y.T
-    else:
-        t_out = t_eval_arr[(t_eval_arr >= run.t0) & (t_eval_arr <= t_stop)]
-        if t_out.size == 0 or t_out[-1] < t_stop:
-            t_out = np.append(t_out[t_out < t_stop], t_stop)
-        Y = dense(t_out).reshape(run.y0.size, -1)
-    if user_stop is not None:
-        msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
-        return run.result(t_out, Y, dense, "completed", msg, **kw)
+    stopped_by = None
     if sol.status == taylor.TERMINAL_EVENT:
-        return run.stopped(t_out, Y, dense, sol.event_index, t_stop, **kw)
-    if sol.status < 0:
-        return run.result(t_out, Y, dense, "failed", failure, **kw)
-    return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
+        stopped_by = (sol.event_index, t_stop)
+    return _finish(run, dense, t_stop, lambda d, t: d.truncate(t), nfev, stopped_by,
+                   failure, t_end, t_eval_arr, events)  # fmt: skip
 
 
 def _user_events_after_run(
