@@ -15,6 +15,7 @@ __all__ = [
     "MettDeprecationWarning",
     "MettWarning",
     "PhysicalityWarning",
+    "ToleranceWarning",
     "as_finite_array",
     "cos_theta",
     "finite_scalar",
@@ -34,6 +35,10 @@ class PhysicalityWarning(MettWarning):
 
 class MettDeprecationWarning(MettWarning, DeprecationWarning):
     """A deprecated name was used; the message names its replacement."""
+
+
+class ToleranceWarning(MettWarning):
+    """A tolerance was changed to one the integrator can meet (e.g. rtol raised to 100 ε)."""
 
 
 def _fmt(value: Any) -> str:
