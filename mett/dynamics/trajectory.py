@@ -117,6 +117,9 @@ class Trajectory:
         Right-hand-side evaluations.
     backend : str
         ``"compiled"`` or ``"scipy"``: which integrator ran (see :func:`~mett.simulate`).
+    extra : tuple of str
+        Names of further per-sample series set by the run (e.g. ``phase``, ``F_x``, ``F_y`` of a
+        dry-friction run, :mod:`mett.dynamics.stickslip`).
 
     Notes
     -----
@@ -157,6 +160,7 @@ class Trajectory:
         t_events: list[np.ndarray] | None = None,
         nfev: int = 0,
         backend: str = "scipy",
+        extra: dict[str, np.ndarray] | None = None,
     ) -> None:
         if status not in STATUSES:
             raise ValueError(f"status must be one of {STATUSES}; got {status!r}")
@@ -176,6 +180,11 @@ class Trajectory:
         series = model.derive(self.states, params)
         for name in SERIES:
             setattr(self, name, np.asarray(series[name], dtype=float).reshape(self.t.shape))
+        # per-sample series of the contact that the states alone do not fix (e.g. the phase of a
+        # stick–slip run, mett.dynamics.stickslip); they replace derived ones of the same name
+        self.extra = tuple(extra or ())
+        for name, values in (extra or {}).items():
+            setattr(self, name, np.asarray(values).reshape(self.t.shape))
 
     # --- summary -----------------------------------------------------------------------------
     def __len__(self) -> int:
