@@ -167,7 +167,8 @@ def describe(friction: FrictionLaw) -> str:
     if isinstance(friction, Viscous):
         return "viscous" if friction.mu is None else f"Viscous(mu={friction.mu:g})"
     if isinstance(friction, Coulomb):
-        extra = f", contensou_radius={friction.contensou_radius:g}" if friction.contensou_radius else ""
+        extra = (
+            f", contensou_radius={friction.contensou_radius:g}" if friction.contensou_radius else ""
+        )
         return f"Coulomb(mu={friction.mu:g}{extra})"
     return f"RegularisedCoulomb(mu={friction.mu:g}, eps={friction.eps:g})"
-

@@ -19,6 +19,7 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
@@ -29,6 +30,7 @@ from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from .. import _validate
+from .. import friction as _friction
 from ..state import State
 from ..top import TippeTop
 from . import euler, gliding, reduced, rolling, routhian
@@ -146,6 +148,7 @@ def simulate(
     max_step: float = math.inf,
     l: float | None = None,
     vertical_cm: bool | None = None,
+    friction: Any = None,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
 
@@ -209,6 +212,15 @@ def simulate(
         ``"frictionless-routhian"`` only: keep the vertical kinetic energy of the centre of mass
         (True, the default: the corrected seed-000 equations, equal to ``"gliding"`` at μ = 0) or
         drop it as the printed Routhian does (False, an approximation).
+    friction : mett.friction law, optional
+        The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
+        :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``). :class:`~mett.friction.Coulomb`
+        (exact stick–slip, optionally with Contensou spin friction) and
+        :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
+        scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
+        ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
+        frame), the torque ``M_n`` about the normal (N m) and ``switches``.
 
     Returns
     -------
@@ -248,6 +260,14 @@ def simulate(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    if friction is not None:
+        friction = _friction.check_law(friction)
+        if isinstance(friction, _friction.Viscous):
+            if friction.mu is not None:
+                top = dataclasses.replace(top, mu=friction.mu)
+        else:
+            return _dry(top, state, t_end, friction, model, backend, method, rtol, atol,
+                        t_eval_arr, events, max_step)  # fmt: skip
     mdl = MODELS[model]
     kernel = _COMPILED_TWIN.get(mdl.rhs)
     if backend == "auto":
@@ -302,6 +322,29 @@ def simulate(
     if backend == "compiled":
         return _solve_compiled(run, kernel, t_end, rtol, atol_arr, t_eval_arr, max_step, events)
     return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method)
+
+
+def _dry(top, state, t_end, friction, model, backend, method, rtol, atol, t_eval, events, max_step):
+    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
+    from . import stickslip
+
+    if model != "gliding":
+        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {model!r}")
+    if backend == "compiled":
+        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
+    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
+        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
+    if events:
+        raise ValueError("user events are not supported with dry friction (friction=...) yet")
+    max_step = float(max_step)
+    if not max_step > 0.0:
+        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
+    y0 = gliding.MODEL.initial(state, gliding.MODEL.params(top, {}))
+    atol_arr = _check_atol(atol, y0.size)
+    return stickslip.simulate_dry(
+        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
+        method=method,
+    )  # fmt: skip
 
 
 class _Run:

@@ -44,7 +44,7 @@ changes it at the rate dλ/dt = −M (ẑ·a) = M (R − l cos θ).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -58,6 +58,7 @@ from .trajectory import Trajectory
 __all__ = [
     "MAX_SWITCHES",
     "PHASES",
+    "Switch",
     "contact_quantities",
     "simulate_dry",
     "slide_rhs",
@@ -298,6 +299,25 @@ def _set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:
     return out
 
 
+class Switch(NamedTuple):
+    """A change of contact phase of a stick–slip run (``Trajectory.switches``)."""
+
+    t: float
+    """Time of the switch (s)."""
+    before: str
+    """Phase before: "sliding" or "rolling"."""
+    after: str
+    """Phase after."""
+    reason: str
+    """"stop" (|v_A| fell to the stopping band, the required force inside the cone), "cone" (the
+    required force left the cone) or "reversal" (|v_A| fell to the band with the required force
+    outside the cone: sliding restarts in the direction of the excess force)."""
+    margin: float
+    """Cone margin of the force rolling needs, (μ g_n − |F_t|)/(μ g_n), at the switch state."""
+    slip: float
+    """|v_A| (m/s) at the event that triggered the switch."""
+
+
 class _Piecewise:
     """Dense output of a run made of segments (one per phase), as a Trajectory needs it."""
 
@@ -378,8 +398,8 @@ def simulate_dry(
 
     Inputs are validated by :func:`mett.simulate`. Returns a :class:`Trajectory` whose extra
     series ``phase`` ("sliding"/"rolling" per sample), ``F_x``, ``F_y`` (tangential force, N),
-    ``M_n`` (Contensou torque about ẑ, N m) and ``switches`` (list of ``(t, from, to, reason)``)
-    describe the contact. ``method`` is the integrator of the regularised law and of fast sliding.
+    ``M_n`` (Contensou torque about ẑ, N m), ``margin`` (μ g_n − |F_t|, N) and ``switches``
+    (a list of :class:`Switch`) describe the contact; ``stopping_band`` is δ (m/s). ``method`` is the integrator of the regularised law and of fast sliding.
     """
     R, l = top.R, top.R * top.alpha
     coulomb = isinstance(friction, Coulomb)
@@ -415,6 +435,11 @@ def simulate_dry(
         _, gn, F, _, _ = _stick(y, p)
         return (friction.mu * gn - math.hypot(F[0], F[1])) * weight
 
+    def record(t: float, y_ev: np.ndarray, y_new: np.ndarray, before: str, after: str, why: str):
+        _, gn, F, _, _ = _stick(y_new, p)
+        rel = 1.0 - math.hypot(F[0], F[1]) / (friction.mu * gn)
+        switches.append(Switch(t, before, after, why, rel, speed(t, y_ev)))
+
     def speed(t: float, y: np.ndarray) -> float:
         nu = _nu(y, p)
         return math.hypot(nu[0], nu[1])
@@ -425,8 +450,7 @@ def simulate_dry(
     ev_fast = ev(lambda t, y: speed(t, y) - 2.0 * rho_s, 1.0)
     # Contensou / regularised: no stick; the exact-Coulomb singularity |γ| → 0 is not handled
     ev_full_stick = ev(
-        lambda t, y: math.sqrt(speed(t, y) ** 2 + (r_star * _kinematics(y, p)[1][2]) ** 2)
-        - delta,
+        lambda t, y: math.sqrt(speed(t, y) ** 2 + (r_star * _kinematics(y, p)[1][2]) ** 2) - delta,
         -1.0,
     )
 
@@ -434,7 +458,7 @@ def simulate_dry(
     samples_t: list[np.ndarray] = []
     samples_y: list[np.ndarray] = []
     samples_roll: list[np.ndarray] = []
-    switches: list[tuple[float, str, str, str]] = []
+    switches: list[Switch] = []
     nfev = 0
     t, y = 0.0, y0.copy()
     status, message, t_lost = "completed", f"reached t_end = {t_end:g} s", None
@@ -518,7 +542,7 @@ def simulate_dry(
             F = np.array(_stick(y_ev, p)[2][:2])
             u = _excess_direction(y_ev, p, -F)
             y = _set_slip(y_ev, p, 2.0 * delta * u)
-            switches.append((t, "rolling", "sliding", "cone"))
+            record(t, y_ev, y_ev, "rolling", "sliding", "cone")
             phase = "slow"
         elif phase == "fast":
             y, phase = y_ev, "slow"
@@ -527,13 +551,13 @@ def simulate_dry(
         else:  # slow sliding, |v_A| fell to δ: stop, then the cone decides
             y = _set_slip(y_ev, p, np.zeros(2))
             if margin(t, y) >= 0.0:
-                switches.append((t, "sliding", "rolling", "stop"))
+                record(t, y_ev, y, "sliding", "rolling", "stop")
                 phase = "rolling"
             else:
                 F = np.array(_stick(y, p)[2][:2])
                 u = _excess_direction(y, p, -F)
+                record(t, y_ev, y, "sliding", "sliding", "reversal")
                 y = _set_slip(y, p, 2.0 * delta * u)
-                switches.append((t, "sliding", "sliding", "reversal"))
                 phase = "slow"
 
     t_all = np.concatenate(samples_t)
@@ -570,4 +594,5 @@ def simulate_dry(
     )
     traj.switches = switches
     traj.friction = friction
+    traj.stopping_band = delta
     return traj

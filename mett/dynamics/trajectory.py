@@ -117,9 +117,12 @@ class Trajectory:
         Right-hand-side evaluations.
     backend : str
         ``"compiled"`` or ``"scipy"``: which integrator ran (see :func:`~mett.simulate`).
+    phase : ndarray of str
+        Contact phase per sample: ``"sliding"`` or ``"rolling"`` (the ``"rolling"`` model rolls
+        throughout, the other models glide; a Coulomb run switches, :mod:`mett.dynamics.stickslip`).
     extra : tuple of str
         Names of further per-sample series set by the run (e.g. ``phase``, ``F_x``, ``F_y`` of a
-        dry-friction run, :mod:`mett.dynamics.stickslip`).
+        dry-friction run).
 
     Notes
     -----
@@ -183,6 +186,7 @@ class Trajectory:
         # per-sample series of the contact that the states alone do not fix (e.g. the phase of a
         # stick–slip run, mett.dynamics.stickslip); they replace derived ones of the same name
         self.extra = tuple(extra or ())
+        self.phase = np.full(self.t.shape, "rolling" if model.name == "rolling" else "sliding")
         for name, values in (extra or {}).items():
             setattr(self, name, np.asarray(values).reshape(self.t.shape))
 
