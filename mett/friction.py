@@ -38,7 +38,17 @@ import numpy as np
 
 from . import _validate
 
-__all__ = ["CONTENSOU_UNIFORM", "Coulomb", "FrictionLaw", "RegularisedCoulomb", "Viscous"]
+__all__ = [
+    "CONTENSOU_UNIFORM",
+    "LAW_NAMES",
+    "Coulomb",
+    "FrictionLaw",
+    "RegularisedCoulomb",
+    "Viscous",
+    "check_law",
+    "describe",
+    "from_name",
+]
 
 CONTENSOU_UNIFORM = 2.0 / 3.0
 """r*/r of a uniform-pressure contact disc: pure spin gives |M| = (2/3) μ g_n r (Leine & Glocker
@@ -160,6 +170,25 @@ def check_law(friction: Any) -> FrictionLaw:
             f"got {type(friction).__name__}"
         )
     return friction
+
+
+LAW_NAMES = ("viscous", "coulomb")
+"""Names of the laws for :func:`from_name` (and the ``friction`` dimension of :func:`mett.sweep`)."""
+
+
+def from_name(name: str, mu: float, contensou_radius: float = 0.0) -> FrictionLaw:
+    """The law called ``name`` with coefficient ``mu``: ``"viscous"`` (s/m) or ``"coulomb"`` (–).
+
+    ``contensou_radius`` (m) applies to ``"coulomb"`` only. For parameter sweeps, where a grid
+    point carries the law as a name and its μ as the top's ``mu``.
+    """
+    if name == "viscous":
+        if contensou_radius:
+            raise ValueError("contensou_radius applies to the 'coulomb' law only")
+        return Viscous(mu)
+    if name == "coulomb":
+        return Coulomb(mu, contensou_radius=contensou_radius)
+    raise ValueError(f"friction must be one of {', '.join(LAW_NAMES)}; got {name!r}")
 
 
 def describe(friction: FrictionLaw) -> str:

@@ -247,3 +247,52 @@ def test_contensou_breaks_jellett_at_the_predicted_rate():
     assert np.max(np.abs(change - integral)) < 1e-5 * np.max(np.abs(change))
     # the torque opposes the spin about the normal, with |M| ≤ (2/3) μ g_n r
     assert np.all(np.abs(tr.M_n) <= law.r_star * 0.3 * tr.gn * (1 + 1e-12))
+
+
+# --- frequent switching, regularised law, sweeps -----------------------------------------------
+
+
+def test_regular_stick_slip_every_nutation():
+    """θ0 = 0.3, θ̇0 = 1 rad/s, μ just below the largest ratio |F_t|/g_n that rolling needs
+    (0.109): the contact slips briefly once per nutation (period ≈ 0.032 s) and sticks again."""
+    st = mett.State(theta=0.3, thetadot=1.0, omega3=155.0)
+    tr = mett.simulate(THESIS, st, 0.25, friction=Coulomb(0.108), rtol=1e-9)
+    assert tr.status == "completed"
+    reasons = [s.reason for s in tr.switches]
+    assert len(reasons) >= 14
+    # alternating: cone, stop, cone, stop, …
+    assert reasons[::2] == ["cone"] * len(reasons[::2])
+    assert reasons[1::2] == ["stop"] * len(reasons[1::2])
+    assert np.max(np.abs(tr.lam / tr.lam[0] - 1.0)) <= 1e-9
+    # rolling conserves E to the integration error (rtol 1e-9), sliding dissipates
+    assert np.max(np.diff(tr.E)) <= 1e-11 * tr.E[0]
+    assert tr.E[-1] < tr.E[0]
+
+
+@pytest.mark.slow
+def test_regularised_law_converges_to_the_exact_one():
+    """On the stick–slip case above the regularised law converges to exact stick–slip, error ∝ ε."""
+    st = mett.State(theta=0.3, thetadot=1.0, omega3=155.0)
+    tev = np.linspace(0.0, 0.2, 201)
+    ex = mett.simulate(THESIS, st, 0.2, friction=Coulomb(0.108), rtol=1e-10)
+    errs = []
+    for eps in (1e-4, 1e-5):
+        law = RegularisedCoulomb(0.108, eps)
+        tr = mett.simulate(THESIS, st, 0.2, friction=law, rtol=1e-10, method="Radau")
+        assert tr.status == "completed" and set(tr.phase) == {"sliding"}
+        errs.append(np.max(np.abs(tr.theta_at(tev) - ex.theta_at(tev))))
+    assert errs[1] < 0.2 * errs[0]
+    assert errs[1] < 5e-4
+
+
+def test_sweep_takes_the_law_and_its_mu_as_dimensions():
+    st = mett.State(theta=0.1, omega3=155.0)
+    table = mett.sweep(THESIS, {"friction": ["viscous", "coulomb"], "mu": [0.3, 0.01]}, t_end=0.3)
+    assert list(table["friction"]) == ["viscous", "viscous", "coulomb", "coulomb"]
+    for _, row in table.iterrows():
+        law = mett.friction.from_name(row["friction"], row["mu"])
+        top = dataclasses.replace(THESIS, mu=row["mu"])
+        ref = mett.simulate(top, st, 0.3, friction=law)
+        assert row["theta_end"] == ref.theta[-1] and row["status"] == ref.status
+    with pytest.raises(ValueError, match="friction"):
+        mett.sweep(THESIS, {"friction": ["dry"]}, t_end=0.3)
