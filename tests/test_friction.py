@@ -296,3 +296,31 @@ def test_sweep_takes_the_law_and_its_mu_as_dimensions():
         assert row["theta_end"] == ref.theta[-1] and row["status"] == ref.status
     with pytest.raises(ValueError, match="friction"):
         mett.sweep(THESIS, {"friction": ["dry"]}, t_end=0.3)
+
+
+def test_regularised_law_creeps_where_coulomb_rolls():
+    """Why regularised runs do not converge when the contact should stick: instead of rolling
+    (E constant) the contact creeps with |v_A| = ε r/√(1 − r²), r = |F_req|/(μ g_n), and
+    dissipates at the rate μ g_n |v_A|²/√(|v_A|² + ε²) ∝ ε — a slow drift towards inversion whose
+    time grows without bound as ε → 0, absent from the exact solution."""
+    st = mett.State(theta=0.1, omega3=155.0)
+    T, mu = 0.2, 0.15
+    ex = mett.simulate(THESIS, st, T, friction=Coulomb(mu), rtol=1e-10)
+    assert set(ex.phase) == {"rolling"} and np.ptp(ex.E) <= 1e-13 * ex.E[0]
+    r = np.hypot(ex.F_x, ex.F_y) / (mu * ex.gn)
+    assert np.all(r < 1.0)
+    rates = []
+    for eps in (1e-3, 1e-4):
+        v = eps * r / np.sqrt(1.0 - r * r)
+        power = mu * ex.gn * v**2 / np.sqrt(v**2 + eps**2)
+        predicted = -np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(ex.t)) / T
+        tr = mett.simulate(
+            THESIS, st, T, friction=RegularisedCoulomb(mu, eps), rtol=1e-10, method="LSODA"
+        )
+        rate = (tr.E[-1] - tr.E[0]) / T
+        assert rate == pytest.approx(predicted, rel=0.03)
+        late = tr.t > 0.05
+        creep = np.median(np.hypot(tr.nu_x, tr.nu_y)[late])
+        assert creep == pytest.approx(np.median(eps * r / np.sqrt(1 - r * r)), rel=0.05)
+        rates.append(rate)
+    assert rates[0] / rates[1] == pytest.approx(10.0, rel=0.02)
