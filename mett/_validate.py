@@ -14,6 +14,7 @@ import numpy as np
 __all__ = [
     "MettWarning",
     "PhysicalityWarning",
+    "ToleranceWarning",
     "as_finite_array",
     "cos_theta",
     "finite_scalar",
@@ -29,6 +30,10 @@ class MettWarning(UserWarning):
 
 class PhysicalityWarning(MettWarning):
     """Legal but physically suspicious input (e.g. I3 > m R², as in the seed-000 table)."""
+
+
+class ToleranceWarning(MettWarning):
+    """A tolerance was changed to one the integrator can meet (e.g. rtol raised to 100 ε)."""
 
 
 def _fmt(value: Any) -> str:

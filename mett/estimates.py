@@ -22,6 +22,7 @@ import numpy as np
 from . import _validate
 from .potential import d, d2V_dz2, g
 from .separation import _Well, _wells
+from .thresholds import pole_spins
 
 if TYPE_CHECKING:
     from .top import TippeTop
@@ -109,9 +110,9 @@ def period_estimates(top: TippeTop, lam: float) -> PeriodEstimates:
     For the thesis run (λ = 6.8944e-6) T(D0) = 0.03208 s and T(D1) = 0.09207 s.
     """
     lam = _validate.positive_jellett(lam)
-    R, I3, a, sig = top.R, top.I3, top.alpha, top.sigma
-    w0 = lam / (R * I3 * (1.0 - a))
-    w1 = lam / (R * I3 * (1.0 + a))
+    a, sig = top.alpha, top.sigma
+    w0, w1 = pole_spins(top, lam)
+    w1 = -w1  # the size of the inverted spin
     T0 = 2.0 * math.pi * float(d(top, 1.0)) / (w0 * (1.0 + sig * (1.0 - a)))
     T1 = 2.0 * math.pi * float(d(top, -1.0)) / (w1 * (1.0 + sig * (1.0 + a)))
     return PeriodEstimates(T0, T1)

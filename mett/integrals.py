@@ -1,34 +1,107 @@
 """Jellett λ, Routh D, energy E and modified energy Ẽ of a state (theory.md §1, §3).
 
-All functions accept a :class:`~mett.State` whose fields may be arrays and return arrays of that
-shape. Vectors are written in the Resal frame (1̂, 2̂, 3̂), in which (theory.md §1)
+The ``*_of`` functions are the one implementation of each integral: plain arithmetic on floats or
+equal-shape arrays of the reduced variables (θ, θ̇, φ̇, ω3, ν_x, ν_y), for a sphere of radius R whose
+centre of mass lies at l = Rα from its centre (R = 0: the heavy symmetric top on a tip at distance
+l), so that the contact vector is a = l 3̂ − R ẑ. :func:`jellett`, :func:`routh`, :func:`energy`
+and :func:`modified_energy` evaluate them for a :class:`~mett.State` (fields may be arrays) of a
+:class:`~mett.TippeTop`; the dynamical models evaluate them on their trajectories.
 
-* ω = (−φ̇ sin θ, θ̇, ω3),
-* a = R(α 3̂ − ẑ) = R (sin θ, 0, α − cos θ)  (centre of mass → contact point),
-* ν = ν_x x̂ + ν_y ŷ = (ν_x cos θ, ν_y, ν_x sin θ).
+In the horizontal frame (x̂, ŷ, ẑ) of theory.md §1, ω × a = (θ̇(l c − R), s(R ω3 + φ̇(l − R c)),
+−l s θ̇) with s = sin θ, c = cos θ, and the centre-of-mass velocity is ṙ = ν − ω × a.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .potential import d
+from .potential import d_of
 
 if TYPE_CHECKING:
     from .state import State
     from .top import TippeTop
 
-__all__ = ["energy", "jellett", "modified_energy", "routh"]
+__all__ = [
+    "energy",
+    "energy_of",
+    "jellett",
+    "jellett_of",
+    "modified_energy",
+    "modified_energy_of",
+    "routh",
+    "routh_of",
+]
 
 
-def _omega_cross_a(top: TippeTop, s: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """ω × a in the Resal frame."""
-    c, sn = np.cos(s.theta), np.sin(s.theta)
-    w1, w2, w3 = -s.phidot * sn, s.thetadot, s.omega3
-    a1, a3 = top.R * sn, top.R * (top.alpha - c)
-    return w2 * a3, w3 * a1 - w1 * a3, -w2 * a1
+def jellett_of(
+    theta: Any, phidot: Any, omega3: Any, R: float, l: float, I1: float, I3: float
+) -> Any:
+    """Jellett's integral λ = −L·a = R I1 φ̇ sin²θ − I3 ω3 (l − R cos θ) (kg m³/s).
+
+    Conserved for any contact force applied at the contact point (Rutstam 2012 §3).
+    """
+    s, c = np.sin(theta), np.cos(theta)
+    return R * I1 * phidot * s**2 - I3 * omega3 * (l - R * c)
+
+
+def routh_of(theta: Any, omega3: Any, m: float, R: float, l: float, I1: float, I3: float) -> Any:
+    """Routh's integral D = I3 ω3 √d(cos θ) (J s); conserved only while rolling."""
+    return I3 * omega3 * np.sqrt(d_of(np.cos(theta), m, R, l, I1, I3))
+
+
+def _omega_cross_a(theta: Any, thetadot: Any, phidot: Any, omega3: Any, R: float, l: float):
+    s, c = np.sin(theta), np.cos(theta)
+    return thetadot * (l * c - R), s * (R * omega3 + phidot * (l - R * c)), -l * s * thetadot
+
+
+def _rotational_and_potential(theta, thetadot, phidot, omega3, m, R, l, I1, I3, g):
+    s, c = np.sin(theta), np.cos(theta)
+    rot = 0.5 * (I1 * (phidot**2 * s**2 + thetadot**2) + I3 * omega3**2)
+    return rot + m * g * (R - l * c)
+
+
+def energy_of(
+    theta: Any,
+    thetadot: Any,
+    phidot: Any,
+    omega3: Any,
+    nu_x: Any,
+    nu_y: Any,
+    m: float,
+    R: float,
+    l: float,
+    I1: float,
+    I3: float,
+    g: float,
+) -> Any:
+    """Total energy E = ½ m|ṙ|² + ½ ω·L + m g (R − l cos θ) (J), with ṙ = ν − ω × a."""
+    wx, wy, wz = _omega_cross_a(theta, thetadot, phidot, omega3, R, l)
+    kin = 0.5 * m * ((nu_x - wx) ** 2 + (nu_y - wy) ** 2 + wz**2)
+    return kin + _rotational_and_potential(theta, thetadot, phidot, omega3, m, R, l, I1, I3, g)
+
+
+def modified_energy_of(
+    theta: Any,
+    thetadot: Any,
+    phidot: Any,
+    omega3: Any,
+    m: float,
+    R: float,
+    l: float,
+    I1: float,
+    I3: float,
+    g: float,
+) -> Any:
+    """Modified energy Ẽ = ½ m|ω × a|² + ½ ω·L + m g (R − l cos θ) (J) (theory.md §3).
+
+    Ẽ = E − ½ m|ν|² + m ν·(ω × a): the energy of the Main Equation Ẽ = g(z) θ̇² + V(z, D, λ) while
+    the top glides, equal to E when ν = 0; evaluated in this form (no cancellation).
+    """
+    wx, wy, wz = _omega_cross_a(theta, thetadot, phidot, omega3, R, l)
+    kin = 0.5 * m * (wx**2 + wy**2 + wz**2)
+    return kin + _rotational_and_potential(theta, thetadot, phidot, omega3, m, R, l, I1, I3, g)
 
 
 def jellett(top: TippeTop, state: State) -> np.ndarray:
@@ -37,19 +110,13 @@ def jellett(top: TippeTop, state: State) -> np.ndarray:
     Conserved for any contact force applied at the contact point. Positive for a top spun with
     ω3 > 0 near θ = 0.
     """
-    c, sn = np.cos(state.theta), np.sin(state.theta)
-    return top.R * top.I1 * state.phidot * sn**2 - top.R * top.I3 * state.omega3 * (top.alpha - c)
+    return jellett_of(state.theta, state.phidot, state.omega3, top.R, top.R * top.alpha,
+                      top.I1, top.I3)  # fmt: skip
 
 
 def routh(top: TippeTop, state: State) -> np.ndarray:
     """Routh integral D = I3 ω3 √d(cos θ) (theory.md §1); conserved only while rolling."""
-    return top.I3 * state.omega3 * np.sqrt(d(top, np.cos(state.theta)))
-
-
-def _rotational_and_potential(top: TippeTop, s: State) -> np.ndarray:
-    c, sn = np.cos(s.theta), np.sin(s.theta)
-    rot = 0.5 * (top.I1 * (s.phidot**2 * sn**2 + s.thetadot**2) + top.I3 * s.omega3**2)
-    return rot + top.m * top.g * top.R * (1.0 - top.alpha * c)
+    return routh_of(state.theta, state.omega3, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
 
 
 def energy(top: TippeTop, state: State) -> np.ndarray:
@@ -57,12 +124,9 @@ def energy(top: TippeTop, state: State) -> np.ndarray:
 
     The centre-of-mass velocity is ṙ = ν − ω × a.
     """
-    c, sn = np.cos(state.theta), np.sin(state.theta)
-    wa1, wa2, wa3 = _omega_cross_a(top, state)
-    v1 = state.nu_x * c - wa1
-    v2 = state.nu_y - wa2
-    v3 = state.nu_x * sn - wa3
-    return 0.5 * top.m * (v1**2 + v2**2 + v3**2) + _rotational_and_potential(top, state)
+    s = state
+    return energy_of(s.theta, s.thetadot, s.phidot, s.omega3, s.nu_x, s.nu_y,
+                     top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g)  # fmt: skip
 
 
 def modified_energy(top: TippeTop, state: State) -> np.ndarray:
@@ -72,5 +136,6 @@ def modified_energy(top: TippeTop, state: State) -> np.ndarray:
     Ẽ = E when ν = 0. Algebraically Ẽ = ½ m|ω × a|² + ½ ω·L + m g R(1 − α cos θ), which is how it is
     evaluated here (no cancellation between E and the ν terms).
     """
-    wa1, wa2, wa3 = _omega_cross_a(top, state)
-    return 0.5 * top.m * (wa1**2 + wa2**2 + wa3**2) + _rotational_and_potential(top, state)
+    s = state
+    return modified_energy_of(s.theta, s.thetadot, s.phidot, s.omega3,
+                              top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g)  # fmt: skip

@@ -218,7 +218,7 @@ def plot_omega3(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     ax = ax or fig.axes[0]
     top = traj.top
     lam = float(np.median(traj.lam))
-    w_end = -lam / (top.R * top.I3 * (1 + top.alpha))
+    w_end = thresholds.pole_spins(top, lam)[1]
     ax.axhline(w_end, color="C3", ls="--", lw=0.8, label=f"−λ/(R I₃(1+α)) = {w_end:.3f} rad/s")
     ax.legend(loc="best")
     return fig

@@ -37,6 +37,7 @@ __all__ = [
     "d2V_dz2",
     "dN_dz",
     "dV_dz",
+    "d_of",
     "dd_dz",
     "g",
 ]
@@ -48,8 +49,18 @@ _POLE_RTOL = 1e-11
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d(z) = γ + σ(α − z)² + σγ(1 − z²) (theory.md §1); D = I3 ω3 √d(z)."""
     z = _validate.cos_theta(z)
-    gam, sig, a = top.gamma, top.sigma, top.alpha
-    return gam + sig * (a - z) ** 2 + sig * gam * (1.0 - z * z)
+    return d_of(z, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
+
+
+def d_of(z: ArrayLike, m: float, R: float, l: float, I1: float, I3: float) -> np.ndarray:
+    """d(z) of a sphere of radius R whose centre of mass sits l below its centre (no checks).
+
+    I3² d = I1 I3 + m I3 (l − R z)² + m I1 R² (1 − z²) (Rutstam 2012 §3): with l = Rα this is
+    γ + σ(α − z)² + σγ(1 − z²); with R = 0 (the heavy symmetric top on its tip) γ + m l²/I3. The one
+    implementation of d: :func:`d` and the dynamics (Routh's integral D = I3 ω3 √d(z)) call it.
+    Plain arithmetic on floats or arrays.
+    """
+    return (I1 * I3 + m * I3 * (l - R * z) ** 2 + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
 
 
 def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:

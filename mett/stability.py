@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from . import _validate
+from .thresholds import pole_spins
 
 if TYPE_CHECKING:
     from .state import State
@@ -33,10 +34,8 @@ _POLES = ("upright", "inverted")
 def _spin_state(top: TippeTop, lam: float, pole: str) -> np.ndarray:
     if pole not in _POLES:
         raise ValueError(f"pole must be one of {_POLES}; got {pole!r}")
-    if pole == "upright":
-        sign, omega3 = 1.0, lam / (top.R * top.I3 * (1.0 - top.alpha))
-    else:
-        sign, omega3 = -1.0, -lam / (top.R * top.I3 * (1.0 + top.alpha))
+    upright, inverted = pole_spins(top, lam)
+    sign, omega3 = (1.0, upright) if pole == "upright" else (-1.0, inverted)
     y = np.zeros(10)
     y[6] = top.I3 * omega3 * sign  # L = I3 ω3 3̂
     y[9] = sign

@@ -29,6 +29,7 @@ __all__ = [
     "lambda_roll",
     "lambda_thres",
     "min_spin_for_inversion",
+    "pole_spins",
     "tumbling_lambda",
     "tumbling_state",
 ]
@@ -95,6 +96,17 @@ class BoundaryValues(NamedTuple):
     """Spin ω3 = −λ/(R I3 (1 + α)) at θ = π."""
 
 
+def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
+    """Spins ω3 (rad/s) of the steady spinning solutions at the poles with Jellett integral λ.
+
+    ω3 = λ/(R I3 (1 − α)) upright (θ = 0) and ω3 = −λ/(R I3 (1 + α)) inverted (θ = π): Jellett's
+    λ = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (theory.md §1) at sin θ = 0. The one place of these
+    formulas; plain arithmetic, so ``lam`` may be a float or an array (no checks).
+    """
+    R, I3, a = top.R, top.I3, top.alpha
+    return lam / (R * I3 * (1.0 - a)), -lam / (R * I3 * (1.0 + a))
+
+
 def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     """Spinning solutions at θ = 0 and θ = π for the Jellett integral ``lam`` (RR14 §3; theory.md §6).
 
@@ -110,7 +122,7 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     D1 = -lam * math.sqrt(float(d(top, -1.0))) / (R * (1.0 + a))
     E0 = lam**2 / (2.0 * I3 * R**2 * (1.0 - a) ** 2) + mgR * (1.0 - a)
     E1 = lam**2 / (2.0 * I3 * R**2 * (1.0 + a) ** 2) + mgR * (1.0 + a)
-    return BoundaryValues(D0, E0, D1, E1, lam / (R * I3 * (1.0 - a)), -lam / (R * I3 * (1.0 + a)))
+    return BoundaryValues(D0, E0, D1, E1, *pole_spins(top, lam))
 
 
 # --- tumbling family and end states ----------------------------------------------------------
@@ -216,11 +228,10 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
         If ``lam`` is not a positive finite number.
     """
     lam = _validate.positive_jellett(lam)
-    R, I3, a = top.R, top.I3, top.alpha
     if lam <= top.lambda_0:
-        return AsymptoticState("upright", 0.0, lam / (R * I3 * (1.0 - a)))
+        return AsymptoticState("upright", 0.0, pole_spins(top, lam)[0])
     if lam > top.lambda_thres:
-        return AsymptoticState("inverted", math.pi, -lam / (R * I3 * (1.0 + a)))
+        return AsymptoticState("inverted", math.pi, pole_spins(top, lam)[1])
     tum = tumbling_state(top, lam)
     if tum is None:  # pragma: no cover - the family spans (λ_0, λ_thres) whenever this branch runs
         raise RuntimeError(f"no tumbling state for lam = {lam!r} between lambda_0 and lambda_thres")

@@ -23,7 +23,6 @@ import pytest
 
 import mett
 from mett.dynamics import MODELS, _kernels, simulate
-from mett.dynamics.simulation import _COMPILED_TWIN
 
 RTOL = 1e-10
 
@@ -60,7 +59,7 @@ def _random_model_state(name: str, rng: np.random.Generator) -> mett.State:
 @pytest.mark.parametrize("name", list(MODELS))
 def test_compiled_rhs_and_events_equal_the_python_model(name, top):
     model = MODELS[name]
-    rhs, events = _kernels.get(_COMPILED_TWIN[model.rhs])
+    rhs, events = _kernels.compiled(model)
     rng = np.random.default_rng(17)
     worst = 0.0
     for _ in range(50):
@@ -72,16 +71,17 @@ def test_compiled_rhs_and_events_equal_the_python_model(name, top):
         out = np.empty(y.size)
         rhs(0.0, y, np.array(p), out)
         worst = max(worst, float(np.max(np.abs(out - ref)) / np.max(np.abs(ref))))
-        g = np.empty(1 + len(model.guards))
+        g = np.empty(len(model.events))
         events(0.0, y, np.array(p), g)
+        assert model.events[0].action == "contact_lost"
         assert g[0] == pytest.approx(model.normal_force(y, p) / (top.m * top.g), rel=1e-15)
-        for k, (guard, _, _) in enumerate(model.guards):
-            assert g[1 + k] == pytest.approx(guard(0.0, y, p), rel=1e-15, abs=1e-300)
+        for k, ev in enumerate(model.events):
+            assert g[k] == pytest.approx(ev.fn(0.0, y, p), rel=1e-15, abs=1e-300)
     assert worst <= 1e-15  # measured 0: the same IEEE operations in the same order
 
 
 def test_every_model_has_a_compiled_twin_and_import_mett_does_not_load_numba():
-    assert all(m.rhs in _COMPILED_TWIN for m in MODELS.values())
+    assert all(m.rhs_into is not None for m in MODELS.values())
     code = (
         "import sys, mett, mett.dynamics; "
         "assert 'numba' not in sys.modules and 'mett.dynamics._kernels' not in sys.modules"
@@ -151,7 +151,7 @@ def test_pole_guard_of_the_euler_form_agrees_between_backends(top):
     assert comp.t[-1] == pytest.approx(ref.t[-1], abs=1e-12)
 
 
-_GLIDING_RHS = _kernels.KERNELS["gliding"][0]
+_GLIDING_RHS = _kernels.compiled(MODELS["gliding"])[0]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -162,31 +162,27 @@ def _rhs_blowing_up_after_0p1(t, y, p, out):
             out[i] = out[i] / (t - t)  # ±inf or nan; compiled code must not raise ZeroDivisionError
 
 
-def test_non_finite_rhs_is_a_failed_status_on_both_backends(monkeypatch, top):
+def test_non_finite_rhs_is_a_failed_status_on_both_backends(top):
     s = mett.State(theta=0.1, omega3=155.0)
-    events = _kernels.KERNELS["gliding"][1]
-    monkeypatch.setitem(_kernels.KERNELS, "gliding", (_rhs_blowing_up_after_0p1, events))
-    comp = simulate(top, s, 1.0)
+    good = MODELS["gliding"]
+    blowing_up = dataclasses.replace(good, rhs_into=_rhs_blowing_up_after_0p1)
+    comp = simulate(top, s, 1.0, model=blowing_up)
     assert comp.backend == "compiled"
     assert comp.status == "failed"
     assert "integrator failed at t = 0.1" in comp.message
     assert comp.t[-1] == pytest.approx(0.1, abs=1e-3)
     assert np.all(np.isfinite(comp.theta))
 
-    good = MODELS["gliding"]
-
     def broken(t, y, p):
         return good.rhs(t, y, p) / (t - t) if t > 0.1 else good.rhs(t, y, p)
 
-    import mett.dynamics.simulation as sim
-
-    monkeypatch.setattr(sim, "MODELS", {**MODELS, "gliding": dataclasses.replace(good, rhs=broken)})
-    ref = simulate(top, s, 1.0)
-    assert ref.backend == "scipy"  # a replaced rhs has no compiled twin: "auto" runs scipy
+    python_only = dataclasses.replace(good, rhs=broken, rhs_into=None)
+    ref = simulate(top, s, 1.0, model=python_only)
+    assert ref.backend == "scipy"  # no compiled twin: "auto" runs scipy
     assert ref.status == "failed" and "integrator failed at t = 0.1" in ref.message
     assert comp.t[-1] == pytest.approx(ref.t[-1], abs=1e-12)
     with pytest.raises(ValueError, match="no compiled right-hand side"):
-        simulate(top, s, 1.0, backend="compiled")
+        simulate(top, s, 1.0, model=python_only, backend="compiled")
 
 
 def _events():

@@ -9,6 +9,10 @@ Models (theory.md §2, §3, §10; Rutstam 2012; thesis eqs (10)–(15)):
 * ``"cylinder"`` — gliding eccentric cylinder, the subspace φ̇ = ω3 = ν_y = 0 (:mod:`.reduced`);
 * ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`).
 
+Every model declares itself once, in its own module, with :func:`~.registry.register` (see
+:mod:`.registry` for the design): right-hand side, events, options, conserved quantities. Adding a
+model is one module plus one name in the import line below.
+
 Every right-hand side is a pure function ``rhs(t, y, params)`` of a flat float array and a tuple of
 floats, written as plain float arithmetic. :func:`simulate` runs it either through scipy
 (``backend="scipy"``, the reference) or, by default, compiled: :mod:`._kernels` compiles the same
@@ -16,15 +20,23 @@ source with numba for the compiled DOP853 of :mod:`.dop853` (``backend="compiled
 first compiled run so that ``import mett`` does not import numba.
 """
 
+# the registry first, then the built-in models, which register themselves in MODELS in this order
+from . import registry  # noqa: F401, I001
+from . import gliding, rolling, reduced, euler, routhian  # noqa: F401
 from .euler import euler_normal_force, euler_rhs
 from .gliding import gliding_normal_force, gliding_rhs
 from .reduced import cylinder_rhs, hst_euler_rhs
+from .registry import MODELS, Event, Model, Option, Phase, register
 from .rolling import rolling_rhs
-from .simulation import MODELS, simulate
+from .simulation import simulate
 from .trajectory import Trajectory
 
 __all__ = [
     "MODELS",
+    "Event",
+    "Model",
+    "Option",
+    "Phase",
     "Trajectory",
     "cylinder_rhs",
     "euler_normal_force",
@@ -32,6 +44,7 @@ __all__ = [
     "gliding_normal_force",
     "gliding_rhs",
     "hst_euler_rhs",
+    "register",
     "rolling_rhs",
     "simulate",
 ]

@@ -1,9 +1,9 @@
-"""Shared machinery of the dynamical models: the model record and frame conversions.
+"""Shared machinery of the dynamical models: frame conversions and the integrals of a run.
 
-Every model of :mod:`mett.dynamics` is described by a :class:`Model`: a pure right-hand side
-``rhs(t, y, p)`` on a flat float array ``y`` and a parameter tuple ``p``, plus the conversions
-between the library's reduced :class:`~mett.State` (θ, θ̇, φ̇, ω3, ν_x, ν_y) and the model's own
-state vector. The conversions and derived series are vectorised numpy, evaluated once after a
+Every model of :mod:`mett.dynamics` is described by a :class:`~mett.dynamics.registry.Model`
+(re-exported here): a pure right-hand side ``rhs(t, y, p)`` on a flat float array ``y`` and a
+parameter tuple ``p``, plus the conversions between the library's reduced :class:`~mett.State`
+(θ, θ̇, φ̇, ω3, ν_x, ν_y) and the model's own state vector. The conversions and derived series are vectorised numpy, evaluated once after a
 run (never per step in Python).
 
 Frames (theory.md §1): with 3̂ = (sinθ sinφ, −sinθ cosφ, cosθ) the horizontal frame is
@@ -14,56 +14,26 @@ l = Rα (the tippe top), which also covers the gliding heavy symmetric top (R = 
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Model"]
+from ..integrals import energy_of, jellett_of, modified_energy_of, routh_of
+from .registry import Model, Params
 
-Params = tuple[float, ...]
-
-
-@dataclass(frozen=True)
-class Model:
-    """A dynamical model: right-hand side, normal force and conversions to/from :class:`State`.
-
-    Attributes
-    ----------
-    name : str
-        Registry name (``simulate(..., model=name)``).
-    summary : str
-        One line: what the model is and where its equations come from.
-    rhs : callable
-        ``rhs(t, y, p) -> dy``: pure function of a flat float array and a parameter tuple.
-    normal_force : callable
-        ``normal_force(y, p) -> g_n``; ``y`` may be one state or an array of shape (n, k).
-    params : callable
-        ``params(top, options) -> p``: the parameter tuple of the right-hand side.
-    initial : callable
-        ``initial(state, p) -> y0``: the model state of a scalar :class:`State`.
-    derive : callable
-        ``derive(Y, p) -> dict`` of the Trajectory series for states ``Y`` of shape (n, k).
-    theta : callable
-        ``theta(Y, p) -> θ``, cheap, for crossings.
-    scales : callable
-        ``scales(y0, p) -> array``: a typical magnitude per component; ``atol = rtol * scales``.
-    guards : tuple
-        Extra terminal events ``(fn(t, y, p), direction, message)`` that end a run as "failed"
-        (e.g. the Euler form reaching its pole singularity).
-    """
-
-    name: str
-    summary: str
-    rhs: Callable[[float, np.ndarray, Params], np.ndarray]
-    normal_force: Callable[[np.ndarray, Params], Any]
-    params: Callable[[Any, dict], Params]
-    initial: Callable[[Any, Params], np.ndarray]
-    derive: Callable[[np.ndarray, Params], dict[str, np.ndarray]]
-    theta: Callable[[np.ndarray, Params], np.ndarray]
-    scales: Callable[[np.ndarray, Params], np.ndarray]
-    guards: tuple[tuple[Callable, float, str], ...] = field(default=())
+__all__ = [
+    "Model",
+    "add_integrals",
+    "axis_theta",
+    "cross3",
+    "dot3",
+    "euler_from_vectors",
+    "euler_params",
+    "lab_vectors",
+    "scales_from_state",
+    "tippe_params",
+    "unit_axis",
+]
 
 
 def tippe_params(top: Any, options: dict) -> Params:
@@ -180,47 +150,20 @@ def euler_from_vectors(e: np.ndarray, omega: np.ndarray, nu: np.ndarray) -> dict
     }
 
 
-def routh_d(z: Any, m: float, R: float, l: float, I1: float, I3: float) -> Any:
-    """d(z) with a = l 3̂ − R ẑ: I3² d = I1 I3 + m I3 (l − R z)² + m I1 R² (1 − z²) (theory.md §1).
-
-    For l = Rα this is γ + σ(α − z)² + σγ(1 − z²); for R = 0 (heavy top) it is γ + m l²/I3.
-    """
-    return (I1 * I3 + m * I3 * (l - R * z) ** 2 + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
-
-
-# --- integrals from the reduced variables (Euler-angle models) --------------------------------
-
-
-def integrals_from_euler(
-    theta: Any,
-    thetadot: Any,
-    phidot: Any,
-    omega3: Any,
-    nu_x: Any,
-    nu_y: Any,
-    m: float,
-    R: float,
-    l: float,
-    I1: float,
-    I3: float,
-    g: float,
+def add_integrals(
+    out: dict[str, Any], m: float, R: float, l: float, I1: float, I3: float, g: float
 ) -> dict[str, Any]:
-    """E, Ẽ, D, λ of reduced states with a = l 3̂ − R ẑ (theory.md §1, §3).
+    """Add E, Ẽ ("E_mod"), D and λ ("lam") of the reduced series in ``out`` (and return it).
 
-    In the horizontal frame (x̂, ŷ, ẑ): ω × a = (θ̇(l c − R), s(R ω3 + φ̇(l − R c)), −l s θ̇), the CM
-    velocity is ṙ = ν − ω × a, and Ẽ = ½ m |ω × a|² + ½ ω·L + m g (R − l c).
+    ``out`` holds θ, θ̇, φ̇, ω3, ν_x, ν_y (as :func:`euler_from_vectors` returns them); the
+    integrals are those of :mod:`mett.integrals` with the contact vector a = l 3̂ − R ẑ.
     """
-    s, c = np.sin(theta), np.cos(theta)
-    wa_x = thetadot * (l * c - R)
-    wa_y = s * (R * omega3 + phidot * (l - R * c))
-    wa_z = -l * s * thetadot
-    rot = 0.5 * (I1 * (phidot**2 * s**2 + thetadot**2) + I3 * omega3**2)
-    pot = m * g * (R - l * c)
-    E_mod = 0.5 * m * (wa_x**2 + wa_y**2 + wa_z**2) + rot + pot
-    E = 0.5 * m * ((nu_x - wa_x) ** 2 + (nu_y - wa_y) ** 2 + wa_z**2) + rot + pot
-    lam = R * I1 * phidot * s**2 - I3 * omega3 * (l - R * c)
-    D = I3 * omega3 * np.sqrt(routh_d(c, m, R, l, I1, I3))
-    return {"E": E, "E_mod": E_mod, "D": D, "lam": lam}
+    th, thd, phd, w3 = out["theta"], out["thetadot"], out["phidot"], out["omega3"]
+    out["E"] = energy_of(th, thd, phd, w3, out["nu_x"], out["nu_y"], m, R, l, I1, I3, g)
+    out["E_mod"] = modified_energy_of(th, thd, phd, w3, m, R, l, I1, I3, g)
+    out["D"] = routh_of(th, w3, m, R, l, I1, I3)
+    out["lam"] = jellett_of(th, phd, w3, R, l, I1, I3)
+    return out
 
 
 def scales_from_state(

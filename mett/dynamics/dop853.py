@@ -53,6 +53,8 @@ import numpy as np
 from numba import types
 from numpy.typing import ArrayLike
 
+from .._validate import ToleranceWarning
+
 __all__ = [
     "COMPLETED",
     "MAX_STEPS",
@@ -572,11 +574,21 @@ def _put_rows(src, dst, offset):
 
 
 @numba.njit(cache=True)
-def _grow(a, size):
-    """A copy of the 1-D array ``a`` with room for at least ``size`` entries (doubling)."""
-    out = np.empty(max(size, 2 * a.size), dtype=a.dtype)
+def _grow(a, size, limit):
+    """A copy of the 1-D array ``a`` with room for at least ``size`` entries: doubling, but never
+    beyond ``limit`` entries (all that ``max_steps`` steps can need)."""
+    out = np.empty(max(size, min(2 * a.size, limit)), dtype=a.dtype)
     _copy(a, out)
     return out
+
+
+@numba.njit(cache=True)
+def _trimmed(a, k):
+    """``a[:k]``: a view if it fills at least 3/4 of ``a`` (copying would double the memory of a
+    run that used its whole buffer, e.g. one that reached ``max_steps``), else a copy."""
+    if 4 * k >= 3 * a.size:
+        return a[:k]
+    return a[:k].copy()
 
 
 # Slots of the scalar state that _advance carries between calls (it returns to _integrate whenever
@@ -809,7 +821,7 @@ def _integrate(
     istate = np.zeros(5, dtype=np.int64)
 
     # output buffers, grown by doubling when _advance reports them full
-    cap = 1024
+    cap = min(1024, max_steps + 2)
     ts = np.empty(cap)
     ys = np.empty(cap * n)
     hs = np.empty(cap)
@@ -851,17 +863,18 @@ def _integrate(
         )  # fmt: skip
         m, n_ev = istate[_M], istate[_N_EV]
         if m + 2 > ts.size:
-            ts = _grow(ts, m + 2)
+            ts = _grow(ts, m + 2, max_steps + 2)
         if m + 1 > hs.size:
-            hs = _grow(hs, m + 1)
+            hs = _grow(hs, m + 1, max_steps + 1)
         if (m + 2) * n > ys.size:
-            ys = _grow(ys, (m + 2) * n)
+            ys = _grow(ys, (m + 2) * n, (max_steps + 2) * n)
         if store_dense and (m + 1) * nF > F.size:
-            F = _grow(F, (m + 1) * nF)
+            F = _grow(F, (m + 1) * nF, (max_steps + 1) * nF)
         if n_ev + n_events > ev_t.size:
-            ev_idx = _grow(ev_idx, n_ev + n_events)
-            ev_t = _grow(ev_t, n_ev + n_events)
-            ev_y = _grow(ev_y, (n_ev + n_events) * n)
+            n_big = 2 * ev_t.size + n_events
+            ev_idx = _grow(ev_idx, n_ev + n_events, n_big)
+            ev_t = _grow(ev_t, n_ev + n_events, n_big)
+            ev_y = _grow(ev_y, (n_ev + n_events) * n, n_big * n)
 
     status, m, n_rej, nfev, n_ev = istate[0], istate[1], istate[2], istate[3], istate[4]
     n_dense = m * nF if store_dense else 0
@@ -871,10 +884,10 @@ def _integrate(
         nfev,
         m,
         n_rej,
-        ts[: m + 1].copy(),
-        ys[: (m + 1) * n].copy(),
-        hs[:m].copy(),
-        F[:n_dense].copy(),
+        _trimmed(ts, m + 1),
+        _trimmed(ys, (m + 1) * n),
+        _trimmed(hs, m),
+        _trimmed(F, n_dense),
         ev_idx[:n_ev].copy(),
         ev_t[:n_ev].copy(),
         ev_y[: n_ev * n].copy(),
@@ -1147,7 +1160,8 @@ def solve(
     if np.any(rtol_arr < 100 * _EPS):
         warnings.warn(
             f"At least one element of `rtol` is too small. Setting `rtol = max(rtol, {100 * _EPS})`.",
-            stacklevel=2,
+            ToleranceWarning,
+            stacklevel=2,  # the caller of solve
         )
         rtol_arr = np.maximum(rtol_arr, 100 * _EPS)
     atol_arr = _per_component("atol", atol, n)

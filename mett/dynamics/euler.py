@@ -22,9 +22,17 @@ from typing import Any
 
 import numpy as np
 
-from ._model import Model, euler_params, integrals_from_euler, lab_vectors, scales_from_state
+from ._model import add_integrals, euler_params, lab_vectors, scales_from_state
+from .registry import Event, Model, register
 
-__all__ = ["MODEL", "POLE_GUARD", "euler_normal_force", "euler_rhs"]
+__all__ = [
+    "MODEL",
+    "POLE_GUARD",
+    "cm_velocity_horizontal",
+    "euler_normal_force",
+    "euler_rhs",
+    "pole_guard",
+]
 
 POLE_GUARD = 1e-6
 """The "gliding-euler" model stops (status "failed") when sin θ drops below this."""
@@ -95,7 +103,7 @@ def euler_rhs(y: np.ndarray, params: tuple) -> np.ndarray:
     return np.array(_euler_core(y, params)[:6])
 
 
-def _cm_velocity_horizontal(y: Any, params: tuple) -> tuple:
+def cm_velocity_horizontal(y: Any, params: tuple) -> tuple:
     """CM velocity along x̂ and ŷ: ṙ = ν − ω × a (theory.md §1, horizontal frame)."""
     m, R, al, I1, I3, mu, g = params
     th, thd, phd, w3, nux, nuy = y[0], y[1], y[2], y[3], y[4], y[5]
@@ -110,7 +118,7 @@ def _rhs(t: float, y: np.ndarray, params: tuple) -> np.ndarray:
 
 def _extended_core(y: Any, params: Any) -> tuple:
     d = _euler_core(y, params)
-    vxh, vyh = _cm_velocity_horizontal(y, params)
+    vxh, vyh = cm_velocity_horizontal(y, params)
     sp, cp = np.sin(y[6]), np.cos(y[6])
     # x̂ = (sinφ, −cosφ, 0), ŷ = (cosφ, sinφ, 0)
     return (d[0], d[1], d[2], d[3], d[4], d[5], y[2], vxh * sp + vyh * cp, -vxh * cp + vyh * sp)
@@ -124,10 +132,9 @@ def _rhs_into(t: float, y: Any, params: Any, out: Any) -> None:
     out[5], out[6], out[7], out[8] = d[5], d[6], d[7], d[8]
 
 
-def _events_into(t: float, y: Any, params: Any, out: Any) -> None:
-    """Contact g_n/(m g), then the pole guard of :data:`MODEL` (same order as ``MODEL.guards``)."""
-    out[0] = euler_normal_force(y, params) * (1.0 / (params[0] * params[6]))
-    out[1] = _pole(t, y, params)
+def _contact(t: float, y: Any, params: Any) -> Any:
+    """The contact event g_n/(m g), for both backends."""
+    return euler_normal_force(y, params) * (1.0 / (params[0] * params[6]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
@@ -155,8 +162,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
         "y": Y[8],
         "gn": np.asarray(euler_normal_force(Y, p), dtype=float),
     }
-    out.update(integrals_from_euler(th, thd, phd, w3, nux, nuy, m, R, R * al, I1, I3, g))
-    return out
+    return add_integrals(out, m, R, R * al, I1, I3, g)
 
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
@@ -169,27 +175,36 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([1.0, w, w, w, vel, vel, 1.0, sc["length"], sc["length"]])
 
 
-def _pole(t: float, y: np.ndarray, p: tuple) -> float:
-    # signed: a step that jumps across θ = 0 or π changes its sign (|sin θ| would not)
+def pole_guard(t: float, y: Any, p: Any) -> Any:
+    """sin θ − :data:`POLE_GUARD` of a state whose first entry is θ: the guard of the Euler-angle
+    forms (this one and the Routhian's). Signed, so a step that jumps across θ = 0 or π changes
+    its sign (|sin θ| would not)."""
     return np.sin(y[0]) - POLE_GUARD
 
 
-MODEL = Model(
-    name="gliding-euler",
-    summary="gliding tippe top in Euler angles, thesis eqs (10)–(15) (cross-check; singular at the poles)",
-    rhs=_rhs,
-    normal_force=euler_normal_force,
-    params=euler_params,
-    initial=_initial,
-    derive=_derive,
-    theta=_theta,
-    scales=_scales,
-    guards=(
-        (
-            _pole,
-            -1.0,
-            f"the Euler-angle form is singular at sin(theta) = 0 and stopped at sin(theta) = "
-            f"{POLE_GUARD:g}; use model='gliding' (vector form) through the poles",
+MODEL = register(
+    Model(
+        name="gliding-euler",
+        summary="gliding tippe top in Euler angles, thesis eqs (10)–(15) "
+        "(cross-check; singular at the poles)",
+        rhs=_rhs,
+        rhs_into=_rhs_into,
+        normal_force=euler_normal_force,
+        params=euler_params,
+        initial=_initial,
+        derive=_derive,
+        theta=_theta,
+        scales=_scales,
+        events=(
+            Event(_contact, -1.0, "contact_lost"),
+            Event(
+                pole_guard,
+                -1.0,
+                "fail",
+                f"the Euler-angle form is singular at sin(theta) = 0 and stopped at "
+                f"sin(theta) = {POLE_GUARD:g}; use model='gliding' (vector form) through the poles",
+            ),
         ),
-    ),
+        conserves=("lam",),
+    )
 )

@@ -30,17 +30,15 @@ from typing import Any
 import numpy as np
 
 from ._model import (
-    Model,
+    add_integrals,
     axis_theta,
-    cross3,
-    dot3,
     euler_from_vectors,
     lab_vectors,
-    routh_d,
     scales_from_state,
     tippe_params,
     unit_axis,
 )
+from .registry import Event, Model, register
 
 __all__ = ["MODEL", "gliding_normal_force", "gliding_rhs"]
 
@@ -136,9 +134,9 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
 
 
-def _events_into(t: float, y: Any, p: Any, out: Any) -> None:
-    """The contact event g_n/(m g) (terminal, falling through 0), compiled like :func:`_rhs_into`."""
-    out[0] = _core(y, p)[10] * (1.0 / (p[0] * p[6]))
+def _contact(t: float, y: Any, p: Any) -> Any:
+    """The contact event g_n/(m g): terminal when it falls through 0 (compiled like _rhs_into)."""
+    return _core(y, p)[10] * (1.0 / (p[0] * p[6]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
@@ -162,16 +160,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     w = np.array(d[11])
     nu = np.array([d[12][0], d[12][1], np.zeros_like(d[12][0])])
     out = euler_from_vectors(e, w, nu)
-    L = Y[4:7]
-    a = l * e - np.array([0.0, 0.0, R])[:, None]
-    wa = cross3(w, a)
-    vz = -l * d[9]  # rate of the CM height R − l 3̂_z
-    rot = 0.5 * dot3(w, L)
-    pot = m * g * (R - l * e[2])
-    out["E"] = 0.5 * m * (Y[2] ** 2 + Y[3] ** 2 + vz**2) + rot + pot
-    out["E_mod"] = 0.5 * m * dot3(wa, wa) + rot + pot
-    out["lam"] = -dot3(L, a)
-    out["D"] = dot3(L, e) * np.sqrt(routh_d(e[2], m, R, l, I1, I3))
+    add_integrals(out, m, R, l, I1, I3, g)
     out["gn"] = np.asarray(d[10], dtype=float)
     out["x"], out["y"] = Y[0], Y[1]
     return out
@@ -187,14 +176,19 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([sc["length"]] * 2 + [sc["velocity"]] * 2 + [sc["momentum"]] * 3 + [0.1] * 3)
 
 
-MODEL = Model(
-    name="gliding",
-    summary="rolling-and-gliding tippe top, vector form (theory.md §2.1; Rutstam 2012 §2)",
-    rhs=gliding_rhs,
-    normal_force=gliding_normal_force,
-    params=tippe_params,
-    initial=_initial,
-    derive=_derive,
-    theta=_theta,
-    scales=_scales,
+MODEL = register(
+    Model(
+        name="gliding",
+        summary="rolling-and-gliding tippe top, vector form (theory.md §2.1; Rutstam 2012 §2)",
+        rhs=gliding_rhs,
+        rhs_into=_rhs_into,
+        normal_force=gliding_normal_force,
+        params=tippe_params,
+        initial=_initial,
+        derive=_derive,
+        theta=_theta,
+        scales=_scales,
+        events=(Event(_contact, -1.0, "contact_lost"),),
+        conserves=("lam",),
+    )
 )

@@ -29,12 +29,14 @@ signs of θ̇ and ν_x flip.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 
 from . import gliding
-from ._model import Model, euler_params, integrals_from_euler, lab_vectors, scales_from_state
+from ._model import add_integrals, euler_params, lab_vectors, scales_from_state
+from .registry import Event, Model, Option, positive_length, register
 
 __all__ = [
     "CYLINDER",
@@ -99,16 +101,15 @@ def hst_euler_rhs(y: np.ndarray, params: tuple) -> np.ndarray:
     return np.array([thd, thdd, phdd, 0.0 * w3, nuxd, nuyd])
 
 
-HST = Model(
-    name="gliding-hst",
-    summary="gliding heavy symmetric top: the tippe top with R → 0, Rα = l (theory.md §10)",
-    rhs=gliding.gliding_rhs,
-    normal_force=gliding.gliding_normal_force,
-    params=hst_params,
-    initial=gliding._initial,
-    derive=gliding._derive,
-    theta=gliding._theta,
-    scales=gliding._scales,
+HST = register(
+    dataclasses.replace(
+        gliding.MODEL,
+        name="gliding-hst",
+        summary="gliding heavy symmetric top: the tippe top with R → 0, Rα = l (theory.md §10)",
+        params=hst_params,
+        options=(Option("l", positive_length, None, "tip distance (m); default R alpha"),),
+        conserves=("lam", "omega3"),
+    )
 )
 
 
@@ -160,9 +161,9 @@ def _cylinder_rhs_into(t: float, y: Any, params: Any, out: Any) -> None:
     out[0], out[1], out[2], out[3] = _cylinder_core(y, params)
 
 
-def _cylinder_events_into(t: float, y: Any, params: Any, out: Any) -> None:
-    """The contact event g_n/(m g), for the compiled integrator."""
-    out[0] = cylinder_normal_force(y, params) * (1.0 / (params[0] * params[6]))
+def _cylinder_contact(t: float, y: Any, params: Any) -> Any:
+    """The contact event g_n/(m g), for both backends."""
+    return cylinder_normal_force(y, params) * (1.0 / (params[0] * params[6]))
 
 
 def _cyl_initial(state: Any, p: tuple) -> np.ndarray:
@@ -202,8 +203,7 @@ def _cyl_derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
         "x": zero,
         "y": -Y[3],  # x̂ = (0, −1, 0) for φ = 0
     }
-    out.update(integrals_from_euler(thw, Y[1], zero, zero, Y[2], zero, m, R, R * al, I1, I3, g))
-    return out
+    return add_integrals(out, m, R, R * al, I1, I3, g)
 
 
 def _cyl_scales(y0: np.ndarray, p: tuple) -> np.ndarray:
@@ -216,14 +216,19 @@ def _cyl_scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([1.0, sc["omega"], sc["velocity"], sc["length"]])
 
 
-CYLINDER = Model(
-    name="cylinder",
-    summary="gliding eccentric cylinder: the invariant subspace phidot = omega3 = nu_y = 0 (theory.md §10)",
-    rhs=cylinder_rhs,
-    normal_force=cylinder_normal_force,
-    params=euler_params,
-    initial=_cyl_initial,
-    derive=_cyl_derive,
-    theta=_cyl_theta,
-    scales=_cyl_scales,
+CYLINDER = register(
+    Model(
+        name="cylinder",
+        summary="gliding eccentric cylinder: the invariant subspace phidot = omega3 = nu_y = 0 "
+        "(theory.md §10)",
+        rhs=cylinder_rhs,
+        rhs_into=_cylinder_rhs_into,
+        normal_force=cylinder_normal_force,
+        params=euler_params,
+        initial=_cyl_initial,
+        derive=_cyl_derive,
+        theta=_cyl_theta,
+        scales=_cyl_scales,
+        events=(Event(_cylinder_contact, -1.0, "contact_lost"),),
+    )
 )

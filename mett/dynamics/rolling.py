@@ -25,15 +25,15 @@ from typing import Any
 import numpy as np
 
 from ._model import (
-    Model,
+    add_integrals,
     axis_theta,
     euler_from_vectors,
     lab_vectors,
-    routh_d,
     scales_from_state,
     tippe_params,
     unit_axis,
 )
+from .registry import Event, Model, register
 
 __all__ = ["MODEL", "rolling_normal_force", "rolling_rhs"]
 
@@ -113,9 +113,9 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
     out[4], out[5], out[6], out[7] = d[4], d[5], d[6], d[7]
 
 
-def _events_into(t: float, y: Any, p: Any, out: Any) -> None:
-    """The contact event g_n/(m g), for the compiled integrator."""
-    out[0] = _core(y, p)[8] * (1.0 / (p[0] * p[6]))
+def _contact(t: float, y: Any, p: Any) -> Any:
+    """The contact event g_n/(m g), for both backends."""
+    return _core(y, p)[8] * (1.0 / (p[0] * p[6]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
@@ -140,15 +140,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     e = unit_axis(Y, 5)
     w = Y[2:5]
     out = euler_from_vectors(e, w, np.zeros_like(w))
-    wa = np.array(d[9])
-    w3 = np.sum(w * e, axis=0)
-    L = I1 * w + (I3 - I1) * w3 * e
-    a = l * e - np.array([0.0, 0.0, R])[:, None]
-    E = 0.5 * m * np.sum(wa * wa, axis=0) + 0.5 * np.sum(w * L, axis=0) + m * g * (R - l * e[2])
-    out["E"] = E
-    out["E_mod"] = E.copy()  # ν = 0: Ẽ = E
-    out["lam"] = -np.sum(L * a, axis=0)
-    out["D"] = I3 * w3 * np.sqrt(routh_d(e[2], m, R, l, I1, I3))
+    add_integrals(out, m, R, l, I1, I3, g)
     out["gn"] = np.asarray(d[8], dtype=float)
     out["x"], out["y"] = Y[0], Y[1]
     return out
@@ -161,14 +153,19 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([sc["length"]] * 2 + [sc["omega"]] * 3 + [1.0] * 3)
 
 
-MODEL = Model(
-    name="rolling",
-    summary="rolling tippe top (v_A = 0; E, D, λ conserved), vector form (theory.md §3–§4)",
-    rhs=rolling_rhs,
-    normal_force=rolling_normal_force,
-    params=tippe_params,
-    initial=_initial,
-    derive=_derive,
-    theta=_theta,
-    scales=_scales,
+MODEL = register(
+    Model(
+        name="rolling",
+        summary="rolling tippe top (v_A = 0; E, D, λ conserved), vector form (theory.md §3–§4)",
+        rhs=rolling_rhs,
+        rhs_into=_rhs_into,
+        normal_force=rolling_normal_force,
+        params=tippe_params,
+        initial=_initial,
+        derive=_derive,
+        theta=_theta,
+        scales=_scales,
+        events=(Event(_contact, -1.0, "contact_lost"),),
+        conserves=("lam", "D", "E"),
+    )
 )

@@ -28,13 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from ._model import Model, integrals_from_euler, lab_vectors, scales_from_state
-from .euler import _cm_velocity_horizontal
+from ._model import add_integrals, lab_vectors, scales_from_state
+from .euler import POLE_GUARD, cm_velocity_horizontal
+from .registry import Event, Model, Option, boolean, register
 
 __all__ = ["MODEL", "POLE_GUARD", "routhian_normal_force", "routhian_rhs"]
-
-POLE_GUARD = 1e-6
-"""The run stops (status "failed") when sin θ drops below this (as the Euler form's guard)."""
 
 
 def _thetaddot(y: Any, p: tuple) -> Any:
@@ -75,10 +73,9 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
     out[4], out[5], out[6], out[7], out[8] = y[2], y[7], y[8], 0.0, 0.0
 
 
-def _events_into(t: float, y: Any, p: Any, out: Any) -> None:
-    """Contact g_n/(m g), then the pole guard (same order as ``MODEL.guards``)."""
-    out[0] = routhian_normal_force(y, p) * (1.0 / (p[0] * p[5]))
-    out[1] = _pole(t, y, p)
+def _contact(t: float, y: Any, p: Any) -> Any:
+    """The contact event g_n/(m g), for both backends."""
+    return routhian_normal_force(y, p) * (1.0 / (p[0] * p[5]))
 
 
 def _params(top: Any, options: dict) -> tuple:
@@ -93,7 +90,7 @@ def _euler_params(p: tuple) -> tuple:
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
     # CM velocity along x̂, ŷ at φ = 0, where x̂ = (0, −1, 0) and ŷ = (1, 0, 0)
-    v_x, v_y = _cm_velocity_horizontal(state.as_array(), _euler_params(p))
+    v_x, v_y = cm_velocity_horizontal(state.as_array(), _euler_params(p))
     return np.array([state.theta, state.thetadot, state.phidot, state.omega3, 0.0, 0.0, 0.0,
                      float(v_y), -float(v_x)])  # fmt: skip
 
@@ -124,8 +121,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
         "y": y,
         "gn": np.asarray(routhian_normal_force(Y, p), dtype=float),
     }
-    out.update(integrals_from_euler(th, thd, phd, w3, nux, nuy, m, R, R * al, I1, I3, g))
-    return out
+    return add_integrals(out, m, R, R * al, I1, I3, g)
 
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
@@ -139,27 +135,42 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([1.0, w, w, w, 1.0, length, length, vel, vel])
 
 
-def _pole(t: float, y: np.ndarray, p: tuple) -> float:
-    # signed: a step that jumps across θ = 0 or π changes its sign (|sin θ| would not)
+def _pole(t: float, y: Any, p: Any) -> Any:
+    # as mett.dynamics.euler.pole_guard; here because a model's compiled events live in its module
     return np.sin(y[0]) - POLE_GUARD
 
 
-MODEL = Model(
-    name="frictionless-routhian",
-    summary="frictionless top from the corrected seed-000 Routhian (vertical CM term optional)",
-    rhs=routhian_rhs,
-    normal_force=routhian_normal_force,
-    params=_params,
-    initial=_initial,
-    derive=_derive,
-    theta=_theta,
-    scales=_scales,
-    guards=(
-        (
-            _pole,
-            -1.0,
-            f"the Routhian (Euler-angle) form is singular at sin(theta) = 0 and stopped at "
-            f"sin(theta) = {POLE_GUARD:g}; use model='gliding' with mu = 0 through the poles",
+MODEL = register(
+    Model(
+        name="frictionless-routhian",
+        summary="frictionless top from the corrected seed-000 Routhian (vertical CM term optional)",
+        rhs=routhian_rhs,
+        rhs_into=_rhs_into,
+        normal_force=routhian_normal_force,
+        params=_params,
+        initial=_initial,
+        derive=_derive,
+        theta=_theta,
+        scales=_scales,
+        events=(
+            Event(_contact, -1.0, "contact_lost"),
+            Event(
+                _pole,
+                -1.0,
+                "fail",
+                f"the Routhian (Euler-angle) form is singular at sin(theta) = 0 and stopped at "
+                f"sin(theta) = {POLE_GUARD:g}; use model='gliding' with mu = 0 through the poles",
+            ),
         ),
-    ),
+        options=(
+            Option(
+                "vertical_cm",
+                boolean,
+                True,
+                "keep the vertical kinetic energy of the centre of mass (False: the printed "
+                "approximation)",
+            ),
+        ),
+        conserves=("E", "lam", "omega3"),
+    )
 )

@@ -20,10 +20,10 @@ test_dynamics_compiled.py).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from collections.abc import Callable, Mapping, Sequence
-from types import MappingProxyType
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -33,45 +33,19 @@ from .. import _validate
 from .. import friction as _friction
 from ..state import State
 from ..top import TippeTop
-from . import euler, gliding, reduced, rolling, routhian
-from ._model import Model
+from .registry import MODELS, Model, Phase, lookup, validate_options
 from .trajectory import Trajectory, _Constant
 
-__all__ = ["MODELS", "simulate"]
-
-MODELS: Mapping[str, Model] = MappingProxyType(
-    {
-        m.name: m
-        for m in (
-            gliding.MODEL,
-            rolling.MODEL,
-            reduced.HST,
-            reduced.CYLINDER,
-            euler.MODEL,
-            routhian.MODEL,
-        )
-    }
-)
-"""The models :func:`simulate` knows, by name (read-only)."""
+__all__ = ["MAX_STEPS", "MODELS", "simulate"]
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
-"""The compiled backend stops with status "failed" after this many steps (it keeps every step in
-memory; about 3000 s of the thesis top at rtol = 1e-10, 650 MB of dense output)."""
+"""The compiled backend stops with status "failed" after this many steps. It keeps every step in
+memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the gliding model (n = 10),
+plus the Trajectory's series, about 140 MB more. Measured on the thesis top (rtol = 1e-10; 1e6
+steps reach t = 74 000 s once the top has settled, about 3000 s while it still nutates fast): the
+process peaks at 0.96 GB RSS, of which 0.19 GB is the interpreter with numpy, scipy and numba."""
 _BACKENDS = ("auto", "compiled", "scipy")
-
-# The compiled twin (a name in mett.dynamics._kernels.KERNELS) of each Python right-hand side,
-# keyed by the function it is compiled from: a Model whose rhs is replaced (dataclasses.replace)
-# has no twin, so "auto" runs it on scipy rather than run the compiled physics of another function.
-_COMPILED_TWIN: Mapping[Callable, str] = MappingProxyType(
-    {
-        gliding.gliding_rhs: "gliding",  # also "gliding-hst": the same equations with R = 0
-        rolling.rolling_rhs: "rolling",
-        reduced.cylinder_rhs: "cylinder",
-        euler.MODEL.rhs: "gliding-euler",
-        routhian.routhian_rhs: "frictionless-routhian",
-    }
-)
 
 
 def _check_state(state: Any) -> State:
@@ -83,16 +57,39 @@ def _check_state(state: Any) -> State:
     return state
 
 
+RTOL_MIN = 100.0 * float(np.finfo(float).eps)
+"""Smallest relative tolerance (100 machine epsilons, 2.2e-14): below it the error estimate is
+rounding noise and the step size collapses (scipy clamps to the same bound)."""
+
+
 def _check_rtol(rtol: Any) -> float:
-    rtol = _validate.finite_scalar("rtol", rtol)
-    if not 0.0 < rtol < 1.0:
-        raise ValueError(f"rtol must lie in (0, 1); got {rtol!r}")
+    rtol = _real_scalar("rtol", rtol)
+    if not RTOL_MIN <= rtol < 1.0:
+        raise ValueError(
+            f"rtol must lie in [{RTOL_MIN:.3g}, 1) (at least 100 machine epsilons); got {rtol!r}"
+        )
     return rtol
 
 
-def _check_atol(atol: Any, n: int) -> np.ndarray | None:
+def _real_scalar(name: str, value: Any) -> float:
+    """A finite real number; strings and bools are a TypeError (``float("1e-8")`` would pass)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"{name} must be a real number; got {value!r}")
+    return _validate.finite_scalar(name, value)
+
+
+def _check_atol(atol: Any, n: int, scales: np.ndarray) -> np.ndarray | None:
+    """``atol`` as one float per state component, ≥ the rounding of the component's size.
+
+    The floor is ε × the component's typical magnitude (``Model.scales``): an absolute error
+    smaller than one rounding of the values the component is computed from cannot be met; asked
+    for anyway, the step size collapses wherever the component passes through zero (atol = 1e-30
+    made the thesis run take a million steps in its first microsecond).
+    """
     if atol is None:
         return None
+    if isinstance(atol, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"atol must be a real number or an array of them; got {atol!r}")
     arr = _validate.as_finite_array("atol", atol)
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size != n):
         raise ValueError(
@@ -101,7 +98,47 @@ def _check_atol(atol: Any, n: int) -> np.ndarray | None:
         )
     if np.any(arr <= 0.0):
         raise ValueError(f"atol must lie in (0, inf); got {arr.ravel()[arr.ravel() <= 0][0]!r}")
-    return arr
+    full = np.broadcast_to(arr, (n,)).astype(float)
+    floor = float(np.finfo(float).eps) * np.abs(scales)
+    low = np.flatnonzero(full < floor)
+    if low.size:
+        i = int(low[0])
+        raise ValueError(
+            f"atol must be at least machine epsilon times the typical magnitude of each state "
+            f"component (below that it cannot be met); component {i} needs atol >= "
+            f"{floor[i]:.3g}; got {full[i]!r}"
+        )
+    return full
+
+
+def _event_terminal(k: int, ev: Callable) -> int:
+    """How many zeros of user event ``k`` end the run (0: none), as solve_ivp's ``terminal``."""
+    terminal = getattr(ev, "terminal", False)
+    if terminal is None or isinstance(terminal, (bool, np.bool_)):
+        return int(bool(terminal))
+    if isinstance(terminal, (int, np.integer)):
+        if terminal < 0:
+            raise ValueError(f"events[{k}].terminal must lie in [0, inf); got {terminal!r}")
+        return int(terminal)
+    raise TypeError(
+        f"events[{k}].terminal must be a bool or an int (stop at that many zeros); got {terminal!r}"
+    )
+
+
+def _event_direction(k: int, ev: Callable) -> float:
+    """The sign of user event ``k``'s ``direction`` (0: zeros in both directions)."""
+    direction = getattr(ev, "direction", 0.0)
+    if isinstance(direction, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"events[{k}].direction must be a real number; got {direction!r}")
+    return float(np.sign(_validate.finite_scalar(f"events[{k}].direction", direction)))
+
+
+class _UserEventError(Exception):
+    """Carries an exception raised by a user event out of solve_ivp, to re-raise it unchanged."""
+
+    def __init__(self, exc: BaseException) -> None:
+        super().__init__(exc)
+        self.exc = exc
 
 
 def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
@@ -119,17 +156,32 @@ def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
     return te
 
 
-def _user_event(ev: Callable, model: Model, params: tuple) -> Callable:
+def _user_event(
+    ev: Callable,
+    model: Model,
+    params: tuple,
+    t_start: float,
+    terminal: int = 0,
+    direction: float = 0.0,
+) -> Callable:
+    """The user event ``ev(t, State)`` as an event ``f(t, y)`` of the model state."""
+
     def wrapped(t: float, y: np.ndarray) -> float:
         s = model.derive(np.asarray(y, dtype=float).reshape(-1, 1), params)
         state = State._trusted(
             float(np.clip(s["theta"][0], 0.0, math.pi)),
             *(float(s[k][0]) for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
         )
-        return float(ev(t, state))
+        try:
+            value = float(ev(t, state))
+        except Exception as exc:  # the caller's exception, raised again unchanged by simulate
+            raise _UserEventError(exc) from exc
+        # A zero at the start is not an event (on both backends; solve_ivp alone would count it,
+        # and a terminal event would end the run at t = 0): NaN makes no sign change with it.
+        return math.nan if value == 0.0 and t == t_start else value
 
-    wrapped.terminal = getattr(ev, "terminal", False)  # type: ignore[attr-defined]
-    wrapped.direction = getattr(ev, "direction", 0.0)  # type: ignore[attr-defined]
+    wrapped.terminal = terminal  # type: ignore[attr-defined]
+    wrapped.direction = direction  # type: ignore[attr-defined]
     return wrapped
 
 
@@ -138,7 +190,7 @@ def simulate(
     state: State | ArrayLike,
     t_end: float,
     *,
-    model: str = "gliding",
+    model: str | Model = "gliding",
     rtol: float = 1e-10,
     atol: float | ArrayLike | None = None,
     t_eval: ArrayLike | None = None,
@@ -146,9 +198,8 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
-    l: float | None = None,
-    vertical_cm: bool | None = None,
     friction: Any = None,
+    **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
 
@@ -161,8 +212,8 @@ def simulate(
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.
     t_end : float
         End time (s), > 0.
-    model : str, default "gliding"
-        One of :data:`MODELS`:
+    model : str or Model, default "gliding"
+        One of :data:`MODELS` (or an unregistered :class:`~mett.dynamics.registry.Model`):
 
         * ``"gliding"``: the rolling-and-gliding eccentric sphere, F = g_n ẑ − μ g_n v_A, in vector
           form (theory.md §2.1); regular at θ = 0 and π.
@@ -206,12 +257,6 @@ def simulate(
         :data:`MAX_STEPS` steps.
     max_step : float, default inf
         Largest step (s).
-    l : float, optional
-        Tip distance of the ``"gliding-hst"`` model (m), > 0; not allowed for other models.
-    vertical_cm : bool, optional
-        ``"frictionless-routhian"`` only: keep the vertical kinetic energy of the centre of mass
-        (True, the default: the corrected seed-000 equations, equal to ``"gliding"`` at μ = 0) or
-        drop it as the printed Routhian does (False, an approximation).
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
@@ -220,7 +265,19 @@ def simulate(
         :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
         scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
         ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
-        frame), the torque ``M_n`` about the normal (N m) and ``switches``.
+        frame), the torque ``M_n`` about the normal (N m) and ``switches``
+        (:class:`mett.dynamics.stickslip.Switch`).
+    **options
+        The options of the model (``Model.options``), validated by the model's validators; None
+        means the default. Built in:
+
+        * ``l`` (float, m, > 0): tip distance of ``"gliding-hst"`` (default ``top.R * top.alpha``);
+        * ``vertical_cm`` (bool): ``"frictionless-routhian"`` only: keep the vertical kinetic
+          energy of the centre of mass (True, the default: the corrected seed-000 equations,
+          equal to ``"gliding"`` at μ = 0) or drop it as the printed Routhian does (False, an
+          approximation).
+
+        An option of another model is a ValueError, an unknown keyword a TypeError.
 
     Returns
     -------
@@ -248,8 +305,7 @@ def simulate(
     >>> traj.status, round(float(traj.crossings(math.pi / 2)[0]), 4), round(float(traj.omega3[-1]), 3)
     ('completed', 5.8797, -82.866)
     """
-    if not isinstance(model, str) or model not in MODELS:
-        raise ValueError(f"unknown model {model!r}; known models: {', '.join(MODELS)}")
+    mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
     state = _check_state(state)
@@ -266,96 +322,188 @@ def simulate(
             if friction.mu is not None:
                 top = dataclasses.replace(top, mu=friction.mu)
         else:
-            return _dry(top, state, t_end, friction, model, backend, method, rtol, atol,
-                        t_eval_arr, events, max_step)  # fmt: skip
-    mdl = MODELS[model]
-    kernel = _COMPILED_TWIN.get(mdl.rhs)
+            return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
+                        t_eval_arr, events, max_step, options)  # fmt: skip
+    compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
     if backend == "auto":
-        backend = "compiled" if method == "DOP853" and kernel is not None else "scipy"
+        backend = "compiled" if method == "DOP853" and compilable else "scipy"
     elif backend == "compiled":
         if method != "DOP853":
             raise ValueError(
                 f"the compiled backend implements method 'DOP853' only; got method {method!r} "
                 "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
             )
-        if kernel is None:
+        if not compilable:
             raise ValueError(
-                f"model {model!r} has no compiled right-hand side; use backend='scipy'"
+                f"model {mdl.name!r} has no compiled right-hand side; use backend='scipy'"
             )
     max_step = float(max_step)
     if not max_step > 0.0:
         raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
-    options: dict[str, Any] = {}
-    if l is not None:
-        if model != "gliding-hst":
-            raise ValueError(
-                f"l (the tip distance) applies only to model 'gliding-hst'; got model {model!r}"
-            )
-        options["l"] = _validate.positive_scalar("l", l)
-    if vertical_cm is not None:
-        if model != "frictionless-routhian":
-            raise ValueError(
-                f"vertical_cm applies only to model 'frictionless-routhian'; got model {model!r}"
-            )
-        options["vertical_cm"] = bool(vertical_cm)
+    model_options = validate_options(mdl, options)
     events = list(events or [])
-    for ev in events:
+    for k, ev in enumerate(events):
         if not callable(ev):
-            raise ValueError(f"events must be callables event(t, state) -> float; got {ev!r}")
+            raise TypeError(f"events[{k}] must be a callable event(t, state) -> float; got {ev!r}")
+    user = [(ev, _event_terminal(k, ev), _event_direction(k, ev)) for k, ev in enumerate(events)]
 
-    params = mdl.params(top, options)
+    params = mdl.params(top, model_options)
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
-    atol_arr = _check_atol(atol, y0.size)
+    scales = np.asarray(mdl.scales(y0, params), dtype=float)
+    atol_arr = _check_atol(atol, y0.size, scales)
     if atol_arr is None:
-        atol_arr = rtol * np.asarray(mdl.scales(y0, params), dtype=float)
+        atol_arr = rtol * scales
 
-    run = _Run(mdl, top, params, y0, backend)
+    table = {ph.name: ph for ph in mdl.phase_table()}
+    phase = mdl.phase_table()[0]
+    if mdl.start_phase is not None:
+        name = mdl.start_phase(y0, params)
+        if name not in table:
+            raise ValueError(f"model {mdl.name!r}: start_phase gave unknown phase {name!r}")
+        phase = table[name]
+    run = _Run(mdl, top, params, y0, backend, phase)
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
-    for guard, _direction, message in mdl.guards:  # a start already past a guard (e.g. a pole)
-        if float(guard(0.0, y0, params)) <= 0.0:
-            return run.at_start("failed", message)
+    for ev in phase.events:  # a start already past a guard (e.g. a pole)
+        if ev.action == "fail" and float(ev.fn(0.0, y0, params)) <= 0.0:
+            return run.at_start("failed", ev.message)
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
-    if backend == "compiled":
-        return _solve_compiled(run, kernel, t_end, rtol, atol_arr, t_eval_arr, max_step, events)
-    return _solve_scipy(run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method)
-
-
-def _dry(top, state, t_end, friction, model, backend, method, rtol, atol, t_eval, events, max_step):
-    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
-    from . import stickslip
-
-    if model != "gliding":
-        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {model!r}")
-    if backend == "compiled":
-        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
-    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
-        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
-    if events:
-        raise ValueError("user events are not supported with dry friction (friction=...) yet")
-    max_step = float(max_step)
-    if not max_step > 0.0:
-        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
-    y0 = gliding.MODEL.initial(state, gliding.MODEL.params(top, {}))
-    atol_arr = _check_atol(atol, y0.size)
-    return stickslip.simulate_dry(
-        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
+    solve = functools.partial(
+        _solve_compiled if backend == "compiled" else _solve_scipy,
+        t_end=t_end,
+        rtol=rtol,
+        atol_arr=atol_arr,
+        max_step=max_step,
         method=method,
-    )  # fmt: skip
+    )
+    if not mdl.hybrid:
+        return solve(run, t_eval_arr=t_eval_arr, events=user)
+    return _solve_hybrid(run, solve, table, t_eval_arr, user)
+
+
+MAX_SWITCHES = 100_000
+"""A hybrid model's run stops with status "failed" after this many phase switches."""
+
+
+class _Segments:
+    """The dense output of a hybrid run: one solution per phase, switched at their start times."""
+
+    def __init__(self, sols: list[Any]) -> None:
+        self._sols = sols
+        self._starts = np.array([float(s.t_min) for s in sols])
+        self.ts = np.concatenate([np.asarray(s.ts, dtype=float)[:-1] for s in sols[:-1]]
+                                 + [np.asarray(sols[-1].ts, dtype=float)])  # fmt: skip
+        self.t_min, self.t_max = float(sols[0].t_min), float(sols[-1].t_max)
+
+    def __call__(self, t: Any) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        # at a switch time the later phase (the state after the switch) holds
+        k = np.clip(np.searchsorted(self._starts, t, side="right") - 1, 0, len(self._sols) - 1)
+        if t.ndim == 0:
+            return np.asarray(self._sols[int(k)](t), dtype=float)
+        out = np.empty((self._sols[0](self.t_min).size, t.size))
+        for j in np.unique(k):
+            sel = k == j
+            out[:, sel] = np.asarray(self._sols[j](t[sel]), dtype=float).reshape(-1, sel.sum())
+        return out
+
+
+def _solve_hybrid(
+    run: _Run,
+    solve: Callable,
+    table: dict[str, Phase],
+    t_eval_arr: np.ndarray | None,
+    user: list[tuple[Callable, int, float]],
+) -> Trajectory:
+    """Run a hybrid model phase by phase: each phase until one of its events; a "switch" event
+    starts the phase it names at the located time (with the event's ``jump`` applied), any other
+    end (t_end, contact lost, a failure, a terminal user event) ends the run.
+
+    The samples of a phase end just before the switch time; the next phase's first sample is the
+    state after the switch. ``Trajectory.phase`` holds the phase of each sample and
+    ``Trajectory.switches`` the (time, from, to) of each switch. User events count their zeros
+    over the whole run (``terminal`` = n stops at the n-th zero, whichever phase it falls in).
+    """
+    mdl, params = run.mdl, run.params
+    remaining = [term for _, term, _ in user]
+    t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
+    switches: list[tuple[float, str, str]] = []
+    nfev = 0
+    while True:
+        events = [(ev, rem, dirn) for (ev, _, dirn), rem in zip(user, remaining, strict=True)]
+        seg = solve(run, t_eval_arr=t_eval_arr, events=events, collect=True)
+        nfev += seg.kw.get("nfev", 0)
+        for k, te in enumerate(seg.kw.get("t_events", [])):
+            t_user[k].append(te)
+            if remaining[k]:  # a terminal event that reaches its count ends the run anyway
+                remaining[k] = max(remaining[k] - te.size, 1)
+        sols.append(seg.sol)
+        last = run.switch is None or len(switches) >= MAX_SWITCHES
+        t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
+        if not last:
+            t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
+        t_parts.append(t_seg)
+        y_parts.append(y_seg.reshape(run.y0.size, -1))
+        phases.extend([run.phase.name] * t_seg.size)
+        if last:
+            break
+        index, t_sw = run.switch
+        ev = run.phase.events[index]
+        y_sw = np.asarray(seg.sol(t_sw), dtype=float)
+        if ev.jump is not None:
+            y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
+        switches.append((t_sw, run.phase.name, ev.target))
+        run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw)
+    kw = dict(seg.kw)
+    kw["nfev"] = nfev
+    kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
+    status, message = seg.status, seg.message
+    if run.switch is not None:  # stopped for switching too often
+        status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
+    t_all = np.concatenate(t_parts)
+    Y_all = np.hstack(y_parts)
+    run.collect = False
+    traj = run.result(t_all, Y_all, _Segments(sols), status, message, **kw)
+    traj.phase = np.array(phases)
+    traj.switches = switches
+    return traj
+
+
+class _Piece(NamedTuple):
+    """One phase of a hybrid run (what :meth:`_Run.result` returns while collecting)."""
+
+    t: Any
+    Y: Any
+    sol: Any
+    status: str
+    message: str
+    kw: dict
 
 
 class _Run:
     """What both backends share: the model, its parameters, and how to build the Trajectory."""
 
     def __init__(
-        self, mdl: Model, top: TippeTop, params: tuple, y0: np.ndarray, backend: str
+        self,
+        mdl: Model,
+        top: TippeTop,
+        params: tuple,
+        y0: np.ndarray,
+        backend: str,
+        phase: Phase,
+        t0: float = 0.0,
     ) -> None:
         self.mdl, self.top, self.params, self.y0, self.backend = mdl, top, params, y0, backend
+        self.phase, self.t0 = phase, t0
+        self.collect = False  # True: result() returns the pieces, for a hybrid run to join
+        self.switch: tuple[int, float] | None = None  # (event index, time) of a "switch" stop
 
-    def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Trajectory:
+    def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Any:
+        if self.collect:
+            return _Piece(t, Y, sol, status, message, kw)
         return Trajectory(
             t=t,
             states=Y,
@@ -371,23 +519,37 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        return self.result([0.0], self.y0, _Constant(0.0, self.y0), status, message, **kw)
+        sol = _Constant(self.t0, self.y0)
+        return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
         msg = f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
         return self.result(t_out, Y, sol, "contact_lost", msg, t_contact_lost=float(t_ev), **kw)
 
-    def guard(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
-        msg = f"{self.mdl.guards[index][2]} (t = {t_ev:.9g} s)"
+    def stopped(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
+        """The run stopped at the model's event ``index``, located at ``t_ev``."""
+        ev = self.phase.events[index]
+        if ev.action == "contact_lost":
+            return self.contact_lost(t_out, Y, sol, t_ev, **kw)
+        if ev.action == "switch":
+            self.switch = (index, float(t_ev))
+            msg = f"switch to phase {ev.target!r} at t = {t_ev:.9g} s"
+            return self.result(t_out, Y, sol, "completed", msg, **kw)
+        msg = f"{ev.message} (t = {t_ev:.9g} s)"
         return self.result(t_out, Y, sol, "failed", msg, **kw)
 
 
 def _solve_scipy(
-    run: _Run, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method
-) -> Trajectory:
-    """The reference backend: :func:`scipy.integrate.solve_ivp` with the Python right-hand side."""
-    mdl, params, y0 = run.mdl, run.params, run.y0
-    rhs, nan = mdl.rhs, np.full(y0.size, np.nan)
+    run: _Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method, collect=False
+) -> Any:
+    """The reference backend: :func:`scipy.integrate.solve_ivp` with the Python right-hand side.
+
+    Integrates ``run.phase`` from ``run.t0``; returns the Trajectory (with ``collect``, the
+    :class:`_Piece` for a hybrid run to join).
+    """
+    mdl, params, y0, t0 = run.mdl, run.params, run.y0, run.t0
+    run.collect = collect
+    rhs, nan = run.phase.rhs, np.full(y0.size, np.nan)
 
     def fun(t: float, y: np.ndarray) -> np.ndarray:
         # a ZeroDivisionError/OverflowError of plain float math becomes NaN: the step is rejected
@@ -397,33 +559,28 @@ def _solve_scipy(
         except ArithmeticError:
             return nan
 
-    weight = 1.0 / (run.top.m * run.top.g)
+    all_events: list[Callable] = []
+    for ev in run.phase.events:
 
-    def contact(t: float, y: np.ndarray) -> float:
-        try:
-            return float(mdl.normal_force(y, params)) * weight
-        except ArithmeticError:
-            return math.nan
+        def model_event(t: float, y: np.ndarray, fn: Callable = ev.fn) -> float:
+            try:
+                return float(fn(t, y, params))
+            except ArithmeticError:
+                return math.nan
 
-    contact.terminal = True  # type: ignore[attr-defined]
-    contact.direction = -1.0  # type: ignore[attr-defined]
-    all_events: list[Callable] = [contact]
-    for fn, direction, _ in mdl.guards:
-
-        def guard(t: float, y: np.ndarray, fn: Callable = fn) -> float:
-            return float(fn(t, y, params))
-
-        guard.terminal = True  # type: ignore[attr-defined]
-        guard.direction = direction  # type: ignore[attr-defined]
-        all_events.append(guard)
+        model_event.terminal = 1  # type: ignore[attr-defined]
+        model_event.direction = ev.direction  # type: ignore[attr-defined]
+        all_events.append(model_event)
     n_internal = len(all_events)
-    all_events.extend(_user_event(ev, mdl, params) for ev in events)
+    all_events.extend(_user_event(ev, mdl, params, t0, term, dirn) for ev, term, dirn in events)
+    if t_eval_arr is not None:
+        t_eval_arr = t_eval_arr[t_eval_arr >= t0]
 
     try:
         with np.errstate(all="ignore"):
             res = solve_ivp(
                 fun,
-                (0.0, t_end),
+                (t0, t_end),
                 y0,
                 method=method,
                 t_eval=t_eval_arr,
@@ -433,12 +590,14 @@ def _solve_scipy(
                 atol=atol_arr,
                 max_step=max_step,
             )
+    except _UserEventError as err:
+        raise err.exc from None  # a user event's exception, unchanged (as solve_ivp lets it go)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
         return run.at_start("failed", f"integration failed: {exc}")
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _Constant(0.0, y0)
+        sol = _Constant(t0, y0)
     t_stop = float(sol.t_max)
     t_out = np.asarray(res.t, dtype=float)
     Y = np.asarray(res.y, dtype=float).reshape(y0.size, -1)
@@ -462,35 +621,38 @@ def _solve_scipy(
         msg = f"integrator failed at t = {t_stop:.9g} s: {res.message}"
         return run.result(t_out, Y, sol, "failed", msg, **kw)
     if res.status == 1:
-        # the terminating event is the terminal event with the latest recorded time
+        # the terminating event: a terminal one that reached its count of zeros, the latest
         last = [
-            (te[-1], i)
+            (te[ev.terminal - 1], i)
             for i, (te, ev) in enumerate(zip(t_events, all_events, strict=True))
-            if te.size and getattr(ev, "terminal", False)
+            if ev.terminal and te.size >= ev.terminal
         ]
         t_ev, idx = max(last)
-        if idx == 0:
-            return run.contact_lost(t_out, Y, sol, t_ev, **kw)
         if idx < n_internal:
-            return run.guard(t_out, Y, sol, idx - 1, t_ev, **kw)
+            return run.stopped(t_out, Y, sol, idx, t_ev, **kw)
         msg = f"stopped by terminal event {idx - n_internal} at t = {t_ev:.9g} s"
         return run.result(t_out, Y, sol, "completed", msg, **kw)
     return run.result(t_out, Y, sol, "completed", f"reached t_end = {t_end:g} s", **kw)
 
 
 def _solve_compiled(
-    run: _Run, kernel: str, t_end, rtol, atol_arr, t_eval_arr, max_step, events
-) -> Trajectory:
-    """The default backend: compiled DOP853 (:mod:`.dop853`) with the model's compiled kernel."""
+    run: _Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method, collect=False
+) -> Any:
+    """The default backend: compiled DOP853 (:mod:`.dop853`) with the model's compiled kernel.
+
+    Integrates ``run.phase`` from ``run.t0``; returns the Trajectory (with ``collect``, the
+    :class:`_Piece` for a hybrid run to join). ``method`` is DOP853 (checked by simulate).
+    """
     # imported here: numba (and the compiled code) only when a compiled run is asked for
     from . import _kernels, dop853
 
     mdl, params = run.mdl, run.params
-    rhs, ev_fn = _kernels.get(kernel)
-    directions = [-1.0] + [direction for _, direction, _ in mdl.guards]
+    run.collect = collect
+    rhs, ev_fn = _kernels.compiled(mdl, run.phase.name)
+    directions = [ev.direction for ev in run.phase.events]
     sol = dop853.solve(
         rhs,
-        (0.0, t_end),
+        (run.t0, t_end),
         run.y0,
         params,
         rtol=rtol,
@@ -517,8 +679,8 @@ def _solve_compiled(
     if events:
         try:
             t_user, t_term, k_term = _user_events_after_run(events, run, dense)
-        except (ArithmeticError, ValueError) as exc:  # as solve_ivp's failures on scipy
-            return run.at_start("failed", f"integration failed: {exc}")
+        except _UserEventError as err:
+            raise err.exc from None  # a user event's exception, unchanged (as on scipy)
         if t_term is not None and t_term <= t_stop:
             # the run would have stopped here: cut it, and its dense output, at the event
             dense, t_stop, user_stop = _truncate(dense, t_term), t_term, k_term
@@ -527,7 +689,7 @@ def _solve_compiled(
     if t_eval_arr is None:
         t_out, Y = dense.t, dense.y.T
     else:
-        t_out = t_eval_arr[t_eval_arr <= t_stop]
+        t_out = t_eval_arr[(t_eval_arr >= run.t0) & (t_eval_arr <= t_stop)]
         if t_out.size == 0 or t_out[-1] < t_stop:
             t_out = np.append(t_out[t_out < t_stop], t_stop)
         Y = dense(t_out).reshape(run.y0.size, -1)
@@ -535,24 +697,23 @@ def _solve_compiled(
     if user_stop is not None:
         msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
         return run.result(t_out, Y, dense, "completed", msg, **kw)
-    if stopped_by == 0:
-        return run.contact_lost(t_out, Y, dense, float(sol.event_t[-1]), **kw)
     if stopped_by is not None:
-        return run.guard(t_out, Y, dense, stopped_by - 1, float(sol.event_t[-1]), **kw)
+        return run.stopped(t_out, Y, dense, stopped_by, float(sol.event_t[-1]), **kw)
     if sol.status < 0:
         return run.result(t_out, Y, dense, "failed", failure, **kw)
     return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
 
 
 def _user_events_after_run(
-    events: list[Callable], run: _Run, dense: Any
+    events: list[tuple[Callable, int, float]], run: _Run, dense: Any
 ) -> tuple[list[np.ndarray], float | None, int]:
     """Zeros of the user events along a finished compiled run, with scipy's rules.
 
     Each event is evaluated at the solver's steps; a sign change over a step (allowed by the
     event's ``direction``; a zero at the start of a step belongs to the previous step) is refined
     by Brent's method on that step's interpolant, as ``solve_ivp`` does during the run. Returns the
-    times per event, and the time and index of the first terminal zero (None, -1 if none).
+    times per event, and the time and index of the zero that ends the run (None, -1 if none):
+    the earliest of each terminal event's ``terminal``-th zero, as solve_ivp counts them.
     """
     from scipy.optimize import brentq
 
@@ -571,13 +732,12 @@ def _user_events_after_run(
     eps = np.finfo(float).eps
     t_user: list[np.ndarray] = []
     t_term, k_term = None, -1
-    for k, ev in enumerate(events):
+    for k, (ev, terminal, direction) in enumerate(events):
         g = np.array([float(ev(t, st)) for t, st in zip(ts.tolist(), states, strict=True)])
-        direction = np.sign(float(getattr(ev, "direction", 0.0)))
         up = (g[:-1] < 0.0) & (g[1:] >= 0.0)
         down = (g[:-1] > 0.0) & (g[1:] <= 0.0)
         steps = np.flatnonzero((up & (direction >= 0)) | (down & (direction <= 0)))
-        fn = _user_event(ev, run.mdl, run.params)
+        fn = _user_event(ev, run.mdl, run.params, run.t0)  # for the root, on the interpolant
         roots = np.empty(steps.size)
         for j, i in enumerate(steps):
             a, b, ga, gb = ts[i], ts[i + 1], g[i], g[i + 1]
@@ -589,8 +749,10 @@ def _user_events_after_run(
 
             roots[j] = brentq(h, a, b, xtol=4 * eps, rtol=4 * eps)
         t_user.append(roots)
-        if getattr(ev, "terminal", False) and roots.size and (t_term is None or roots[0] < t_term):
-            t_term, k_term = float(roots[0]), k
+        if terminal and roots.size >= terminal:
+            t_k = float(roots[terminal - 1])
+            if t_term is None or t_k < t_term:
+                t_term, k_term = t_k, k
     return t_user, t_term, k_term
 
 
@@ -603,3 +765,31 @@ def _truncate(dense: Any, t_stop: float) -> Any:
     t = np.append(dense.t[:k], t_stop)
     y = np.vstack([dense.y[:k], dense(t_stop)[None, :]])
     return DenseOutput(t, y, dense.h[:k], dense.F[:k])
+
+
+def _dry(
+    top, state, t_end, friction, mdl, backend, method, rtol, atol, t_eval, events, max_step, options
+) -> Trajectory:
+    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
+    from . import stickslip
+
+    if mdl.name != "gliding":
+        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {mdl.name!r}")
+    if options:
+        raise ValueError(f"model options {sorted(options)} do not apply to friction={friction!r}")
+    if backend == "compiled":
+        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
+    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
+        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
+    if events:
+        raise ValueError("user events are not supported with dry friction (friction=...) yet")
+    max_step = float(max_step)
+    if not max_step > 0.0:
+        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
+    p = mdl.params(top, {})
+    y0 = mdl.initial(state, p)
+    atol_arr = _check_atol(atol, y0.size, np.asarray(mdl.scales(y0, p), dtype=float))
+    return stickslip.simulate_dry(
+        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
+        method=method,
+    )  # fmt: skip

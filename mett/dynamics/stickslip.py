@@ -52,7 +52,7 @@ from scipy.optimize import brentq
 
 from ..friction import Coulomb, RegularisedCoulomb
 from . import gliding
-from ._model import Model
+from .registry import Event, Model
 from .trajectory import Trajectory
 
 __all__ = [
@@ -383,6 +383,7 @@ def _phase_model(params: tuple) -> Model:
         derive=derive,
         theta=gliding.MODEL.theta,
         scales=lambda y0, p: gliding.MODEL.scales(y0, (*p[:5], 0.0, p[5])),
+        events=(Event(lambda t, y, p: _slide(y, p, *_law(y, p))[1], -1.0, "contact_lost"),),
     )
 
 

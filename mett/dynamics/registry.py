@@ -1,0 +1,378 @@
+"""The model registry: every dynamical model declares itself here, once.
+
+Design
+------
+A model is one :class:`Model` record, built in its own module and passed to :func:`register` at
+import time; :data:`MODELS` (what :func:`mett.simulate` accepts), the compiled twins
+(:mod:`._kernels`) and the option validation of :func:`mett.simulate` are all derived from these
+records. Adding a model is one module that ends in ``register(MODEL)`` plus one import line in
+:mod:`mett.dynamics` (the import order is the order of :data:`MODELS`).
+
+A record holds
+
+* the physics: ``rhs(t, y, p)`` (the Python reference, used by the scipy backend) and
+  ``rhs_into(t, y, p, out)``, the same equations in plain float arithmetic written into ``out``,
+  which :mod:`._kernels` compiles with numba for the compiled backend (``None``: scipy only);
+* its **events** (:class:`Event`): functions ``fn(t, y, p)`` of plain arithmetic, located by the
+  integrator (compiled from the same source on the compiled backend), each with a direction and an
+  action: ``"contact_lost"`` (the normal force g_n reached 0: status "contact_lost"), ``"fail"``
+  (the model left its domain, e.g. an Euler-angle form at its pole: status "failed" with the
+  event's message) or ``"switch"`` (a hybrid model changes phase, see below). Their order is the
+  order of the declaration; nothing else lists them. A start with an event function ≤ 0 is
+  refused with that event's status;
+* its **options** (:class:`Option`): keyword arguments of :func:`mett.simulate` that only this
+  model accepts (``l=`` of "gliding-hst", ``vertical_cm=`` of "frictionless-routhian"), each with a
+  validator that returns the normalised value or raises ``TypeError``/``ValueError`` naming the
+  option; ``params(top, options)`` turns the top and the validated options (defaults filled in)
+  into the parameter tuple ``p``. An option name several models declare (e.g. a friction law) is
+  one keyword for all of them;
+* the quantities it **conserves** (names of :class:`~mett.Trajectory` series: ``"lam"``, ``"D"``,
+  ``"E"``, ``"E_mod"``, ``"omega3"``), which the contract tests (tests/test_model_contract.py)
+  check on every registered model, with the compiled-equals-Python check, the State round trip
+  and a positive normal force at rest;
+* the conversions ``initial`` (State → y), ``derive`` (states → Trajectory series), ``theta`` and
+  ``scales`` (typical magnitudes for the default ``atol``).
+
+**Phases.** A hybrid model (e.g. dry friction: sliding, then rolling when the slip velocity
+vanishes) declares its first phase as above, named by ``phase``, and its other phases in
+``phases`` (:class:`Phase`: name, rhs, rhs_into, events); all phases share the state vector and
+parameters. A ``"switch"`` event names the phase it leads to (``target``) and may map the state
+across the switch (``jump(y, p) -> y``, e.g. a projection onto the constraint); ``start_phase(y0,
+p)`` chooses the phase at t = 0. :meth:`Model.phase_table` lists all phases. :func:`mett.simulate`
+runs a hybrid model phase by phase: each phase until one of its events is located; a "switch"
+event restarts the integration (same tolerances, same backend) in the target phase from the
+located time and the (jumped) state; ``Trajectory.phase`` gives the phase of every sample and
+``Trajectory.switches`` the (time, from, to) of every switch. As for any event, a zero at the start
+of a phase is not an event: a phase's switch functions must start away from 0 on the side they
+leave (e.g. a slip speed that must fall through a small positive level, not through 0 itself),
+or the phase would never end. A run stops with status "failed" after
+:data:`mett.dynamics.simulation.MAX_SWITCHES` switches.
+
+The compiled kernels of a phase may call functions of other mett modules imported by name (a
+friction model can call ``gliding_normal_force``): :mod:`._kernels` inlines them and keys its cache
+on their source files too.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "ACTIONS",
+    "MODELS",
+    "Event",
+    "Model",
+    "Option",
+    "Phase",
+    "boolean",
+    "lookup",
+    "positive_length",
+    "register",
+    "validate_options",
+]
+
+Params = tuple[float, ...]
+
+ACTIONS = ("contact_lost", "fail", "switch")
+"""What a model event does when the integrator locates it (see the module docstring)."""
+
+
+@dataclass(frozen=True)
+class Event:
+    """A terminal event of a model, located by the integrator.
+
+    Attributes
+    ----------
+    fn : callable
+        ``fn(t, y, p) -> float`` in plain float arithmetic (compiled with numba for the compiled
+        backend from this very function; it may call functions of its own module only).
+    direction : float
+        As in :func:`scipy.integrate.solve_ivp`: −1 (positive to negative), +1 or 0 (either way).
+    action : {"contact_lost", "fail", "switch"}
+        What the zero means: the contact is lost (status "contact_lost"), the model fails (status
+        "failed" with ``message``), or a hybrid model switches to phase ``target``.
+    message : str
+        Why a "fail" event stops the run (the time of the zero is appended).
+    target : str
+        The phase a "switch" event leads to.
+    jump : callable, optional
+        ``jump(y, p) -> y`` applied to the state at a switch (identity if None).
+    """
+
+    fn: Callable[[float, Any, Any], float]
+    direction: float = -1.0
+    action: str = "fail"
+    message: str = ""
+    target: str = ""
+    jump: Callable[[np.ndarray, Params], np.ndarray] | None = None
+
+    def __post_init__(self) -> None:
+        if not callable(self.fn):
+            raise TypeError(f"Event.fn must be callable; got {self.fn!r}")
+        if self.action not in ACTIONS:
+            raise ValueError(f"Event.action must be one of {ACTIONS}; got {self.action!r}")
+        if self.direction not in (-1.0, 0.0, 1.0):
+            raise ValueError(f"Event.direction must be -1, 0 or 1; got {self.direction!r}")
+        if self.action == "switch" and not self.target:
+            raise ValueError("a 'switch' event must name its target phase")
+        if self.action == "fail" and not self.message:
+            raise ValueError("a 'fail' event must say why the run stops (message)")
+
+
+@dataclass(frozen=True)
+class Option:
+    """A keyword argument of :func:`mett.simulate` that a model accepts.
+
+    Attributes
+    ----------
+    name : str
+        The keyword.
+    check : callable
+        ``check(name, value) -> value``: the validated, normalised value; raises ``TypeError``
+        (wrong type) or ``ValueError`` (out of range) naming the option.
+    default : object
+        The value ``params`` sees when the option is not given (or given as None).
+    doc : str
+        One line for the error messages and the docs.
+    """
+
+    name: str
+    check: Callable[[str, Any], Any]
+    default: Any = None
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Phase:
+    """A further phase of a hybrid model: its own right-hand side and events, same state vector."""
+
+    name: str
+    rhs: Callable[[float, np.ndarray, Params], np.ndarray]
+    rhs_into: Callable[[float, Any, Any, Any], None] | None = None
+    events: tuple[Event, ...] = ()
+
+
+@dataclass(frozen=True)
+class Model:
+    """A dynamical model: right-hand side, events, options, conversions to/from :class:`State`.
+
+    Attributes
+    ----------
+    name : str
+        Registry name (``simulate(..., model=name)``).
+    summary : str
+        One line: what the model is and where its equations come from.
+    rhs : callable
+        ``rhs(t, y, p) -> dy``: pure function of a flat float array and a parameter tuple.
+    normal_force : callable
+        ``normal_force(y, p) -> g_n`` (N); ``y`` may be one state or an array of shape (n, k).
+    params : callable
+        ``params(top, options) -> p``: the parameter tuple, from the top and the validated
+        options (every declared option present, defaults filled in).
+    initial : callable
+        ``initial(state, p) -> y0``: the model state of a scalar :class:`State`; raises
+        ``ValueError`` for a state the model cannot represent.
+    derive : callable
+        ``derive(Y, p) -> dict`` of the Trajectory series for states ``Y`` of shape (n, k).
+    theta : callable
+        ``theta(Y, p) -> θ``, cheap, for crossings.
+    scales : callable
+        ``scales(y0, p) -> array``: a typical magnitude per component; ``atol = rtol * scales``.
+    rhs_into : callable, optional
+        ``rhs_into(t, y, p, out)``: ``rhs`` written into ``out`` in plain float arithmetic, the
+        source of the compiled twin (None: the model runs on the scipy backend only).
+    events : tuple of Event
+        Located by the integrator, in this order (the first phase's, for a hybrid model).
+    options : tuple of Option
+        The model's keyword arguments of :func:`mett.simulate`.
+    conserves : tuple of str
+        Trajectory series the model conserves exactly (checked by the contract tests).
+    phase : str
+        Name of the first phase of a hybrid model ("" for a single-phase model).
+    phases : tuple of Phase
+        The further phases of a hybrid model.
+    start_phase : callable, optional
+        ``start_phase(y0, p) -> str``: the phase at t = 0 (default: the first).
+    """
+
+    name: str
+    summary: str
+    rhs: Callable[[float, np.ndarray, Params], np.ndarray]
+    normal_force: Callable[[np.ndarray, Params], Any]
+    params: Callable[[Any, dict], Params]
+    initial: Callable[[Any, Params], np.ndarray]
+    derive: Callable[[np.ndarray, Params], dict[str, np.ndarray]]
+    theta: Callable[[np.ndarray, Params], np.ndarray]
+    scales: Callable[[np.ndarray, Params], np.ndarray]
+    rhs_into: Callable[[float, Any, Any, Any], None] | None = None
+    events: tuple[Event, ...] = ()
+    options: tuple[Option, ...] = ()
+    conserves: tuple[str, ...] = ()
+    phase: str = ""
+    phases: tuple[Phase, ...] = field(default=())
+    start_phase: Callable[[np.ndarray, Params], str] | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"Model.name must be a non-empty str; got {self.name!r}")
+        if not getattr(self.derive, "chunked", False):
+            object.__setattr__(self, "derive", _chunked(self.derive))
+        for attr in ("events", "options", "conserves", "phases"):
+            object.__setattr__(self, attr, tuple(getattr(self, attr)))
+        names = [o.name for o in self.options]
+        if len(set(names)) != len(names):
+            raise ValueError(f"model {self.name!r} declares an option twice: {names}")
+        table = self.phase_table()
+        phase_names = [ph.name for ph in table]
+        if len(set(phase_names)) != len(phase_names):
+            raise ValueError(f"model {self.name!r} has duplicate phase names: {phase_names}")
+        for ph in table:
+            for ev in ph.events:
+                if ev.action == "switch" and ev.target not in phase_names:
+                    raise ValueError(
+                        f"model {self.name!r}: a switch event of phase {ph.name!r} leads to "
+                        f"unknown phase {ev.target!r}; phases: {phase_names}"
+                    )
+        for ph in table:
+            if [ev.action for ev in ph.events].count("contact_lost") != 1:
+                raise ValueError(
+                    f"model {self.name!r}, phase {ph.name!r}: needs exactly one 'contact_lost' "
+                    "event (the normal force reaching 0), as every model of a top on a plane"
+                )
+
+    def phase_table(self) -> tuple[Phase, ...]:
+        """All phases: the first (``rhs``, ``rhs_into``, ``events``) and then ``phases``."""
+        first = Phase(self.phase, self.rhs, self.rhs_into, self.events)
+        return (first, *self.phases)
+
+    def parameters(self, top: Any, **options: Any) -> Params:
+        """The parameter tuple for ``top`` and keyword ``options`` (validated, defaults filled)."""
+        return self.params(top, validate_options(self, options))
+
+    @property
+    def hybrid(self) -> bool:
+        """True for a model with several phases."""
+        return bool(self.phases)
+
+
+DERIVE_CHUNK = 65_536
+"""Samples per call of a model's ``derive``: a long run's series are derived in chunks of this many
+samples, so that its temporaries (dozens of arrays per sample) stay small next to the results."""
+
+
+def _chunked(derive: Callable) -> Callable:
+    """``derive`` evaluated on at most :data:`DERIVE_CHUNK` samples at a time (elementwise, so the
+    result is that of one call); without this, deriving the series of a million-step run took
+    more memory than the run itself."""
+
+    def chunked(Y: np.ndarray, p: Params) -> dict[str, np.ndarray]:
+        Y = np.asarray(Y, dtype=float)
+        if Y.ndim != 2 or Y.shape[1] <= DERIVE_CHUNK:
+            return derive(Y, p)
+        n = Y.shape[1]
+        out: dict[str, np.ndarray] = {}
+        for i in range(0, n, DERIVE_CHUNK):
+            part = derive(Y[:, i : i + DERIVE_CHUNK], p)
+            k = min(DERIVE_CHUNK, n - i)
+            for key, value in part.items():
+                if key not in out:
+                    out[key] = np.empty(n, dtype=np.result_type(value, float))
+                out[key][i : i + k] = np.broadcast_to(value, (k,))
+        return out
+
+    chunked.chunked = True  # type: ignore[attr-defined]
+    chunked.__wrapped__ = derive  # type: ignore[attr-defined]
+    chunked.__doc__ = derive.__doc__
+    return chunked
+
+
+_REGISTRY: dict[str, Model] = {}
+
+MODELS: Mapping[str, Model] = MappingProxyType(_REGISTRY)
+"""The registered models, by name, in registration order (read-only view)."""
+
+
+def register(model: Model) -> Model:
+    """Add ``model`` to :data:`MODELS` (once per name) and return it.
+
+    Raises
+    ------
+    TypeError
+        If ``model`` is not a :class:`Model`.
+    ValueError
+        If another model of that name is registered.
+    """
+    if not isinstance(model, Model):
+        raise TypeError(f"register needs a mett.dynamics.Model; got {type(model).__name__}")
+    old = _REGISTRY.get(model.name)
+    if old is not None and old is not model:
+        raise ValueError(f"a model named {model.name!r} is already registered")
+    _REGISTRY[model.name] = model
+    return model
+
+
+def lookup(model: str | Model) -> Model:
+    """The :class:`Model` of a registered name, or ``model`` itself if it is a Model."""
+    if isinstance(model, Model):
+        return model
+    if not isinstance(model, str) or model not in _REGISTRY:
+        raise ValueError(f"unknown model {model!r}; known models: {', '.join(_REGISTRY)}")
+    return _REGISTRY[model]
+
+
+def validate_options(model: Model, given: Mapping[str, Any]) -> dict[str, Any]:
+    """The model's options from keyword arguments ``given``, validated, defaults filled in.
+
+    A value of None means "not given". A keyword the model does not declare is a ``ValueError``
+    if another registered model declares it (naming those models), else a ``TypeError`` (an
+    unexpected keyword argument, as Python would say).
+    """
+    declared = {o.name: o for o in model.options}
+    out: dict[str, Any] = {}
+    for key, value in given.items():
+        opt = declared.get(key)
+        if opt is None:
+            owners = [m.name for m in _REGISTRY.values() if any(o.name == key for o in m.options)]
+            if not owners:
+                raise TypeError(f"simulate() got an unexpected keyword argument {key!r}")
+            which = "model " if len(owners) == 1 else "models "
+            raise ValueError(
+                f"{key} applies only to {which}{', '.join(map(repr, owners))}; "
+                f"got model {model.name!r}"
+            )
+        if value is not None:
+            out[key] = opt.check(key, value)
+    for opt in model.options:
+        out.setdefault(opt.name, opt.default)
+    return out
+
+
+# --- validators for Option.check ---------------------------------------------------------------
+
+
+def boolean(name: str, value: Any) -> bool:
+    """A real bool (``True``/``False``, numpy bools included); anything else is a TypeError.
+
+    ``bool("no")`` is True: accepting strings or numbers would silently invert a user's intent.
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise TypeError(f"{name} must be a bool (True or False); got {value!r}")
+
+
+def positive_length(name: str, value: Any) -> float:
+    """A finite real number > 0 (a length in m); bools and strings are a TypeError."""
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
+        raise TypeError(f"{name} must be a real number (m); got {value!r}")
+    x = float(value)
+    if not (math.isfinite(x) and x > 0.0):
+        raise ValueError(f"{name} must lie in (0, inf) (m); got {x!r}")
+    return x

@@ -1,0 +1,145 @@
+"""Hybrid (several-phase) models: simulate switches the right-hand side at located events.
+
+The test model is the gliding top whose friction is switched off at t = 0.3 s and on again at
+t = 0.6 s (time events; a "switch" event may be any function of the state). Independent checks:
+before the first switch the run is the plain gliding run, step for step; while frictionless the
+energy is conserved (it decreases under friction); Jellett's λ is conserved throughout; the phases
+and switch times are reported; both backends agree. The phase functions call the gliding model's
+public functions, so this also checks that a model module can build on another one's physics (the
+compiled kernels inline callees from other mett modules).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mett
+from mett.dynamics import MODELS, Event, Phase, simulate
+from mett.dynamics.gliding import gliding_normal_force, gliding_rhs
+
+TOP = mett.presets.get("rutstam2013")
+START = mett.State(theta=0.1, omega3=155.0)
+
+
+def _frictionless(p):
+    return (p[0], p[1], p[2], p[3], p[4], 0.0, p[6])
+
+
+def _rhs_frictionless(t, y, p):
+    return gliding_rhs(t, y, _frictionless(p))
+
+
+def _rhs_frictionless_into(t, y, p, out):
+    d = gliding_rhs(t, y, _frictionless(p))
+    for i in range(10):
+        out[i] = d[i]
+
+
+def _contact(t, y, p):
+    return gliding_normal_force(y, p) * (1.0 / (p[0] * p[6]))
+
+
+def _contact_frictionless(t, y, p):
+    return gliding_normal_force(y, _frictionless(p)) * (1.0 / (p[0] * p[6]))
+
+
+def _at_0p3(t, y, p):
+    return t - 0.3
+
+
+def _at_0p6(t, y, p):
+    return t - 0.6
+
+
+GLIDING = MODELS["gliding"]
+SWITCHED = dataclasses.replace(
+    GLIDING,
+    name="gliding-switched",
+    phase="friction",
+    events=(
+        Event(_contact, -1.0, "contact_lost"),
+        Event(_at_0p3, 1.0, "switch", target="frictionless"),
+    ),
+    phases=(
+        Phase(
+            "frictionless",
+            _rhs_frictionless,
+            _rhs_frictionless_into,
+            (
+                Event(_contact_frictionless, -1.0, "contact_lost"),
+                Event(_at_0p6, 1.0, "switch", target="friction"),
+            ),
+        ),
+    ),
+)
+
+
+@pytest.fixture(scope="module", params=["compiled", "scipy"])
+def runs(request):
+    backend = request.param
+    plain = simulate(TOP, START, 1.0, backend=backend)
+    hybrid = simulate(TOP, START, 1.0, model=SWITCHED, backend=backend)
+    return plain, hybrid
+
+
+def test_phases_and_switches_are_reported(runs):
+    _, tr = runs
+    assert tr.status == "completed"
+    assert [(round(t, 12), a, b) for t, a, b in tr.switches] == [
+        (0.3, "friction", "frictionless"),
+        (0.6, "frictionless", "friction"),
+    ]
+    assert tr.phase.shape == tr.t.shape
+    np.testing.assert_array_equal(tr.phase == "frictionless", (tr.t >= 0.3) & (tr.t < 0.6))
+    assert np.all(np.diff(tr.t) > 0)
+
+
+def test_before_the_first_switch_it_is_the_plain_run(runs):
+    plain, tr = runs
+    k = int(np.searchsorted(plain.t, 0.3))
+    np.testing.assert_array_equal(tr.t[:k], plain.t[:k])
+    np.testing.assert_array_equal(tr.states[:, :k], plain.states[:, :k])
+
+
+def test_energy_is_conserved_only_while_frictionless_and_lambda_throughout(runs):
+    _, tr = runs
+    free = tr.phase == "frictionless"
+    E = tr.E
+    drift_free = np.ptp(E[free]) / E[0]
+    assert drift_free < 1e-9
+    # under friction the energy falls (the contact point slips from the start)
+    assert E[tr.t < 0.3][-1] < E[0] * (1 - 1e-6)
+    assert np.ptp(tr.lam) / abs(tr.lam[0]) < 1e-8
+    # the dense output follows the phases: at every sample it gives that sample's state
+    np.testing.assert_allclose(tr.states_at(tr.t), tr.states, rtol=1e-12, atol=1e-15)
+
+
+def test_backends_agree_on_the_hybrid_run():
+    comp = simulate(TOP, START, 1.0, model=SWITCHED)
+    ref = simulate(TOP, START, 1.0, model=SWITCHED, backend="scipy")
+    assert comp.backend == "compiled" and ref.backend == "scipy"
+    assert comp.theta_at(1.0) == pytest.approx(ref.theta_at(1.0), abs=1e-9)
+    assert comp.E[-1] == pytest.approx(ref.E[-1], rel=1e-9)
+
+
+def test_user_events_count_across_phases():
+    def turning(t, state):
+        return state.thetadot
+
+    free = simulate(TOP, START, 1.0, model=SWITCHED, events=[turning])
+    zeros = free.t_events[0]
+    k = int(np.searchsorted(zeros, 0.45))  # the k-th zero lies in the frictionless phase
+    turning.terminal = k + 1
+    tr = simulate(TOP, START, 1.0, model=SWITCHED, events=[turning])
+    assert tr.t_final == pytest.approx(zeros[k], abs=1e-12)
+    assert tr.phase[-1] == "frictionless" and "terminal event 0" in tr.message
+
+
+def test_a_switch_to_an_unknown_phase_is_refused_at_declaration():
+    with pytest.raises(ValueError, match="unknown phase 'nowhere'"):
+        dataclasses.replace(
+            GLIDING, events=(*GLIDING.events, Event(_at_0p3, 1.0, "switch", target="nowhere"))
+        )

@@ -1,0 +1,201 @@
+"""The contract every registered model keeps (one test class per model, sharing one base class).
+
+A model declares itself once (:mod:`mett.dynamics.registry`); these tests check the declaration
+against the physics: the compiled right-hand side and events equal the Python ones, the declared
+conserved quantities are conserved along a run (and agree with :mod:`mett.integrals` at the start),
+a State survives the round trip through the model's state vector, the normal force of a top at
+rest is positive, and bad option values are refused before any work. Adding a model means adding
+one subclass of :class:`ModelContract` here; ``test_every_registered_model_has_a_contract_class``
+fails until it exists.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import mett
+from mett.dynamics import MODELS, _kernels, simulate
+from mett.dynamics.registry import ACTIONS
+
+TOP = mett.presets.get("rutstam2013")
+
+
+class ModelContract:
+    """Base class of the per-model contract tests (as gala's ``PotentialTestBase``).
+
+    Subclasses set ``name`` (a registered model), ``states`` (States the model can represent, away
+    from its singularities), ``options`` (keyword options of simulate) and ``bad_options``
+    (``(options, exception type)`` pairs that simulate must refuse).
+    """
+
+    name: str = ""
+    states: tuple[mett.State, ...] = ()
+    options: dict = {}  # noqa: RUF012 - read only
+    bad_options: tuple = ()
+    tippe_top_integrals = True  # E, Ẽ, D, λ at the start equal mett.integrals' (l = Rα)
+    conserved_rtol = 1e-8
+
+    @property
+    def model(self):
+        return MODELS[self.name]
+
+    def params(self):
+        return self.model.parameters(TOP, **self.options)
+
+    def test_registered_once_under_its_name(self):
+        assert self.model.name == self.name
+        assert list(MODELS).count(self.name) == 1
+        assert self.model.events and all(ev.action in ACTIONS for ev in self.model.events)
+        assert [ev.action for ev in self.model.events].count("contact_lost") == 1
+
+    def test_compiled_equals_python(self):
+        model, p = self.model, self.params()
+        rhs, events = _kernels.compiled(model)
+        rng = np.random.default_rng(3)
+        for state in self.states:
+            y0 = np.asarray(model.initial(state, p), dtype=float)
+            for _ in range(5):
+                # off the constraint manifold too: an unnormalised axis, a moved CM
+                y = y0 * (1.0 + 1e-3 * rng.normal(size=y0.size))
+                ref = np.asarray(model.rhs(0.0, y, p), dtype=float)
+                out = np.empty(y.size)
+                rhs(0.0, y, np.array(p), out)
+                # the same IEEE operations in the same order: equal to the last bit
+                np.testing.assert_array_equal(out, ref)
+                g = np.empty(len(model.events))
+                events(0.0, y, np.array(p), g)
+                np.testing.assert_array_equal(g, [ev.fn(0.0, y, p) for ev in model.events])
+
+    def test_state_round_trip(self):
+        model, p = self.model, self.params()
+        for state in self.states:
+            y0 = np.asarray(model.initial(state, p), dtype=float)
+            series = model.derive(y0.reshape(-1, 1), p)
+            for field in ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y"):
+                want = getattr(state, field)
+                got = float(series[field][0])
+                assert got == pytest.approx(want, rel=1e-12, abs=1e-12), field
+            assert float(model.theta(y0.reshape(-1, 1), p)[0]) == pytest.approx(state.theta)
+
+    def test_integrals_at_the_start_are_those_of_mett_integrals(self):
+        if not self.tippe_top_integrals:
+            pytest.skip("not a tippe top with l = R alpha")
+        model, p = self.model, self.params()
+        for state in self.states:
+            y0 = np.asarray(model.initial(state, p), dtype=float)
+            s = model.derive(y0.reshape(-1, 1), p)
+            assert s["lam"][0] == pytest.approx(mett.jellett(TOP, state), rel=1e-12, abs=1e-18)
+            assert s["D"][0] == pytest.approx(mett.routh(TOP, state), rel=1e-12, abs=1e-18)
+            assert s["E"][0] == pytest.approx(mett.energy(TOP, state), rel=1e-12)
+            assert s["E_mod"][0] == pytest.approx(mett.modified_energy(TOP, state), rel=1e-12)
+
+    def test_declared_conserved_quantities_are_conserved(self):
+        for state in self.states:
+            tr = simulate(TOP, state, 0.5, model=self.name, **self.options)
+            assert tr.status == "completed", tr.message
+            for q in self.model.conserves:
+                series = getattr(tr, q)
+                scale = max(abs(series[0]), 1e-300)
+                drift = float(np.max(np.abs(series - series[0]))) / scale
+                assert drift <= self.conserved_rtol, (q, drift)
+
+    def test_an_undeclared_quantity_is_not_silently_conserved(self):
+        # guards the test above against series that cannot change: E of a frictional model
+        # (and D of a gliding one) must move when the contact point slips
+        if "E" in self.model.conserves:
+            pytest.skip("conserves E")
+        state = self.states[-1]
+        tr = simulate(TOP, state, 0.5, model=self.name, **self.options)
+        assert np.ptp(tr.E) > 1e-6 * abs(tr.E[0])
+
+    def test_normal_force_positive_at_rest(self):
+        model, p = self.model, self.params()
+        for theta in (0.0, 0.3, 1.5, 2.5, math.pi):
+            if self.name in ("gliding-euler", "frictionless-routhian") and math.sin(theta) < 1e-3:
+                continue  # outside the Euler forms' domain
+            rest = mett.State(theta=theta)
+            y0 = np.asarray(model.initial(rest, p), dtype=float)
+            gn = float(model.normal_force(y0, p))
+            # at rest the CM can only start to fall: 0 < g_n ≤ m g
+            assert 0.0 < gn <= TOP.m * TOP.g * (1.0 + 1e-12), (theta, gn)
+
+    def test_bad_options_are_refused_before_any_work(self):
+        for options, exc in self.bad_options:
+            with pytest.raises(exc, match=next(iter(options))):
+                simulate(TOP, self.states[0], 1.0, model=self.name, **options)
+
+
+_SPUN = mett.State(theta=0.1, omega3=155.0)
+_TILTED = mett.State(theta=1.2, thetadot=-2.0, phidot=8.0, omega3=120.0, nu_x=0.05, nu_y=-0.1)
+
+
+class TestGliding(ModelContract):
+    name = "gliding"
+    states = (_SPUN, _TILTED)
+    bad_options = (({"l": 0.01}, ValueError), ({"vertical_cm": True}, ValueError))
+
+
+class TestRolling(ModelContract):
+    name = "rolling"
+    states = (_SPUN, mett.State(theta=1.2, thetadot=-2.0, phidot=8.0, omega3=120.0))
+    conserved_rtol = 1e-9
+
+
+class TestGlidingHST(ModelContract):
+    name = "gliding-hst"
+    states = (mett.State(theta=2.9, omega3=155.0), _TILTED)
+    options = {"l": 0.004}  # noqa: RUF012
+    tippe_top_integrals = False
+    bad_options = (
+        ({"l": -1.0}, ValueError),
+        ({"l": "0.01"}, TypeError),
+        ({"l": True}, TypeError),
+        ({"l": math.inf}, ValueError),
+    )
+
+    def test_integrals_are_those_of_the_tip(self):
+        # R = 0: λ = −l I3 ω3 and D = I3 ω3 √(γ + m l²/I3)
+        model, p = self.model, self.params()
+        s = model.derive(np.asarray(model.initial(_TILTED, p)).reshape(-1, 1), p)
+        assert s["lam"][0] == pytest.approx(-0.004 * TOP.I3 * _TILTED.omega3, rel=1e-14)
+        d = TOP.I1 / TOP.I3 + TOP.m * 0.004**2 / TOP.I3
+        assert s["D"][0] == pytest.approx(TOP.I3 * _TILTED.omega3 * math.sqrt(d), rel=1e-14)
+
+
+class TestCylinder(ModelContract):
+    name = "cylinder"
+    states = (mett.State(theta=0.4, thetadot=1.0), mett.State(theta=1.0, nu_x=0.1))
+
+
+class TestGlidingEuler(ModelContract):
+    name = "gliding-euler"
+    states = (mett.State(theta=0.3, phidot=3.0, omega3=155.0), _TILTED)
+
+
+class TestFrictionlessRouthian(ModelContract):
+    name = "frictionless-routhian"
+    # no friction: the CM moves freely, and ν follows from the state; a state with ν = 0
+    states = (mett.State(theta=0.3, phidot=3.0, omega3=155.0), mett.State(theta=1.2, omega3=60.0))
+    bad_options = (
+        ({"vertical_cm": "no"}, TypeError),
+        ({"vertical_cm": 0}, TypeError),
+        ({"l": 0.01}, ValueError),
+    )
+
+    def test_vertical_cm_false_is_the_printed_approximation(self):
+        on = self.model.parameters(TOP)
+        off = self.model.parameters(TOP, vertical_cm=False)
+        assert on[-1] == 1.0 and off[-1] == 0.0
+
+
+def test_every_registered_model_has_a_contract_class():
+    covered = {cls.name for cls in ModelContract.__subclasses__()}
+    assert covered == set(MODELS)
+
+
+def test_an_unknown_keyword_is_a_type_error():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'frobnicate'"):
+        simulate(TOP, _SPUN, 1.0, frobnicate=1)
