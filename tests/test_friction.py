@@ -247,6 +247,27 @@ def test_contensou_breaks_jellett_at_the_predicted_rate():
     assert np.max(np.abs(change - integral)) < 1e-5 * np.max(np.abs(change))
     # the torque opposes the spin about the normal, with |M| ≤ (2/3) μ g_n r
     assert np.all(np.abs(tr.M_n) <= law.r_star * 0.3 * tr.gn * (1 + 1e-12))
+    # E still falls, and the METT identity (Ẽ, D, λ) holds along the run
+    assert np.max(np.diff(tr.E)) <= 1e-13 * tr.E[0]
+    assert np.max(np.abs(mett.analysis.mett_residual(tr))) < 1e-10
+
+
+def test_slip_starts_in_the_direction_of_the_excess_force():
+    """At v_A = 0 with the required force outside the cone, sliding starts along u with
+    v̇_A(u) = s u, s > 0, under the Coulomb force −μ g_n u; at such a start E falls at once."""
+    st = mett.State(theta=0.5, thetadot=1.0, phidot=2.0, omega3=120.0)
+    mu = 0.01
+    p = params(THESIS, mu)
+    y = gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {}))
+    _, gn, F, _, _ = stickslip._stick(y, p)
+    assert math.hypot(F[0], F[1]) > mu * gn  # rolling would need more than the cone gives
+    u = stickslip._excess_direction(y, p, -np.array(F[:2]))
+    vdot = np.array(stickslip._slide(y, p, -mu * u[0], -mu * u[1], 0.0)[4][:2])
+    s = float(vdot @ u)
+    assert s > 0.0
+    assert abs(u[0] * vdot[1] - u[1] * vdot[0]) < 1e-9 * np.linalg.norm(vdot)
+    tr = mett.simulate(THESIS, st, 0.01, friction=Coulomb(mu), rtol=1e-10)
+    assert tr.phase[0] == "sliding" and tr.E[-1] < tr.E[0]
 
 
 # --- frequent switching, regularised law, sweeps -----------------------------------------------
