@@ -345,3 +345,20 @@ def test_regularised_law_creeps_where_coulomb_rolls():
         assert creep == pytest.approx(np.median(eps * r / np.sqrt(1 - r * r)), rel=0.05)
         rates.append(rate)
     assert rates[0] / rates[1] == pytest.approx(10.0, rel=0.02)
+
+
+def test_issue_case_sticks_and_never_inverts():
+    """Thesis body, CM at rest, θ0 = 0.1, ω3 = 155 rad/s, μ = 0.05 (the regularised law 'inverts'
+    later and later as ε shrinks): the exact contact stops slipping at 0.238 s and rolls on with
+    E, D and λ constant — rolling dissipates nothing, so the top cannot climb out of upright."""
+    st = cm_at_rest(THESIS, 0.1, 155.0)
+    tr = mett.simulate(THESIS, st, 1.5, friction=Coulomb(0.05), rtol=1e-10)
+    assert tr.status == "completed"
+    assert [s.reason for s in tr.switches] == ["stop"]
+    assert tr.switches[0].t == pytest.approx(0.2379, abs=2e-4)
+    roll = tr.phase == "rolling"
+    assert np.all(roll[tr.t > tr.switches[0].t])
+    for name in ("E", "D", "lam"):
+        series = getattr(tr, name)[roll]
+        assert np.ptp(series) <= 1e-9 * abs(series[0]), name
+    assert tr.theta.max() < 0.11 and tr.crossings(math.pi / 2).size == 0
