@@ -26,7 +26,9 @@ sliding law on the generalised slip velocity γ = (v_A, r* ω_n):
 
 exact in both limits (pure slip, pure spin) and the one used here. Its consequence for the top:
 while it spins (ω_n ≠ 0) the force is a smooth function of v_A and vanishes at v_A = 0, so there is
-no stick phase, and at small slip it is a viscous law with μ_eff = μ/(r* |ω_n|) (s/m).
+no stick phase, and at small slip it is a viscous law with μ_eff = μ/(r* |ω_n|) (s/m). Only when
+γ = 0 (no slip, no spin about the normal) does the contact stick, with force and torque inside
+the ellipsoid.
 """
 
 from __future__ import annotations

@@ -261,7 +261,8 @@ def test_slip_starts_in_the_direction_of_the_excess_force():
     y = gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {}))
     _, gn, F, _, _ = stickslip._stick(y, p)
     assert math.hypot(F[0], F[1]) > mu * gn  # rolling would need more than the cone gives
-    u = stickslip._excess_direction(y, p, -np.array(F[:2]))
+    u = stickslip._excess_direction(y, p, -np.array(F))[:2]
+    assert np.linalg.norm(u) == pytest.approx(1.0, rel=1e-14)
     vdot = np.array(stickslip._slide(y, p, -mu * u[0], -mu * u[1], 0.0)[4][:2])
     s = float(vdot @ u)
     assert s > 0.0
@@ -362,3 +363,24 @@ def test_issue_case_sticks_and_never_inverts():
         series = getattr(tr, name)[roll]
         assert np.ptp(series) <= 1e-9 * abs(series[0]), name
     assert tr.theta.max() < 0.11 and tr.crossings(math.pi / 2).size == 0
+
+
+def test_contensou_full_stick_after_the_spin_is_consumed():
+    """Coulomb–Contensou, r = 3 mm: the top inverts (1.81 s), the drilling torque consumes the spin
+    about the normal, and when γ = (v_A, r* ω_n) reaches zero the contact sticks fully: rolling
+    without slip and without spin about the normal, with force and torque inside the ellipsoidal
+    cone, E constant."""
+    st = mett.State(theta=0.1, omega3=155.0)
+    law = Coulomb(0.3, contensou_radius=3e-3)
+    tr = mett.simulate(THESIS, st, 4.0, friction=law, rtol=1e-9)
+    assert tr.status == "completed"
+    assert tr.crossings(math.pi / 2)[0] == pytest.approx(1.8112, abs=2e-3)
+    assert [s.reason for s in tr.switches] == ["stop"] and 3.4 < tr.switches[0].t < 3.7
+    roll = tr.phase == "rolling"
+    assert roll.sum() > 10 and np.all(roll[tr.t > tr.switches[0].t])
+    kin = stickslip._kinematics(tr.states[:, roll], tr.params)
+    assert np.max(np.abs(kin[1][2])) < 1e-6  # no spin about the normal (rad/s)
+    assert np.max(np.hypot(tr.nu_x[roll], tr.nu_y[roll])) < 1e-8
+    assert np.all(tr.margin[roll] >= 0.0)
+    assert np.ptp(tr.E[roll]) <= 1e-9 * tr.E[0]
+    assert np.max(np.diff(tr.E)) <= 1e-11 * tr.E[0]

@@ -1,4 +1,4 @@
-"""Dry friction integrated exactly: Coulomb stick–slip and Coulomb–Contensou sliding.
+"""Dry friction integrated exactly: Coulomb and Coulomb–Contensou stick–slip.
 
 The state is that of the ``"gliding"`` model, ``y = [x, y, ẋ, ẏ, L_x, L_y, L_z, 3̂_x, 3̂_y, 3̂_z]``
 (:mod:`.gliding`), and the equations are those of the eccentric sphere under a contact force
@@ -31,6 +31,10 @@ Switching (:func:`simulate_dry`), all by located events:
   changes by −v_A). Then the cone decides: rolling if the required force is inside, else sliding
   continues from |v_A| = 2δ in the direction u of the excess force, the solution of
   s u = v̇_A(u), s > 0 (slip acceleration parallel to the slip under the Coulomb force −μ g_n u).
+* Coulomb–Contensou: the same phases on the generalised slip γ = (v_A, r* ω_z); stick also holds
+  ω̇_z = 0 with the drilling torque M it needs (:func:`_solve_GM`), inside the ellipsoid
+  |F_t|² + (M/r*)² ≤ (μ g_n)²; slip restarts opposite to the generalised required force, and the
+  impulses at a switch include an angular impulse about ẑ.
 * Near v_A = 0 the slip direction is a fast variable (its rate is ~ μ g_n |G| / |v_A|): sliding
   with |v_A| below ρ_s = 1e-3 × the velocity scale is integrated with LSODA (stiff-capable; 7× faster than Radau here),
   above 2 ρ_s with DOP853.
@@ -204,13 +208,52 @@ def _solve_G(y: Any, p: tuple, b: tuple, kin: tuple | None = None) -> tuple:
     return (Fx, Fy, Fz), kin
 
 
+def _solve_GM(y: Any, p: tuple, b: tuple, bz: Any, kin: tuple) -> tuple:
+    """(F, M) with G F + M (J⁻¹ẑ) × a = b and (J⁻¹(a × F + M ẑ))_z = bz (Contensou stick).
+
+    Eliminating F = G⁻¹b − M G⁻¹((J⁻¹ẑ) × a) leaves one equation for M (a Schur complement of
+    the positive definite contact matrix of force and drilling torque).
+    """
+    I1 = p[3]
+    e, a, c = kin[0], kin[3], kin[6]
+    s = _spin_term(e, a, I1, c)
+    F0 = _solve_G(y, p, b, kin)[0]
+    q = _solve_G(y, p, s, kin)[0]
+
+    def spin_rate(F: tuple) -> Any:  # (J⁻¹(a × F))_z
+        tx, ty, tz = a[1] * F[2] - a[2] * F[1], a[2] * F[0] - a[0] * F[2], a[0] * F[1] - a[1] * F[0]
+        return tz / I1 + c * (tx * e[0] + ty * e[1] + tz * e[2]) * e[2]
+
+    jz = 1.0 / I1 + c * e[2] * e[2]
+    M = (bz - spin_rate(F0)) / (jz - spin_rate(q))
+    return (F0[0] - M * q[0], F0[1] - M * q[1], F0[2] - M * q[2]), M
+
+
 def _stick(y: Any, p: tuple) -> tuple:
-    """Rolling: the contact force from G F = −h. Returns like :func:`_slide`."""
+    """Rolling: the contact force from G F = −h. Returns like :func:`_slide`.
+
+    With Contensou friction (r* > 0) stick also holds the spin about the normal, ω̇_z = 0, with
+    the drilling torque M the constraint needs.
+    """
     kin = _kinematics(y, p)
-    h = kin[5]
-    F, (e, w, de, a, nu, h, c) = _solve_G(y, p, (-h[0], -h[1], -h[2]), kin)
+    e, w, de, a, nu, h, c = kin
+    if p[7] > 0.0:
+        # W0_z = c (L·3̂) 3̂̇_z with L·3̂ = I3 ω·3̂
+        W0z = c * p[4] * (w[0] * e[0] + w[1] * e[1] + w[2] * e[2]) * de[2]
+        F, M = _solve_GM(y, p, (-h[0], -h[1], -h[2]), -W0z, kin)
+    else:
+        F = _solve_G(y, p, (-h[0], -h[1], -h[2]), kin)[0]
+        M = 0.0 * F[2]
     zero = 0.0 * F[2]
-    return _derivatives(y, p, F, zero, w, de, a), F[2], F, zero, (zero, zero, zero)
+    return _derivatives(y, p, F, M, w, de, a), F[2], F, M, (zero, zero, zero)
+
+
+def _required(y: Any, p: tuple) -> tuple:
+    """(g_n, generalised force (F_x, F_y, M/r*), cone margin μ g_n − |·|) that stick needs."""
+    _, gn, F, M, _ = _stick(y, p)
+    rs = p[7]
+    fm = M / rs if rs > 0.0 else 0.0 * M
+    return gn, (F[0], F[1], fm), p[6] * gn - (F[0] ** 2 + F[1] ** 2 + fm**2) ** 0.5
 
 
 def stick_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
@@ -239,13 +282,14 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     gn = np.where(rolling, r[1], s[1])
     Fx = np.where(rolling, r[2][0], s[2][0])
     Fy = np.where(rolling, r[2][1], s[2][1])
-    M = np.where(rolling, 0.0, s[3])
+    M = np.where(rolling, r[3], s[3])
+    fm = M / p[7] if p[7] > 0.0 else 0.0 * M
     return {
         "gn": gn,
         "F_x": Fx,
         "F_y": Fy,
         "M_n": M,
-        "margin": p[6] * gn - np.hypot(Fx, Fy),
+        "margin": p[6] * gn - np.sqrt(Fx**2 + Fy**2 + fm**2),
     }
 
 
@@ -254,13 +298,23 @@ def _nu(y: np.ndarray, p: tuple) -> np.ndarray:
     return np.array(k[4])
 
 
+def _slip(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The generalised slip γ = (v_A, r* ω_z) (m/s); r* = 0 for Coulomb."""
+    k = _kinematics(y, p)
+    return np.array([k[4][0], k[4][1], p[7] * k[1][2]])
+
+
 def _excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarray:
     """Unit u with v̇_A(u) = s u, s > 0, under the sliding force −μ g_n u (slip start at v_A = 0).
 
     Scans the angle of u and refines the sign changes of (u × v̇_A(u))_z by Brent's method; among
     the solutions with s > 0 the one of largest s. ``fallback`` if there is none (stick feasible).
+    Returned as the generalised direction (u_x, u_y, 0). With Contensou friction, the direction
+    opposite to the generalised force stick needs (``fallback``; exact at the cone's edge).
     """
     mu = p[6]
+    if p[7] > 0.0:
+        return np.asarray(fallback, dtype=float) / np.linalg.norm(fallback)
 
     def vdot(phi: float) -> tuple[float, float, float]:
         ux, uy = math.cos(phi), math.sin(phi)
@@ -281,22 +335,29 @@ def _excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarr
         if s > best_s:
             best, best_s = phi, s
     if best is None:
-        return fallback / np.linalg.norm(fallback)
-    return np.array([math.cos(best), math.sin(best)])
+        return np.asarray(fallback, dtype=float) / np.linalg.norm(fallback)
+    return np.array([math.cos(best), math.sin(best), 0.0])
 
 
 def _set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:
-    """``y`` after the contact impulse P that changes v_A to ``target`` (G P = Δv_A, vertical 0).
+    """``y`` after the contact impulse P that changes γ to ``target`` (G P = Δv_A, vertical 0).
+
+    ``target`` is the generalised slip (v_A, r* ω_z); with Contensou friction an angular impulse
+    Q ẑ about the normal at A changes ω_z too (it changes λ by −Q (ẑ·a), as the torque would).
 
     An impulse at A: Δṙ = P/m, ΔL = a × P. It keeps λ = −L·a (exactly, (a × P)·a = 0) and changes
     the energy by Δv_A·G⁻¹(v_A + target)/2 — for target 0 by −½ v_A·G⁻¹v_A ≤ 0 (a plastic tangential
     impact: the last O(δ) of slip is removed dissipatively, as the sliding it replaces would).
     """
-    nu = _nu(y, p)
-    d = np.asarray(target, dtype=float) - nu
-    P, kin = _solve_G(y, p, (d[0], d[1], 0.0))
+    d = np.asarray(target, dtype=float) - _slip(y, p)
+    kin = _kinematics(y, p)
+    if p[7] > 0.0:  # and the angular impulse Q ẑ that changes ω_z by d[2]/r*
+        P, Q = _solve_GM(y, p, (d[0], d[1], 0.0), d[2] / p[7], kin)
+    else:
+        P, Q = _solve_G(y, p, (d[0], d[1], 0.0), kin)[0], 0.0
     a = kin[3]
     out = np.array(y, dtype=float)
+    out[6] += Q
     out[2] += P[0] / p[0]
     out[3] += P[1] / p[0]
     out[4] += a[1] * P[2] - a[2] * P[1]
@@ -369,7 +430,8 @@ def _phase_model(params: tuple) -> Model:
         # the stopping band and the cone holds
         q = contact_quantities(Y, p, rolling=False)
         r = contact_quantities(Y, p, rolling=True)
-        roll = (nu <= p[10]) & (r["margin"] >= 0.0) & (p[9] == _COULOMB) & (p[7] == 0.0)
+        slip = np.hypot(nu, p[7] * _kinematics(Y, p)[1][2])
+        roll = (slip <= p[10]) & (r["margin"] >= 0.0) & (p[9] == _COULOMB)
         out["gn"] = np.where(roll, r["gn"], q["gn"])
         return out
 
@@ -427,7 +489,7 @@ def simulate_dry(
     amax = R + abs(l)
     rho_s = max(100.0 * delta, friction.mu * top.g * (1.0 + top.m * amax**2 / top.I1) * 1e-4)
     p = (*p0, delta)
-    exact = coulomb and r_star == 0.0
+    exact = coulomb
     weight = 1.0 / (top.m * top.g)
 
     def ev(fn: Any, direction: float) -> Any:
@@ -446,27 +508,22 @@ def simulate_dry(
     contact_stick = ev(lambda t, y: _stick(y, p)[1] * weight, -1.0)
 
     def margin(t: float, y: np.ndarray) -> float:
-        _, gn, F, _, _ = _stick(y, p)
-        return (friction.mu * gn - math.hypot(F[0], F[1])) * weight
+        return _required(y, p)[2] * weight
 
     def record(t: float, y_ev: np.ndarray, y_new: np.ndarray, before: str, after: str, why: str):
-        _, gn, F, _, _ = _stick(y_new, p)
-        rel = 1.0 - math.hypot(F[0], F[1]) / (friction.mu * gn)
-        switches.append(Switch(t, before, after, why, rel, speed(t, y_ev)))
+        gn, _, m = _required(y_new, p)
+        switches.append(Switch(t, before, after, why, m / (friction.mu * gn), speed(t, y_ev)))
 
     def speed(t: float, y: np.ndarray) -> float:
-        nu = _nu(y, p)
-        return math.hypot(nu[0], nu[1])
+        return float(np.linalg.norm(_slip(y, p)))
+
+    def excess(y: np.ndarray) -> np.ndarray:
+        return _excess_direction(y, p, -np.array(_required(y, p)[1]))
 
     ev_margin = ev(margin, -1.0)
     ev_stop = ev(lambda t, y: speed(t, y) - delta, -1.0)
     ev_slow = ev(lambda t, y: speed(t, y) - rho_s, -1.0)
     ev_fast = ev(lambda t, y: speed(t, y) - 2.0 * rho_s, 1.0)
-    # Contensou / regularised: no stick; the exact-Coulomb singularity |γ| → 0 is not handled
-    ev_full_stick = ev(
-        lambda t, y: math.sqrt(speed(t, y) ** 2 + (r_star * _kinematics(y, p)[1][2]) ** 2) - delta,
-        -1.0,
-    )
 
     segments: list[tuple[float, float, Any]] = []
     samples_t: list[np.ndarray] = []
@@ -479,13 +536,11 @@ def simulate_dry(
 
     # the starting phase
     if exact and speed(0.0, y) <= delta:
-        y = _set_slip(y, p, np.zeros(2))
+        y = _set_slip(y, p, np.zeros(3))
         if margin(0.0, y) >= 0.0:
             phase = "rolling"
         else:
-            F = np.array(_stick(y, p)[2][:2])
-            u = _excess_direction(y, p, -F)
-            y = _set_slip(y, p, 2.0 * delta * u)
+            y = _set_slip(y, p, 2.0 * delta * excess(y))
             phase = "slow"
     elif exact:
         phase = "slow" if speed(0.0, y) < rho_s else "fast"
@@ -507,8 +562,7 @@ def simulate_dry(
         elif phase == "slow":
             fun, events, meth = slide_f, [contact_slide, ev_stop, ev_fast], "LSODA"
         else:
-            events = [contact_slide] + ([ev_full_stick] if coulomb else [])
-            fun, meth = slide_f, method
+            fun, events, meth = slide_f, [contact_slide], method
         te = None if t_eval is None else t_eval[(t_eval >= t) & (t_eval <= t_end)]
         with np.errstate(all="ignore"):
             res = solve_ivp(
@@ -546,17 +600,8 @@ def simulate_dry(
             status, t_lost = "contact_lost", t
             message = f"contact lost: the normal force g_n reached 0 at t = {t:.9g} s"
             break
-        if phase == "smooth":
-            status = "failed"
-            message = (
-                f"the generalised slip (v_A, r* ω_n) vanished at t = {t:.9g} s: full stick with "
-                "spin friction is not implemented"
-            )
-            break
         if phase == "rolling":  # the required force left the cone
-            F = np.array(_stick(y_ev, p)[2][:2])
-            u = _excess_direction(y_ev, p, -F)
-            y = _set_slip(y_ev, p, 2.0 * delta * u)
+            y = _set_slip(y_ev, p, 2.0 * delta * excess(y_ev))
             record(t, y_ev, y_ev, "rolling", "sliding", "cone")
             phase = "slow"
         elif phase == "fast":
@@ -564,15 +609,13 @@ def simulate_dry(
         elif k == 2:  # slow sliding, |v_A| rose above 2 ρ_s
             y, phase = y_ev, "fast"
         else:  # slow sliding, |v_A| fell to δ: stop, then the cone decides
-            y = _set_slip(y_ev, p, np.zeros(2))
+            y = _set_slip(y_ev, p, np.zeros(3))
             if margin(t, y) >= 0.0:
                 record(t, y_ev, y, "sliding", "rolling", "stop")
                 phase = "rolling"
             else:
-                F = np.array(_stick(y, p)[2][:2])
-                u = _excess_direction(y, p, -F)
                 record(t, y_ev, y, "sliding", "sliding", "reversal")
-                y = _set_slip(y, p, 2.0 * delta * u)
+                y = _set_slip(y, p, 2.0 * delta * excess(y))
                 phase = "slow"
 
     t_all = np.concatenate(samples_t)
