@@ -235,3 +235,30 @@ def test_a_max_steps_run_stays_near_the_memory_of_its_results():
     # dense output: 656 bytes per step (y is 80 of them), series ~140 bytes per step
     results = states / 80 * (656 + 140)
     assert peak - base < 1.1 * results  # measured 1.01 (0.77 GB above the warm interpreter)
+
+
+# --- a solver that raises keeps the run so far -----------------------------------------------
+
+
+def test_an_exception_inside_the_scipy_solver_keeps_the_steps_taken():
+    # BDF factorises a Jacobian that turns NaN at t = 0.05 s and raises ValueError: the run used
+    # to come back as one sample at t = 0
+    import dataclasses
+
+    good = MODELS["gliding"]
+
+    def rhs(t, y, p):
+        return np.full(10, np.nan) if t > 0.05 else good.rhs(t, y, p)
+
+    broken = dataclasses.replace(good, rhs=rhs, rhs_into=None)
+    tr = simulate(TOP, START, 0.2, model=broken, method="BDF")
+    assert tr.status == "failed" and "integration failed at t = 0.0497" in tr.message
+    assert 0.045 < tr.t_final <= 0.05 and len(tr) > 50
+    assert np.all(np.isfinite(tr.theta))
+    ref = simulate(TOP, START, tr.t_final, method="BDF")  # the same steps, unbroken
+    np.testing.assert_array_equal(tr.t, ref.t)
+    np.testing.assert_array_equal(tr.states, ref.states)
+    te = np.linspace(0.0, 0.2, 11)
+    cut = simulate(TOP, START, 0.2, model=broken, method="BDF", t_eval=te)
+    np.testing.assert_array_equal(cut.t[:-1], te[:3])
+    assert cut.t[-1] == tr.t_final

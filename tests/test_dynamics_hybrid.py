@@ -143,3 +143,21 @@ def test_a_switch_to_an_unknown_phase_is_refused_at_declaration():
         dataclasses.replace(
             GLIDING, events=(*GLIDING.events, Event(_at_0p3, 1.0, "switch", target="nowhere"))
         )
+
+
+def test_an_option_can_select_a_variant_model():
+    # the declaration a friction law needs: an option of "gliding" that hands over to a hybrid
+    from mett.dynamics.registry import Option, boolean
+
+    def variant(options):
+        return switched if options["switch_friction"] else None
+
+    opt = (Option("switch_friction", boolean, False),)
+    switched = dataclasses.replace(SWITCHED, options=opt)
+    base = dataclasses.replace(GLIDING, name="gliding-with-variant", options=opt, variant=variant)
+    plain = simulate(TOP, START, 0.5, model=base)
+    assert plain.model == "gliding-with-variant" and not hasattr(plain, "switches")
+    tr = simulate(TOP, START, 0.5, model=base, switch_friction=True)
+    assert tr.model == "gliding-switched" and len(tr.switches) == 1
+    with pytest.raises(TypeError, match="switch_friction must be a bool"):
+        simulate(TOP, START, 0.5, model=base, switch_friction="yes")

@@ -48,26 +48,28 @@ class ModelContract:
     def test_registered_once_under_its_name(self):
         assert self.model.name == self.name
         assert list(MODELS).count(self.name) == 1
-        assert self.model.events and all(ev.action in ACTIONS for ev in self.model.events)
-        assert [ev.action for ev in self.model.events].count("contact_lost") == 1
+        for phase in self.model.phase_table():
+            assert all(ev.action in ACTIONS for ev in phase.events)
+            assert [ev.action for ev in phase.events].count("contact_lost") == 1
 
     def test_compiled_equals_python(self):
         model, p = self.model, self.params()
-        rhs, events = _kernels.compiled(model)
         rng = np.random.default_rng(3)
-        for state in self.states:
-            y0 = np.asarray(model.initial(state, p), dtype=float)
-            for _ in range(5):
-                # off the constraint manifold too: an unnormalised axis, a moved CM
-                y = y0 * (1.0 + 1e-3 * rng.normal(size=y0.size))
-                ref = np.asarray(model.rhs(0.0, y, p), dtype=float)
-                out = np.empty(y.size)
-                rhs(0.0, y, np.array(p), out)
-                # the same IEEE operations in the same order: equal to the last bit
-                np.testing.assert_array_equal(out, ref)
-                g = np.empty(len(model.events))
-                events(0.0, y, np.array(p), g)
-                np.testing.assert_array_equal(g, [ev.fn(0.0, y, p) for ev in model.events])
+        for phase in model.phase_table():  # every phase of a hybrid model
+            rhs, events = _kernels.compiled(model, phase.name)
+            for state in self.states:
+                y0 = np.asarray(model.initial(state, p), dtype=float)
+                for _ in range(5):
+                    # off the constraint manifold too: an unnormalised axis, a moved CM
+                    y = y0 * (1.0 + 1e-3 * rng.normal(size=y0.size))
+                    ref = np.asarray(phase.rhs(0.0, y, p), dtype=float)
+                    out = np.empty(y.size)
+                    rhs(0.0, y, np.array(p), out)
+                    # the same IEEE operations in the same order: equal to the last bit
+                    np.testing.assert_array_equal(out, ref)
+                    g = np.empty(len(phase.events))
+                    events(0.0, y, np.array(p), g)
+                    np.testing.assert_array_equal(g, [ev.fn(0.0, y, p) for ev in phase.events])
 
     def test_state_round_trip(self):
         model, p = self.model, self.params()

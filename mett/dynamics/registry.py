@@ -51,6 +51,11 @@ or the phase would never end. A run stops with status "failed" after
 The compiled kernels of a phase may call functions of other mett modules imported by name (a
 friction model can call ``gliding_normal_force``): :mod:`._kernels` inlines them and keys its cache
 on their source files too.
+
+**Variants.** An option can change which equations run, not only their parameters (a friction
+law object choosing between the viscous model and a stick–slip hybrid): ``variant(options)``
+returns the model that runs instead, and :func:`mett.simulate` validates the options again
+against it.
 """
 
 from __future__ import annotations
@@ -199,6 +204,10 @@ class Model:
         The further phases of a hybrid model.
     start_phase : callable, optional
         ``start_phase(y0, p) -> str``: the phase at t = 0 (default: the first).
+    variant : callable, optional
+        ``variant(options) -> Model or None``: the model that actually runs for these validated
+        options (None: this one). E.g. "gliding" with ``friction=Coulomb(...)`` can hand over to a
+        hybrid stick–slip model; the variant must accept the same options.
     """
 
     name: str
@@ -217,6 +226,7 @@ class Model:
     phase: str = ""
     phases: tuple[Phase, ...] = field(default=())
     start_phase: Callable[[np.ndarray, Params], str] | None = None
+    variant: Callable[[dict], Model | None] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -27,14 +27,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.integrate import solve_ivp
+from scipy.integrate import OdeSolution, solve_ivp
 
 from .. import _validate
 from .. import friction as _friction
 from ..state import State
 from ..top import TippeTop
 from .registry import MODELS, Model, Phase, lookup, validate_options
-from .trajectory import Trajectory, _Constant
+from .trajectory import Trajectory
 
 __all__ = ["MAX_STEPS", "MODELS", "simulate"]
 
@@ -227,19 +227,22 @@ def simulate(
         * ``"frictionless-routhian"``: the corrected seed-000 Routhian equations (no friction;
           ``vertical_cm=False`` for the printed approximation); equals "gliding" at μ = 0.
     rtol : float, default 1e-10
-        Relative tolerance, in (0, 1). The default is converged for the thesis run: the first time
+        Relative tolerance, in [100 ε, 1) = [2.2e-14, 1). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
     atol : float or array_like, optional
         Absolute tolerance (scalar or one per model state component). By default
         ``rtol * scale`` with a typical magnitude per component (R for lengths, R|ω| for velocities,
-        I|ω| for angular momenta, 1 for the axis and angles).
+        I|ω| for angular momenta, 1 for the axis and angles); at least ``eps * scale`` (smaller
+        absolute errors are below the rounding of the component and cannot be met).
     t_eval : array_like, optional
         Sample times, increasing, in [0, t_end]. By default the solver's own steps are returned.
         Dense output (:meth:`Trajectory.at`) is available either way.
     events : sequence of callables, optional
         ``event(t, state) -> float`` with a scalar :class:`~mett.State`; optional attributes
-        ``terminal`` and ``direction`` as in :func:`scipy.integrate.solve_ivp`. Their times are
-        in ``Trajectory.t_events``. A terminal user event ends the run with status "completed".
+        ``terminal`` and ``direction`` as in :func:`scipy.integrate.solve_ivp`: ``terminal`` a bool
+        or an int n ≥ 0 (stop at the n-th zero; True = 1), ``direction`` a real number (its sign
+        selects the crossings). A zero at t = 0 is not an event. Their times are in
+        ``Trajectory.t_events``. A terminal user event ends the run with status "completed".
         With the compiled backend they are evaluated after the run, on the same steps and dense
         output scipy would use (so the times agree), and the trajectory is cut at the first
         terminal one.
@@ -289,11 +292,18 @@ def simulate(
     Raises
     ------
     ValueError
-        Bad input: non-finite state or θ outside [0, π], ``t_end <= 0``, ``rtol`` outside (0, 1),
-        bad ``atol``/``t_eval``, an unknown model, method or backend, ``backend="compiled"`` with a
-        method other than DOP853, or a state the model cannot represent.
+        Bad input, before any work: non-finite state or θ outside [0, π], ``t_end <= 0``,
+        ``rtol`` outside [100 ε, 1) (:data:`RTOL_MIN`), ``atol`` ≤ 0 or below ε times a state
+        component's typical magnitude, bad ``t_eval``, an unknown model, method or backend,
+        ``backend="compiled"`` with a method other than DOP853, an option of another model or out
+        of its range, an event ``terminal`` < 0, or a state the model cannot represent.
     TypeError
-        If ``top`` is not a :class:`~mett.TippeTop`.
+        If ``top`` is not a :class:`~mett.TippeTop`, a tolerance is not a real number, an option
+        has the wrong type (``vertical_cm="no"``), an event is not callable or its ``terminal`` is
+        not a bool or an int, or a keyword is unknown.
+    Exception
+        Whatever a user event raises propagates unchanged (as in :func:`scipy.integrate.solve_ivp`);
+        failures of the integration itself are a status, never an exception.
 
     Examples
     --------
@@ -324,6 +334,11 @@ def simulate(
         else:
             return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
                         t_eval_arr, events, max_step, options)  # fmt: skip
+    model_options = validate_options(mdl, options)
+    if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
+        alt = mdl.variant(model_options)
+        if alt is not None and alt is not mdl:
+            mdl, model_options = alt, validate_options(alt, options)
     compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
     if backend == "auto":
         backend = "compiled" if method == "DOP853" and compilable else "scipy"
@@ -340,7 +355,6 @@ def simulate(
     max_step = float(max_step)
     if not max_step > 0.0:
         raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
-    model_options = validate_options(mdl, options)
     events = list(events or [])
     for k, ev in enumerate(events):
         if not callable(ev):
@@ -382,6 +396,21 @@ def simulate(
     if not mdl.hybrid:
         return solve(run, t_eval_arr=t_eval_arr, events=user)
     return _solve_hybrid(run, solve, table, t_eval_arr, user)
+
+
+class _AtStart:
+    """Dense output of a run (or phase) that never left its start time ``t0``."""
+
+    def __init__(self, t0: float, y0: np.ndarray) -> None:
+        self.ts = np.array([t0])
+        self.t_min = self.t_max = t0
+        self._y0 = y0
+
+    def __call__(self, t: Any) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        if t.ndim == 0:
+            return self._y0.copy()
+        return np.repeat(self._y0[:, None], t.size, axis=1)
 
 
 MAX_SWITCHES = 100_000
@@ -519,7 +548,7 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        sol = _Constant(self.t0, self.y0)
+        sol = _AtStart(self.t0, self.y0)
         return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
@@ -537,6 +566,25 @@ class _Run:
             return self.result(t_out, Y, sol, "completed", msg, **kw)
         msg = f"{ev.message} (t = {t_ev:.9g} s)"
         return self.result(t_out, Y, sol, "failed", msg, **kw)
+
+
+def _recording(method: str, pieces: list[Any], states: list[np.ndarray]) -> type:
+    """The solver class of ``method``, recording the interpolant and the state at the end of every
+    step in ``pieces`` and ``states`` (solve_ivp asks for the interpolant once per accepted step
+    with ``dense_output=True``)."""
+    import scipy.integrate
+
+    base = getattr(scipy.integrate, method)
+
+    class Recording(base):  # type: ignore[misc, valid-type]
+        def dense_output(self) -> Any:
+            out = super().dense_output()
+            pieces.append(out)
+            states.append(np.array(self.y, dtype=float))
+            return out
+
+    Recording.__name__ = Recording.__qualname__ = method
+    return Recording
 
 
 def _solve_scipy(
@@ -576,13 +624,16 @@ def _solve_scipy(
     if t_eval_arr is not None:
         t_eval_arr = t_eval_arr[t_eval_arr >= t0]
 
+    # the steps' interpolants and end states, to keep the run if the solver raises
+    pieces: list[Any] = []
+    states: list[np.ndarray] = []
     try:
         with np.errstate(all="ignore"):
             res = solve_ivp(
                 fun,
                 (t0, t_end),
                 y0,
-                method=method,
+                method=_recording(method, pieces, states),
                 t_eval=t_eval_arr,
                 dense_output=True,
                 events=all_events,
@@ -593,11 +644,28 @@ def _solve_scipy(
     except _UserEventError as err:
         raise err.exc from None  # a user event's exception, unchanged (as solve_ivp lets it go)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
-        return run.at_start("failed", f"integration failed: {exc}")
+        # raised inside the solver (e.g. an LU factorisation of a non-finite Jacobian): keep the
+        # steps taken so far, as for any other failure
+        if not pieces:
+            return run.at_start("failed", f"integration failed at t = {t0:.9g} s: {exc}")
+        sol = OdeSolution(
+            [t0] + [pc.t for pc in pieces], pieces, alt_segment=method in ("BDF", "LSODA")
+        )
+        if t_eval_arr is None:
+            t_out = np.asarray(sol.ts, dtype=float)
+            Y = np.column_stack([y0, *states])
+        else:
+            t_out = np.append(t_eval_arr[t_eval_arr < sol.t_max], sol.t_max)
+            Y = np.asarray(sol(t_out), dtype=float).reshape(y0.size, -1)
+        msg = f"integration failed at t = {sol.t_max:.9g} s: {exc}"
+        kw = {"t_events": [np.empty(0) for _ in events], "nfev": 0}
+        return run.result(t_out, Y, sol, "failed", msg, **kw)
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _Constant(t0, y0)
+        sol = _AtStart(t0, y0)
+    elif method in ("BDF", "LSODA"):  # solve_ivp sets this only for its own classes
+        sol = OdeSolution(sol.ts, sol.interpolants, alt_segment=True)
     t_stop = float(sol.t_max)
     t_out = np.asarray(res.t, dtype=float)
     Y = np.asarray(res.y, dtype=float).reshape(y0.size, -1)
