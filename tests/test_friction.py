@@ -100,6 +100,9 @@ def test_viscous_object_reproduces_todays_runs_bit_for_bit():
     tr = mett.simulate(THESIS, st, 1.0, friction=Viscous(0.1))
     assert np.array_equal(tr.states, other.states)
     assert set(tr.phase) == {"sliding"}
+    # the viscous force, reported like the dry laws': −μ g_n v_A, with |v_A| from (ν_x, ν_y)
+    F = np.hypot(tr.F_x, tr.F_y)
+    assert np.allclose(F, 0.1 * tr.gn * np.hypot(tr.nu_x, tr.nu_y), rtol=1e-9, atol=1e-15)
 
 
 # --- the contact mechanics against the existing models ---------------------------------------

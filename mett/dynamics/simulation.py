@@ -263,7 +263,8 @@ def simulate(
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
-        (``Viscous(mu)`` is the same run with ``top.mu = mu``). :class:`~mett.friction.Coulomb`
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
+        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). :class:`~mett.friction.Coulomb`
         (exact stick–slip, optionally with Contensou spin friction) and
         :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
         scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
@@ -331,6 +332,15 @@ def simulate(
         if isinstance(friction, _friction.Viscous):
             if friction.mu is not None:
                 top = dataclasses.replace(top, mu=friction.mu)
+            traj = simulate(
+                top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
+                events=events, method=method, backend=backend, max_step=max_step, **options,
+            )  # fmt: skip
+            if traj.model == "gliding":  # the force series, as dry-friction runs report them
+                from .stickslip import viscous_force
+
+                viscous_force(traj)
+            return traj
         else:
             return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
                         t_eval_arr, events, max_step, options)  # fmt: skip

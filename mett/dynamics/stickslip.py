@@ -293,6 +293,20 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     }
 
 
+def viscous_force(traj: Trajectory) -> None:
+    """Add ``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 to a viscous "gliding" run.
+
+    So that runs under every law report their friction force (:func:`mett.simulate` with
+    ``friction=Viscous(...)``); ``traj.params`` is the gliding model's (m, R, l, I1, I3, μ, g).
+    """
+    m, R, l, I1, I3, mu, g = traj.params
+    nu = _kinematics(traj.states, (m, R, l, I1, I3, g))[4]
+    traj.F_x = -mu * traj.gn * nu[0]
+    traj.F_y = -mu * traj.gn * nu[1]
+    traj.M_n = np.zeros_like(traj.gn)
+    traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
+
+
 def _nu(y: np.ndarray, p: tuple) -> np.ndarray:
     k = _kinematics(y, p)
     return np.array(k[4])
