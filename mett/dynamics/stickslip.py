@@ -26,9 +26,9 @@ Switching (:func:`simulate_dry`), all by located events:
 * rolling → sliding when the cone margin falls through 0. The slip starts opposite to the required
   tangential force (friction at the cone edge equals the required force, so the slip acceleration
   starts from zero and grows as the required force leaves the cone).
-* sliding → stop when |v_A| falls through a stopping band δ (a few hundred times the velocity
-  tolerance): the remaining O(δ) of slip is removed by projecting v_A onto 0 (the CM velocity
-  changes by −v_A). Then the cone decides: rolling if the required force is inside, else sliding
+* sliding → stop when |v_A| falls through a stopping band δ (10 rtol × the velocity scale): the
+  remaining O(δ) of slip is removed by the contact impulse P with G P = −v_A (:func:`_set_slip`;
+  it keeps λ exactly and changes E by −½ v_A·G⁻¹v_A ≤ 0). Then the cone decides: rolling if the required force is inside, else sliding
   continues from |v_A| = 2δ in the direction u of the excess force, the solution of
   s u = v̇_A(u), s > 0 (slip acceleration parallel to the slip under the Coulomb force −μ g_n u).
 * Coulomb–Contensou: the same phases on the generalised slip γ = (v_A, r* ω_z); stick also holds
@@ -36,13 +36,14 @@ Switching (:func:`simulate_dry`), all by located events:
   |F_t|² + (M/r*)² ≤ (μ g_n)²; slip restarts opposite to the generalised required force, and the
   impulses at a switch include an angular impulse about ẑ.
 * Near v_A = 0 the slip direction is a fast variable (its rate is ~ μ g_n |G| / |v_A|): sliding
-  with |v_A| below ρ_s = 1e-3 × the velocity scale is integrated with LSODA (stiff-capable; 7× faster than Radau here),
-  above 2 ρ_s with DOP853.
+  with |v_A| below ρ_s (where that rate reaches 1e4 /s) is integrated with LSODA (stiff-capable;
+  7× faster than Radau on the stick–slip tests), above 2 ρ_s with DOP853.
 
-Energy: rolling conserves E, sliding dissipates μ g_n |v_A| ≥ 0, the projection changes E by
-O(m |ṙ| δ). λ = −L·a is conserved by every force at A without a torque about the normal
-(d/dt(L·a) = (a × F)·a + L·ȧ − ... = 0, Rutstam 2012 §2), so by Coulomb; Contensou's torque M ẑ
-changes it at the rate dλ/dt = −M (ẑ·a) = M (R − l cos θ).
+Energy: rolling conserves E, sliding dissipates μ g_n |v_A| ≥ 0, the stopping impulse
+½ v_A·G⁻¹v_A = O(m δ²). λ = −L·a is conserved by every force at A without a torque about the
+normal: dλ/dt = −(a × F)·a − L·ȧ = 0, since L·(ω × 3̂) = 0 for the symmetric top (Rutstam 2012
+§2); so by Coulomb. Contensou's torque M ẑ changes it at the rate dλ/dt = −M (ẑ·a) =
+M (R − l cos θ).
 """
 
 from __future__ import annotations
@@ -511,7 +512,7 @@ def simulate_dry(
         return fn
 
     def slide_f(t: float, y: np.ndarray) -> np.ndarray:
-        if y.ndim == 2 and y.shape[1] == 1:  # Radau (vectorized) asks for one state as a column
+        if y.ndim == 2 and y.shape[1] == 1:  # a vectorized solver asks for one state as a column
             return slide_rhs(t, y[:, 0], p)[:, None]
         return slide_rhs(t, y, p)
 
