@@ -19,6 +19,7 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -29,6 +30,7 @@ from numpy.typing import ArrayLike
 from scipy.integrate import OdeSolution, solve_ivp
 
 from .. import _validate
+from .. import friction as _friction
 from ..state import State
 from ..top import TippeTop
 from .registry import MODELS, Model, Phase, lookup, validate_options
@@ -196,6 +198,7 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
+    friction: Any = None,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
@@ -257,6 +260,17 @@ def simulate(
         :data:`MAX_STEPS` steps.
     max_step : float, default inf
         Largest step (s).
+    friction : mett.friction law, optional
+        The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
+        :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
+        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). :class:`~mett.friction.Coulomb`
+        (exact stick–slip, optionally with Contensou spin friction) and
+        :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
+        scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
+        ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
+        frame), the torque ``M_n`` about the normal (N m) and ``switches``
+        (:class:`mett.dynamics.stickslip.Switch`).
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -313,6 +327,23 @@ def simulate(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    if friction is not None:
+        friction = _friction.check_law(friction)
+        if isinstance(friction, _friction.Viscous):
+            if friction.mu is not None:
+                top = dataclasses.replace(top, mu=friction.mu)
+            traj = simulate(
+                top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
+                events=events, method=method, backend=backend, max_step=max_step, **options,
+            )  # fmt: skip
+            if traj.model == "gliding":  # the force series, as dry-friction runs report them
+                from .stickslip import viscous_force
+
+                viscous_force(traj)
+            return traj
+        else:
+            return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
+                        t_eval_arr, events, max_step, options)  # fmt: skip
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
@@ -813,3 +844,31 @@ def _truncate(dense: Any, t_stop: float) -> Any:
     t = np.append(dense.t[:k], t_stop)
     y = np.vstack([dense.y[:k], dense(t_stop)[None, :]])
     return DenseOutput(t, y, dense.h[:k], dense.F[:k])
+
+
+def _dry(
+    top, state, t_end, friction, mdl, backend, method, rtol, atol, t_eval, events, max_step, options
+) -> Trajectory:
+    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
+    from . import stickslip
+
+    if mdl.name != "gliding":
+        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {mdl.name!r}")
+    if options:
+        raise ValueError(f"model options {sorted(options)} do not apply to friction={friction!r}")
+    if backend == "compiled":
+        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
+    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
+        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
+    if events:
+        raise ValueError("user events are not supported with dry friction (friction=...) yet")
+    max_step = float(max_step)
+    if not max_step > 0.0:
+        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
+    p = mdl.params(top, {})
+    y0 = mdl.initial(state, p)
+    atol_arr = _check_atol(atol, y0.size, np.asarray(mdl.scales(y0, p), dtype=float))
+    return stickslip.simulate_dry(
+        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
+        method=method,
+    )  # fmt: skip
