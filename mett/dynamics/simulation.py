@@ -32,6 +32,7 @@ from scipy.integrate import OdeSolution, solve_ivp
 from .. import _validate
 from .. import friction as _friction
 from ..state import State
+from ..stem import StemmedTop
 from ..top import TippeTop
 from .registry import MODELS, Model, Phase, lookup, validate_options
 from .trajectory import Trajectory, _Constant  # _Constant: the saved form of a run at t0
@@ -316,6 +317,12 @@ def simulate(
     >>> traj.status, round(float(traj.crossings(math.pi / 2)[0]), 4), round(float(traj.omega3[-1]), 3)
     ('completed', 5.8797, -82.866)
     """
+    if isinstance(top, StemmedTop):  # the ball and its stem: the "stemmed" model
+        from .stem import stemmed_run
+
+        return stemmed_run(simulate, top, state, t_end, model=model, rtol=rtol, atol=atol,
+                           t_eval=t_eval, events=events, method=method, backend=backend,
+                           max_step=max_step, friction=friction, **options)  # fmt: skip
     mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
