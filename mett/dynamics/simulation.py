@@ -187,7 +187,7 @@ def _user_event(
 
 
 def simulate(
-    top: TippeTop,
+    top: TippeTop | StemmedTop,
     state: State | ArrayLike,
     t_end: float,
     *,
@@ -206,8 +206,11 @@ def simulate(
 
     Parameters
     ----------
-    top : TippeTop
-        Body and friction parameters.
+    top : TippeTop or StemmedTop
+        Body and friction parameters. A :class:`~mett.stem.StemmedTop` (``top.with_stem(...)``)
+        runs the ``"stemmed"`` model: ball and stem contacts with inelastic impacts at each change
+        of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball" or
+        "stem" per sample) and ``touchdowns`` (s).
     state : State or array_like
         Initial state (θ, θ̇, φ̇, ω3, ν_x, ν_y); the default ν = 0 of :class:`~mett.State` is the
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.
