@@ -307,6 +307,8 @@ def stemmed_run(simulate: Any, top: Any, state: Any, t_end: float, **kw: Any) ->
             raise ValueError(f"{name} is given by the StemmedTop; do not pass it to simulate")
     kw.update(stem_radius=top.radius, stem_distance=top.distance)
     traj = simulate(top.ball, state, t_end, model=MODEL, **kw)
-    traj.contact = np.asarray(traj.phase)
+    # the phase flag of each sample (also for a run that ended at t = 0, before any phase ran)
+    traj.contact = np.where(traj.states[10] > 0.5, "stem", "ball")
+    traj.switches = list(getattr(traj, "switches", []))
     traj.touchdowns = np.array([t for t, _, to in traj.switches if to == "stem"])
     return traj
