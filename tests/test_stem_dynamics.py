@@ -110,6 +110,32 @@ def _energy(y, p):
     return 0.5 * m * V @ V + 0.5 * L @ w + m * g * (q[1] - q[2] * e[2])
 
 
+def _reference_impulse(y, p, to):
+    """The Darboux-Keller impulse solved independently: dv/dp = M v + b (M = −μ W Π, b = W ẑ) as
+    a 4×4 matrix exponential, v_z(p) = 0 by brentq, P = W⁻¹ Δv."""
+    q = _stem(p) if to == "stem" else _ball(p)
+    m, I1, I3, mu = p[0], p[3], p[4], p[5]
+    e, L, w, V = _body(y, _ball(p) if to == "stem" else _stem(p))
+    a = q[2] * e - np.array([0.0, 0.0, q[1]])
+    Iinv = np.eye(3) / I1 + (1 / I3 - 1 / I1) * np.outer(e, e)
+    cross = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    W = np.eye(3) / m - cross @ Iinv @ cross
+    M = np.zeros((4, 4))
+    M[:3, :3] = -mu * W @ np.diag([1.0, 1.0, 0.0])
+    M[:3, 3] = W @ np.array([0.0, 0.0, 1.0])
+    v0 = np.append(V + np.cross(w, a), 1.0)
+
+    def vz(s):
+        return (scipy.linalg.expm(M * s) @ v0)[2]
+
+    hi = -v0[2] / W[2, 2]
+    while vz(hi) < 0.0:
+        hi *= 2.0
+    s_end = brentq(vz, 0.0, hi, xtol=1e-18, rtol=1e-14)
+    v_end = (scipy.linalg.expm(M * s_end) @ v0)[:3]
+    return np.linalg.solve(W, v_end - v0[:3]), V, L, a
+
+
 @pytest.mark.parametrize("to", ["stem", "ball"])
 def test_impact_law(near, to):
     # every impact of the run: the new contact's normal velocity is 0 after it, the old contact
@@ -128,30 +154,32 @@ def test_impact_law(near, to):
         assert _contact_velocity(y, p, to)[2] < 0.0  # it came down
         assert _contact_velocity(y_after, p, frm)[2] > 0.0  # the other sphere lifts off
         assert _energy(y_after, p) < _energy(y, p)
-        # independent: dv/dp = M v + b, M = −μ W Π, b = W ẑ, as a 4×4 matrix exponential
-        q = _stem(p) if to == "stem" else _ball(p)
-        m, I1, I3, mu = p[0], p[3], p[4], p[5]
-        e, L, w, V = _body(y, _ball(p) if to == "stem" else _stem(p))
-        a = q[2] * e - np.array([0.0, 0.0, q[1]])
-        Iinv = np.eye(3) / I1 + (1 / I3 - 1 / I1) * np.outer(e, e)
-        cross = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-        W = np.eye(3) / m - cross @ Iinv @ cross
-        M = np.zeros((4, 4))
-        M[:3, :3] = -mu * W @ np.diag([1.0, 1.0, 0.0])
-        M[:3, 3] = W @ np.array([0.0, 0.0, 1.0])
-        v0 = np.append(V + np.cross(w, a), 1.0)
-
-        def vz(s, M=M, v0=v0):
-            return (scipy.linalg.expm(M * s) @ v0)[2]
-
-        s_end = brentq(vz, 0.0, 10.0 * -v0[2] / W[2, 2], xtol=1e-18, rtol=1e-14)
-        v_end = (scipy.linalg.expm(M * s_end) @ v0)[:3]
-        P_ref = np.linalg.solve(W, v_end - v0[:3])
+        P_ref, V, L, a = _reference_impulse(y, p, to)
         np.testing.assert_allclose(P, P_ref, rtol=1e-9, atol=1e-9 * abs(P_ref[2]))
         # momentum and angular momentum balance with the impulse at the new contact
-        np.testing.assert_allclose(y_after[2:4] - V[:2], P[:2] / m, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(y_after[2:4] - V[:2], P[:2] / p[0], rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(y_after[4:7] - L, np.cross(a, P), rtol=1e-12, atol=1e-18)
     assert n >= 1
+
+
+@pytest.mark.parametrize("mu", [3.0, 300.0])
+def test_impact_with_strong_friction_ends(mu):
+    # fast tangential slip: friction first drives the contact down and the normal impulse grows
+    # to hundreds of times the frictionless one before v_z reaches 0 (W positive definite)
+    top = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=mu).with_stem(
+        radius=0.005, distance=0.016
+    )
+    model = mett.dynamics.MODELS["stemmed"]
+    p = model.parameters(top.ball, stem_radius=top.radius, stem_distance=top.distance)
+    s = mett.State(theta=top.touchdown_angle - 1e-9, thetadot=3.0, nu_x=20.0)
+    y = model.initial(s, p)
+    y_after, P = impact(y, p, "stem")
+    v = _contact_velocity(y, p, "stem")
+    assert P[2] > 100.0 * -v[2] / (1.0 / p[0])  # far beyond any frictionless impulse
+    assert abs(_contact_velocity(y_after, p, "stem")[2]) < 1e-12 * abs(v).max()
+    assert _energy(y_after, p) < _energy(y, p)
+    P_ref = _reference_impulse(y, p, "stem")[0]
+    np.testing.assert_allclose(P, P_ref, rtol=1e-8, atol=1e-9 * abs(P_ref).max())
 
 
 def test_frictionless_impact_is_the_closed_form():

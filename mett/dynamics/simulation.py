@@ -34,7 +34,7 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
-from .registry import MODELS, Model, Phase, lookup, validate_options
+from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
 from .trajectory import Trajectory, _Constant  # _Constant: the saved form of a run at t0
 
 __all__ = ["MAX_STEPS", "MODELS", "simulate"]
@@ -466,6 +466,7 @@ def _solve_hybrid(
     t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
     switches: list[tuple[float, str, str]] = []
     nfev = 0
+    jump_failed: str | None = None
     while True:
         events = [(ev, rem, dirn) for (ev, _, dirn), rem in zip(user, remaining, strict=True)]
         seg = solve(run, t_eval_arr=t_eval_arr, events=events, collect=True)
@@ -476,6 +477,15 @@ def _solve_hybrid(
                 remaining[k] = max(remaining[k] - te.size, 1)
         sols.append(seg.sol)
         last = run.switch is None or len(switches) >= MAX_SWITCHES
+        if not last:
+            index, t_sw = run.switch
+            ev = run.phase.events[index]
+            y_sw = np.asarray(seg.sol(t_sw), dtype=float)
+            if ev.jump is not None:
+                try:
+                    y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
+                except JumpFailed as exc:  # the run ends at the switch, state before it kept
+                    jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
         t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
         if not last:
             t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
@@ -484,11 +494,6 @@ def _solve_hybrid(
         phases.extend([run.phase.name] * t_seg.size)
         if last:
             break
-        index, t_sw = run.switch
-        ev = run.phase.events[index]
-        y_sw = np.asarray(seg.sol(t_sw), dtype=float)
-        if ev.jump is not None:
-            y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
         switches.append((t_sw, run.phase.name, ev.target))
         run = _Run(
             mdl,
@@ -505,7 +510,9 @@ def _solve_hybrid(
     kw["nfev"] = nfev
     kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
     status, message = seg.status, seg.message
-    if run.switch is not None:  # stopped for switching too often
+    if jump_failed is not None:
+        status, message = "failed", jump_failed
+    elif run.switch is not None:  # stopped for switching too often
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)

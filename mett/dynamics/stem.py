@@ -33,7 +33,7 @@ import numpy as np
 
 from ._model import add_integrals, euler_from_vectors, lab_vectors, scales_from_state, unit_axis
 from .gliding import _core
-from .registry import Event, Model, Option, Phase, positive_length, register
+from .registry import Event, JumpFailed, Model, Option, Phase, positive_length, register
 
 __all__ = ["MODEL", "impact", "stem_params"]
 
@@ -168,11 +168,20 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
             return z[2]
 
         stop.terminal, stop.direction = True, 1.0
-        p_max = 100.0 * -v0[2] / W[2, 2]  # frictionless: p = −v_z/W_zz; friction only slows it
-        sol = solve_ivp(rate, (0.0, p_max), np.concatenate((v0, P)), method="DOP853",
-                        events=stop, rtol=1e-13, atol=1e-15 * (1.0 + abs(v0[2])))  # fmt: skip
+        # The impact always ends: v_t relaxes to W_tt⁻¹W_tz/μ and then v_z grows at the rate
+        # 1/(W⁻¹)_zz > 0 (W positive definite). Friction can make p much larger than the
+        # frictionless −v_z/W_zz, so the interval is extended until v_z reaches 0.
+        z, p0, p1 = np.concatenate((v0, P)), 0.0, 10.0 * -v0[2] / W[2, 2]
+        for _ in range(12):
+            sol = solve_ivp(rate, (p0, p1), z, method="DOP853", events=stop, rtol=1e-13,
+                            atol=1e-15 * (1.0 + abs(v0[2])))  # fmt: skip
+            if sol.status != 0:
+                break
+            z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
         if sol.status != 1:
-            raise RuntimeError(f"the impact did not end within p = {p_max!r} N s")
+            raise JumpFailed(
+                f"impact of the {to}: the impulse equations could not be solved ({sol.message})"
+            )
         P = sol.y_events[0][0][3:]
     out = np.array(y, dtype=float)
     out[2:4] = V[:2] + P[:2] / m
