@@ -229,18 +229,26 @@ def test_viscous_law_object_is_accepted(near):
     np.testing.assert_array_equal(tr.touchdowns, near.touchdowns)
 
 
-def test_leine_glocker_top_from_upright_to_its_end_state_on_the_stem():
-    tr = simulate(TOP, mett.State(theta=0.1, omega3=180.0), 20.0)
+@pytest.mark.parametrize(
+    ("distance", "kind"),
+    [
+        (0.016, "tumbling"),  # λ_s between λ_0' and λ_thres' of the stem sphere
+        (0.013, "inverted"),  # a shorter stem: λ_s = 1.16 λ_thres', the inverted spin on the stem
+    ],
+)
+def test_leine_glocker_top_from_upright_to_its_end_state_on_the_stem(distance, kind):
+    top = BALL.with_stem(radius=0.005, distance=distance)
+    tr = simulate(top, mett.State(theta=0.1, omega3=180.0), 20.0)
     assert tr.status == "completed", tr.message
-    assert tr.touchdowns.size >= 1
+    assert tr.touchdowns.size >= 1 and tr.touchdowns[0] > 7.0
     assert tr.contact[-1] == "stem"
     i = _segments(tr)[-1][0]
     lam = tr.lam[i:]
-    assert float(np.ptp(lam) / abs(lam[0])) < 1e-9
-    end = TOP.stem_end_state(float(lam[0]))
-    assert end.kind == "tumbling" and end.theta > TOP.touchdown_angle
-    assert tr.theta[-1] == pytest.approx(end.theta, abs=1e-6)  # measured 4e-8 rad
-    assert tr.omega3[-1] == pytest.approx(end.omega3, rel=1e-7)  # measured 4e-9
+    assert float(np.ptp(lam) / abs(lam[0])) < 1e-9  # measured 8e-11, 6e-12
+    end = top.stem_end_state(float(lam[0]))
+    assert end.kind == kind and end.theta > top.touchdown_angle
+    assert tr.theta[-1] == pytest.approx(end.theta, abs=1e-6)  # measured 4e-8 rad, 6e-9 rad
+    assert tr.omega3[-1] == pytest.approx(end.omega3, rel=1e-7)  # measured 4e-9, 4e-12
     assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
 
 
