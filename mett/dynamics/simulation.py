@@ -22,6 +22,7 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -32,10 +33,12 @@ from numpy.typing import ArrayLike
 from scipy.integrate import OdeSolution, solve_ivp
 
 from .. import _validate
+from .. import friction as _friction
 from ..state import State
+from ..stem import StemmedTop
 from ..top import TippeTop
-from .registry import MODELS, Model, Phase, lookup, validate_options
-from .trajectory import Trajectory
+from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
+from .trajectory import Trajectory, _Constant  # _Constant: the saved form of a run at t0
 
 __all__ = ["MAX_STEPS", "MODELS", "simulate"]
 
@@ -187,7 +190,7 @@ def _user_event(
 
 
 def simulate(
-    top: TippeTop,
+    top: TippeTop | StemmedTop,
     state: State | ArrayLike,
     t_end: float,
     *,
@@ -199,14 +202,18 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
+    friction: Any = None,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
 
     Parameters
     ----------
-    top : TippeTop
-        Body and friction parameters.
+    top : TippeTop or StemmedTop
+        Body and friction parameters. A :class:`~mett.stem.StemmedTop` (``top.with_stem(...)``)
+        runs the ``"stemmed"`` model: ball and stem contacts with inelastic impacts at each change
+        of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball" or
+        "stem" per sample) and ``touchdowns`` (s).
     state : State or array_like
         Initial state (θ, θ̇, φ̇, ω3, ν_x, ν_y); the default ν = 0 of :class:`~mett.State` is the
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.
@@ -264,6 +271,17 @@ def simulate(
         each step's Taylor polynomial. DOP853 only in ``method`` (it is not used).
     max_step : float, default inf
         Largest step (s).
+    friction : mett.friction law, optional
+        The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
+        :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
+        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). :class:`~mett.friction.Coulomb`
+        (exact stick–slip, optionally with Contensou spin friction) and
+        :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
+        scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
+        ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
+        frame), the torque ``M_n`` about the normal (N m) and ``switches``
+        (:class:`mett.dynamics.stickslip.Switch`).
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -309,6 +327,12 @@ def simulate(
     >>> traj.status, round(float(traj.crossings(math.pi / 2)[0]), 4), round(float(traj.omega3[-1]), 3)
     ('completed', 5.8797, -82.866)
     """
+    if isinstance(top, StemmedTop):  # the ball and its stem: the "stemmed" model
+        from .stem import stemmed_run
+
+        return stemmed_run(simulate, top, state, t_end, model=model, rtol=rtol, atol=atol,
+                           t_eval=t_eval, events=events, method=method, backend=backend,
+                           max_step=max_step, friction=friction, **options)  # fmt: skip
     mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
@@ -320,6 +344,23 @@ def simulate(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    if friction is not None:
+        friction = _friction.check_law(friction)
+        if isinstance(friction, _friction.Viscous):
+            if friction.mu is not None:
+                top = dataclasses.replace(top, mu=friction.mu)
+            traj = simulate(
+                top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
+                events=events, method=method, backend=backend, max_step=max_step, **options,
+            )  # fmt: skip
+            if traj.model == "gliding":  # the force series, as dry-friction runs report them
+                from .stickslip import viscous_force
+
+                viscous_force(traj)
+            return traj
+        else:
+            return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
+                        t_eval_arr, events, max_step, options)  # fmt: skip
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
@@ -390,21 +431,6 @@ def simulate(
     return _solve_hybrid(run, solve, table, t_eval_arr, user)
 
 
-class _AtStart:
-    """Dense output of a run (or phase) that never left its start time ``t0``."""
-
-    def __init__(self, t0: float, y0: np.ndarray) -> None:
-        self.ts = np.array([t0])
-        self.t_min = self.t_max = t0
-        self._y0 = y0
-
-    def __call__(self, t: Any) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        if t.ndim == 0:
-            return self._y0.copy()
-        return np.repeat(self._y0[:, None], t.size, axis=1)
-
-
 MAX_SWITCHES = 100_000
 """A hybrid model's run stops with status "failed" after this many phase switches."""
 
@@ -453,6 +479,7 @@ def _solve_hybrid(
     t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
     switches: list[tuple[float, str, str]] = []
     nfev = 0
+    jump_failed: str | None = None
     while True:
         events = [(ev, rem, dirn) for (ev, _, dirn), rem in zip(user, remaining, strict=True)]
         seg = solve(run, t_eval_arr=t_eval_arr, events=events, collect=True)
@@ -463,6 +490,15 @@ def _solve_hybrid(
                 remaining[k] = max(remaining[k] - te.size, 1)
         sols.append(seg.sol)
         last = run.switch is None or len(switches) >= MAX_SWITCHES
+        if not last:
+            index, t_sw = run.switch
+            ev = run.phase.events[index]
+            y_sw = np.asarray(seg.sol(t_sw), dtype=float)
+            if ev.jump is not None:
+                try:
+                    y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
+                except JumpFailed as exc:  # the run ends at the switch, state before it kept
+                    jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
         t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
         if not last:
             t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
@@ -471,11 +507,6 @@ def _solve_hybrid(
         phases.extend([run.phase.name] * t_seg.size)
         if last:
             break
-        index, t_sw = run.switch
-        ev = run.phase.events[index]
-        y_sw = np.asarray(seg.sol(t_sw), dtype=float)
-        if ev.jump is not None:
-            y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
         switches.append((t_sw, run.phase.name, ev.target))
         run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
@@ -483,7 +514,9 @@ def _solve_hybrid(
     kw["nfev"] = nfev
     kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
     status, message = seg.status, seg.message
-    if run.switch is not None:  # stopped for switching too often
+    if jump_failed is not None:
+        status, message = "failed", jump_failed
+    elif run.switch is not None:  # stopped for switching too often
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)
@@ -547,7 +580,7 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        sol = _AtStart(self.t0, self.y0)
+        sol = _Constant(self.t0, self.y0)
         return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
@@ -665,7 +698,7 @@ def _solve_scipy(
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _AtStart(t0, y0)
+        sol = _Constant(t0, y0)
     elif method in ("BDF", "LSODA"):  # solve_ivp sets this only for its own classes
         sol = OdeSolution(sol.ts, sol.interpolants, alt_segment=True)
     t_stop = float(sol.t_max)
@@ -897,3 +930,31 @@ def _truncate(dense: Any, t_stop: float) -> Any:
     t = np.append(dense.t[:k], t_stop)
     y = np.vstack([dense.y[:k], dense(t_stop)[None, :]])
     return DenseOutput(t, y, dense.h[:k], dense.F[:k])
+
+
+def _dry(
+    top, state, t_end, friction, mdl, backend, method, rtol, atol, t_eval, events, max_step, options
+) -> Trajectory:
+    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
+    from . import stickslip
+
+    if mdl.name != "gliding":
+        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {mdl.name!r}")
+    if options:
+        raise ValueError(f"model options {sorted(options)} do not apply to friction={friction!r}")
+    if backend == "compiled":
+        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
+    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
+        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
+    if events:
+        raise ValueError("user events are not supported with dry friction (friction=...) yet")
+    max_step = float(max_step)
+    if not max_step > 0.0:
+        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
+    p = mdl.params(top, {})
+    y0 = mdl.initial(state, p)
+    atol_arr = _check_atol(atol, y0.size, np.asarray(mdl.scales(y0, p), dtype=float))
+    return stickslip.simulate_dry(
+        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
+        method=method,
+    )  # fmt: skip

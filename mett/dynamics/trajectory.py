@@ -149,6 +149,12 @@ class Trajectory:
         Right-hand-side evaluations.
     backend : str
         ``"compiled"`` or ``"scipy"``: which integrator ran (see :func:`~mett.simulate`).
+    phase : ndarray of str
+        Contact phase per sample: ``"sliding"`` or ``"rolling"`` (the ``"rolling"`` model rolls
+        throughout, the other models glide; a Coulomb run switches, :mod:`mett.dynamics.stickslip`).
+    extra : tuple of str
+        Names of further per-sample series set by the run (e.g. ``phase``, ``F_x``, ``F_y`` of a
+        dry-friction run).
 
     Notes
     -----
@@ -191,6 +197,7 @@ class Trajectory:
         backend: str = "scipy",
         initial_state: State | None = None,
         options: Mapping[str, Any] | None = None,
+        extra: dict[str, np.ndarray] | None = None,
     ) -> None:
         if status not in STATUSES:
             raise ValueError(f"status must be one of {STATUSES}; got {status!r}")
@@ -216,6 +223,12 @@ class Trajectory:
             t0 = float(np.asarray(solution.ts, dtype=float)[0])
             initial_state = self._state(np.asarray(solution(t0), dtype=float).reshape(-1, 1), ())
         self.initial_state = initial_state
+        # per-sample series of the contact that the states alone do not fix (e.g. the phase of a
+        # stick–slip run, mett.dynamics.stickslip); they replace derived ones of the same name
+        self.extra = tuple(extra or ())
+        self.phase = np.full(self.t.shape, "rolling" if model.name == "rolling" else "sliding")
+        for name, values in (extra or {}).items():
+            setattr(self, name, np.asarray(values).reshape(self.t.shape))
 
     # --- summary -----------------------------------------------------------------------------
     def __len__(self) -> int:
