@@ -431,17 +431,20 @@ def _conditioning(top: TippeTop, E, D, lam, depth):
 
 
 def _steady_tolerance(top: TippeTop, E, D, lam, Es, gravity, kinetic):
-    """How close to the bottom of the well Ẽ may lie and still count as "steady".
+    """(computed, inputs): how far from the bottom of the well Ẽ may lie and count as "steady".
 
-    Rounding of the inputs (E, D, λ) moves the depth by ~4εS, S = |Ẽ| + D²/(2 I1) + m λ²/(2 I1 I3),
-    and the depth itself is a sum of terms of size |E'|, m g R(1 ∓ αz), C N²/(1 − z²). At a pole
-    where N vanishes the last one is its finite limit 0, never N²/(1e-300).
+    ``computed`` bounds the rounding of the depth Ẽ − V(z_m) as computed from the doubles (E, D, λ):
+    a sum of terms of size |E'|, m g R(1 ∓ αz), C N²/(1 − z²) after the exact shift (at a pole where
+    N vanishes the last one is its finite limit 0). Within it the band is steady; above it the
+    doubles (E, D, λ), taken as exact, admit a nutation band, which is resolved.
+
+    ``inputs`` bounds what rounding the inputs themselves moves the depth by: ~4εS with
+    S = |Ẽ| + D²/(2 I1) + m λ²/(2 I1 I3). Ẽ below the well by less than ``computed + inputs`` is
+    within the error of its inputs: steady, not inadmissible.
     """
     S = np.abs(E) + D * D / (2.0 * top.I1) + top.m * lam * lam / (2.0 * top.I1 * top.I3)
-    # 8εS: twice the inputs' own rounding, no more: at 3e4 rad/s a real band is only ~30εS deep
-    return np.maximum(
-        64.0 * _EPS * np.maximum.reduce([np.abs(Es), gravity, kinetic]), 8.0 * _EPS * S
-    )
+    computed = 64.0 * _EPS * np.maximum.reduce([np.abs(Es), gravity, kinetic])
+    return computed, 8.0 * _EPS * S
 
 
 def _kinetic_at(w, zm):
@@ -466,10 +469,13 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
     candidates = []
     for zm in mins:
         depth = w.excess(zm)
-        tol = float(
-            _steady_tolerance(top, E, D, lam, w.Es, float(w.gravity(zm)), float(_kinetic_at(w, zm)))
+        tol, tol_in = (
+            float(t)
+            for t in _steady_tolerance(
+                top, E, D, lam, w.Es, float(w.gravity(zm)), float(_kinetic_at(w, zm))
+            )
         )
-        if depth < -tol:
+        if depth < -(tol + tol_in):
             candidates.append(Band("none", math.nan, math.nan, zm, depth))
         elif depth <= tol:
             candidates.append(Band("steady", zm, zm, zm, max(depth, 0.0)))
@@ -1222,8 +1228,10 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
     Wv = W.sub(v)
     zmv = zm[v]
     dep = Wv.excess(zmv)
-    tol = _steady_tolerance(top, E[v], D[v], lam[v], Wv.Es, Wv.gravity(zmv), _kinetic_at(Wv, zmv))
-    kv = np.where(dep < -tol, _NONE, np.where(dep <= tol, _STEADY, _NUTATION))
+    tol, tol_in = _steady_tolerance(
+        top, E[v], D[v], lam[v], Wv.Es, Wv.gravity(zmv), _kinetic_at(Wv, zmv)
+    )
+    kv = np.where(dep < -(tol + tol_in), _NONE, np.where(dep <= tol, _STEADY, _NUTATION))
     kind[v], z_min[v], depth[v] = kv, zmv, dep
     steady = v[kv == _STEADY]
     z_low[steady] = z_high[steady] = zm[steady]
