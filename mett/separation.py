@@ -35,7 +35,6 @@ scalar reference path.
 
 from __future__ import annotations
 
-import itertools
 import math
 from fractions import Fraction
 from typing import TYPE_CHECKING, NamedTuple
@@ -511,6 +510,33 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
     return best
 
 
+def _start_energy(top: TippeTop, E: float, D: float, lam: float, z0: float) -> float | None:
+    """Ẽ raised onto V(z0) when the start z0 lies outside the band only by the inputs' rounding.
+
+    A start at rest in θ (a state) is a turning point: V(z0) = Ẽ exactly. Rounding E, D, λ to
+    doubles moves Ẽ − V by up to ~8εS (:func:`_steady_tolerance`); at high spin that is more
+    than the depth of the band, so the rounded triple can put z0 just outside its band, or leave
+    no band at all. Within that bound the smallest double Ẽ ≥ V(z0) (plus the computation's own
+    rounding) is returned, so that z0 is a turning point again; beyond it, None (inadmissible).
+    """
+    w = _Well(top, E, D, lam)
+    excess = float(w.excess(z0))
+    if not math.isfinite(excess) or excess >= 0.0:
+        return None
+    kin = float(_kinetic_at(w, z0))
+    tol, tol_in = _steady_tolerance(top, E, D, lam, w.Es, float(w.gravity(z0)), kin)
+    if -excess > float(tol + tol_in):
+        return None
+    raised = E - excess + 2.0 * float(tol)
+    for _ in range(64):
+        try:
+            _band_scalar(top, raised, D, lam, z0)
+            return raised
+        except ValueError:
+            raised = raised + 2.0 * float(tol) + math.ulp(raised)
+    return None
+
+
 def _broadcast(E, D, lam, z0=None):
     E = _validate.as_finite_array("E", E)
     D = _validate.as_finite_array("D", D)
@@ -527,7 +553,14 @@ def _broadcast(E, D, lam, z0=None):
 
 
 def _admissible(top: TippeTop, E, D, lam, z0) -> tuple[Band, _Well]:
-    b = _band_scalar(top, E, D, lam, z0)
+    try:
+        b = _band_scalar(top, E, D, lam, z0)
+    except ValueError:
+        e_start = None if z0 is None else _start_energy(top, E, D, lam, z0)
+        if e_start is None:
+            raise
+        E = e_start
+        b = _band_scalar(top, E, D, lam, z0)
     if b.kind == "none":
         raise ValueError(
             f"(E, D, lam) = ({E!r}, {D!r}, {lam!r}) admits no motion: E lies "
@@ -599,73 +632,198 @@ def _gauss_sum(values):
     return np.sum(values * _U_WEIGHTS, axis=-1)
 
 
-# A turning point closer than this fraction of the band's half-width to a pole has a boundary layer.
+# A band with an end closer than this fraction of its half-width to a pole (or at the pole) is
+# integrated about that pole (:func:`_anchored_quadrature`).
 _POLE_LAYER = 1e-3
-_LAYER_MIN = 1e4 * _EPS
-_LAYER_NODES = np.polynomial.legendre.leggauss(32)
+_TAU_PANEL = 0.75  # width of the Gauss–Legendre panels in τ (see _anchored_half)
+_TAU_NODES = np.polynomial.legendre.leggauss(20)
 
 
-def _pole_layer(b: Band) -> tuple[float, float]:
-    """Distances (relative to the half-width) from each turning point to its pole, if in a layer.
+def _pole_layer(b: Band) -> tuple[bool, bool]:
+    """Whether each end of the band lies in the layer of a pole: its gap to the nearer pole is
+    below ``_POLE_LAYER`` of the band's half-width (0 included: an end at the pole).
 
-    A turning point δ from a pole where N does not vanish sits against a steep wall of V: R changes
-    by O(1) over ~δ, which a fixed Gauss rule over the whole band cannot resolve when δ ≪ h.
-    Returns (s_a, s_b); 0 where there is no layer (or the band ends at the pole itself).
+    Next to a pole where N does not vanish the end sits against a steep wall of V (R changes by
+    O(1) over the gap, which a Gauss rule over the whole band cannot resolve); an end at or a hair
+    off an unstable pole is the logarithmic layer of the separatrix; and in z the gap itself may be
+    below one ulp of z. All such bands are integrated in the distance u = 1 ∓ z from that pole.
     """
     h = 0.5 * (b.z_high - b.z_low)
     if not h > 0.0:  # steady (or no) motion: no band, no layer
-        return 0.0, 0.0
-    # a wall within ~1e4 ulps of the pole (a vanishing spin) is below any resolvable layer
-    s_a = (b.z_low + 1.0) / h if b.z_low + 1.0 > _LAYER_MIN else 0.0
-    s_b = (1.0 - b.z_high) / h if 1.0 - b.z_high > _LAYER_MIN else 0.0
-    return (s_a if s_a < _POLE_LAYER else 0.0), (s_b if s_b < _POLE_LAYER else 0.0)
+        return False, False
+    return (1.0 - abs(b.z_low) < _POLE_LAYER * h), (1.0 - abs(b.z_high) < _POLE_LAYER * h)
 
 
-def _graded_quadrature(top: TippeTop, b: Band, w: _Well, weight_fn, layers) -> tuple[float, float]:
-    """The period integral for a band with a boundary layer next to a pole (see :func:`_pole_layer`).
+def _pole_N(top: TippeTop, D: float, lam: float, pole: float) -> float:
+    """N(±1) = λ√d(±1) + R D(α ∓ 1), correctly rounded (exact rationals, √d to ~ε²).
 
-    T = 2∫ √(g/R) dv over v ∈ [0, π], z = z_a + h(1 − cos v), with R = P/((z − z_a)(z_b − z)) from
-    the direct P, which is accurate next to the poles (its terms are small there). Nodes are placed
-    as offsets from their own turning point (1 ∓ cos v = 2 sin²(v/2), 2 cos²(v/2)) and R divides by
-    the distances recomputed exactly from the rounded z, so no node loses digits to rounding. The
-    Gauss–Legendre panels are graded geometrically from the layer scale at each such end.
+    Next to a pole N(±1) is often a tiny remainder of its two terms (a start a hair off the pole
+    with φ̇0 = 0 has N(z0) = 0), and its rounding in double would be a large relative error.
+    """
+    F = Fraction
+    # γ = I1/I3, σ = m R²/I3 from the top's parameters themselves, not their rounded ratios
+    gam, sig = F(top.I1) / F(top.I3), F(top.m) * F(top.R) ** 2 / F(top.I3)
+    dp = gam + sig * (F(top.alpha) - F(pole)) ** 2
+    s = math.sqrt(float(dp))
+    r = (dp - F(s) ** 2) / (2 * F(s))  # one Newton step: √dp = s + r to ~ε²
+    return float(F(lam) * (F(s) + r) + F(top.R) * F(D) * (F(top.alpha) - F(pole)))
+
+
+class _PoleForm:
+    """P and φ̇ in the distance u = 1 − p z from the pole p = ±1, without cancellation near it.
+
+    1 − z² = u(2 − u), E' − m g R(1 − αz) = A_p − m g R α p u with A_p = E' − m g R(1 − αp)
+    formed exactly (:func:`_shift`), and N(z) = N_p + (z − p) N[p, z] with the divided difference
+    N[p, z] = λ(d'(p) + σ(1 − γ)(z − p))/(√d(z) + √d(p)) − R D (d is quadratic), z − p = −p u:
+
+        P(u) = u(2 − u)(A_p − m g R α p u) − C (N_p − p u N[p, z])².
+
+    With ``at_pole`` (a band ending at the pole, a steady spin there) ``N_p`` is set to 0 where N
+    vanishes at the pole to rounding.
+    """
+
+    def __init__(self, w: _Well, pole: float, at_pole: bool = True) -> None:
+        top = w.top
+        self.w, self.p = w, pole
+        self.A = float(_shift(top, w.E, w.D, w.lam, pole))
+        self.sqd_p = math.sqrt(float(d(top, pole)))
+        self.dd_p = float(dd_dz(top, pole))
+        # N_p is 0 for a band ending at the pole (it vanishes there to rounding); a turning point
+        # a hair off the pole needs its exact small value
+        self.N_p = 0.0 if at_pole and w.n_vanishes(pole) else _pole_N(top, w.D, w.lam, pole)
+
+    def z(self, u):
+        return self.p * (1.0 - u)
+
+    def n_div(self, u):
+        """N[p, z] (see the class docstring)."""
+        top, w = self.w.top, self.w
+        zp = -self.p * u
+        sqd = np.sqrt(d(top, np.clip(self.z(u), -1.0, 1.0)))
+        num = self.dd_p + top.sigma * (1.0 - top.gamma) * zp
+        return w.lam * num / (sqd + self.sqd_p) - top.R * w.D
+
+    def P(self, u):
+        w = self.w
+        n = self.N_p - self.p * u * self.n_div(u)
+        return u * (2.0 - u) * (self.A - w.mgR * w.top.alpha * self.p * u) - w.C * n * n
+
+    def phidot(self, u):
+        """φ̇ = N/(R I1 (1 − z²)√d(z)) = N_p/(R I1 u(2 − u)√d) − p N[p, z]/(R I1 (2 − u)√d)."""
+        top = self.w.top
+        sqd = np.sqrt(d(top, np.clip(self.z(u), -1.0, 1.0)))
+        k = top.R * top.I1 * (2.0 - u) * sqd
+        return self.N_p / (k * u) - self.p * self.n_div(u) / k
+
+    def phidot_limit(self) -> float:
+        """lim φ̇ at the pole where N vanishes: −p N'(p)/(2 R I1 √d(p)) (N'(p) = N[p, p])."""
+        top = self.w.top
+        n1 = float(self.n_div(0.0))
+        return -self.p * n1 / (2.0 * top.R * top.I1 * self.sqd_p)
+
+    def root(self, u_guess: float, u_in: float) -> float:
+        """The turning point u_t near ``u_guess`` (P(u_in) > 0), solved in u to full relative precision."""
+        if u_guess <= 0.0:
+            return 0.0
+        inward = 1.0 if u_in > u_guess else -1.0
+        step = 4.0 * _EPS * (1.0 + u_guess) + 1e-6 * u_guess
+        for _ in range(60):
+            a = u_guess - inward * step
+            b = u_guess + inward * step
+            if inward > 0.0:
+                a = max(a, 0.0)
+                b = min(b, u_in)
+            else:
+                a, b = min(a, 2.0), max(b, u_in)
+            pa, pb = float(self.P(a)), float(self.P(b))
+            if pa <= 0.0 < pb:
+                lo, hi = min(a, b), max(a, b)
+                return optimize.brentq(self.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+            step *= 4.0
+        return u_guess
+
+
+def _anchored_half(form: _PoleForm, u_t: float, u_s: float, weight: bool):
+    """∫ √(g/P) dz (and ∫ φ̇ √(g/P) dz) from the turning point u_t to the interior point u_s.
+
+    With u = u_t + s c sinh²τ (s = ±1 towards u_s, W = |u_s − u_t|, c the scale of the layer at
+    u_t: its distance u_t from the pole, or 2|A_p|/|b| for an end at the pole; at most W) the integrand becomes 2√c cosh τ √(g/R), R = P/|u − u_t|, which is smooth: the inverse square
+    root at u_t is gone, and when the pole lies a distance u_t ≪ W beyond the turning point (the
+    separatrix layer, P ≈ b u (u − u_t)) the near-singularity 1/√u is mapped onto τ = O(1) as well,
+    so that T ≈ −(1/κ) ln u_t is integrated, not approximated. Gauss–Legendre on panels of fixed
+    width in τ (τ runs up to ~½ ln(4W/u_t) ≤ 40).
+    """
+    W = abs(u_s - u_t)
+    sgn = 1.0 if u_s > u_t else -1.0
+    if sgn < 0.0:  # the pole lies beyond u_s, not beyond this end: no layer here
+        c = W
+    elif u_t > 0.0:  # the pole a distance u_t beyond the end: the layer has that scale
+        c = min(u_t, W)
+    else:
+        # an end at the pole (N_p = 0): P/u ≈ 2 A_p + b u, b = −2 m g R α p − C N'(p)², varies on
+        # the scale 2|A_p|/|b| (→ 0 on the separatrix)
+        w = form.w
+        b = abs(2.0 * w.mgR * w.top.alpha * form.p + w.C * float(form.n_div(0.0)) ** 2)
+        c = W if b == 0.0 else min(W, max(2.0 * abs(form.A) / b, 1e-300 * W))
+    tau_max = math.asinh(math.sqrt(W / c))
+    n_pan = max(2, math.ceil(tau_max / _TAU_PANEL))
+    x, wt = _TAU_NODES
+    edges = np.linspace(0.0, tau_max, n_pan + 1)
+    half = 0.5 * np.diff(edges)
+    tau = (0.5 * (edges[:-1] + edges[1:]))[:, None] + half[:, None] * x
+    weights = (half[:, None] * wt).ravel()
+    tau = tau.ravel()
+    sh = np.sinh(tau)
+    dist = c * sh * sh
+    u = u_t + sgn * dist
+    z = np.clip(form.z(u), -1.0, 1.0)
+    R = form.P(u) / dist
+    f = 2.0 * math.sqrt(c) * np.cosh(tau) * np.sqrt(g(form.w.top, z) / R)
+    T = float(np.dot(weights, f))
+    if not weight:
+        return T, math.nan
+    return T, float(np.dot(weights, f * form.phidot(u)))
+
+
+def _separatrix(form: _PoleForm, tol: float) -> bool:
+    """Whether a band ending at the pole sits on the separatrix of that (unstable) pole.
+
+    At the pole (N_p = 0) P(u)/u → 2 A_p, A_p = Ẽ − V(p): with A_p = 0 (to the rounding ``tol``)
+    the end u = 0 is a double root of P, the pole an equilibrium reached in infinite time.
+    """
+    return form.N_p == 0.0 and abs(form.A) <= tol
+
+
+def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tuple[float, float]:
+    """(T, ∮ φ̇ dt) for a band with an end in the layer of a pole (:func:`_pole_layer`).
+
+    Each end is written as its distance u_t from its nearer pole and re-solved there
+    (:meth:`_PoleForm.root`); the band is split at its middle and each half integrated from its
+    turning point by :func:`_anchored_half`. On the separatrix (an end at an unstable pole with
+    Ẽ = V there) the period is infinite and ⟨φ̇⟩ is the pole's limit of φ̇ (the motion spends all
+    but a vanishing fraction of its time there): (inf, that limit) is returned.
     """
     za, zb = b.z_low, b.z_high
-    h = 0.5 * (zb - za)
-    # Within ~1e4 ulps of an end R is constant to rounding: [0, v_min] is done analytically below.
-    v_min_a = 2.0 * math.asin(math.sqrt(0.5 * min(1e4 * np.spacing(abs(za) + 1.0) / h, 1e-3)))
-    v_min_b = 2.0 * math.asin(math.sqrt(0.5 * min(1e4 * np.spacing(abs(zb) + 1.0) / h, 1e-3)))
-    cuts = [v_min_a, math.pi - v_min_b]
-    for scale, at_a in zip(layers, (True, False), strict=True):
-        r = scale
-        while 0.0 < r < 0.5:
-            v = 2.0 * math.asin(math.sqrt(0.5 * r))  # where the distance to the end is r h
-            cuts.append(v if at_a else math.pi - v)
-            r *= 10.0
-    cuts.append(0.5 * math.pi)
-    cuts = np.unique(np.clip(np.array(cuts), v_min_a, math.pi - v_min_b))
-    x, wt = _LAYER_NODES
+    pa = 1.0 if za >= 0.0 else -1.0
+    pb = 1.0 if zb >= 0.0 else -1.0
+    fa = _PoleForm(w, pa, abs(za) == 1.0)
+    fb = _PoleForm(w, pb, abs(zb) == 1.0)
+    ua0, ub0 = 1.0 - pa * za, 1.0 - pb * zb  # exact (Sterbenz) for |z| ≥ ½
+    if pa == pb:
+        us_a = us_b = 0.5 * (ua0 + ub0)
+    else:
+        zs = 0.5 * (za + zb)
+        us_a, us_b = 1.0 - pa * zs, 1.0 - pb * zs
+    tol = 64.0 * _EPS * max(abs(w.Es), float(w.gravity(pa)), float(w.gravity(pb)))
     T = integral = 0.0
-    for v0, v1 in itertools.pairwise(cuts):
-        v = 0.5 * (v1 - v0) * x + 0.5 * (v1 + v0)
-        near_a = v <= 0.5 * math.pi
-        z = np.where(
-            near_a, za + h * 2.0 * np.sin(0.5 * v) ** 2, zb - h * 2.0 * np.cos(0.5 * v) ** 2
-        )
-        d_a, d_b = z - za, zb - z  # exact (Sterbenz) for nodes next to their own end
-        R = w.P_direct(z) / (d_a * d_b)
-        f = 2.0 * np.sqrt(g(top, z) / R)
-        T += 0.5 * (v1 - v0) * float(np.dot(wt, f))
-        if weight_fn is not None:
-            integral += 0.5 * (v1 - v0) * float(np.dot(wt, f * weight_fn(z)))
-    for v_end, z_end in ((v_min_a, za + h * 2.0 * math.sin(0.5 * v_min_a) ** 2),
-                         (v_min_b, zb - h * 2.0 * math.sin(0.5 * v_min_b) ** 2)):  # fmt: skip
-        R = float(w.P_direct(z_end)) / ((z_end - za) * (zb - z_end))
-        f_end = 2.0 * math.sqrt(float(g(top, z_end)) / R)
-        T += v_end * f_end
-        if weight_fn is not None:
-            integral += v_end * f_end * float(weight_fn(z_end))
-    return T, (integral if weight_fn is not None else math.nan)
+    for form, u0, us, at_end in ((fa, ua0, us_a, abs(za) == 1.0), (fb, ub0, us_b, abs(zb) == 1.0)):
+        if at_end and _separatrix(form, tol):
+            return math.inf, form.phidot_limit()
+        u_t = 0.0 if at_end else form.root(u0, us)
+        t_half, i_half = _anchored_half(form, u_t, us, weight)
+        T += 2.0 * t_half
+        integral += 2.0 * i_half
+    return T, integral
 
 
 def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
@@ -679,9 +837,8 @@ def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float
     (worst at the bottom of the well, where the whole band is tiny). ``weight_fn`` gets z.
     """
     nodes = _U_NODES
-    layers = _pole_layer(b)
-    if any(layers):
-        return _graded_quadrature(top, b, w, weight_fn, layers)
+    if any(_pole_layer(b)):
+        return _anchored_quadrature(top, b, w, weight_fn is not None)
     if w.zr is None:
         c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
         z = c + h * np.sin(nodes)
@@ -815,9 +972,11 @@ def _precession_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> floa
         w.set_reference(b.z_min)
     if b.kind == "steady":
         if abs(b.z_min) == 1.0:
-            return math.nan  # the precession angle of a vertical axis is undefined
+            return _PoleForm(w, b.z_min).phidot_limit()  # the limit of a band shrinking onto it
         return float(_phidot(top, w, b.z_min))
     T, integral = _quadrature(top, b, w, lambda z: _phidot(top, w, z))
+    if math.isinf(T):
+        return integral  # on the separatrix: the limit at the pole (_anchored_quadrature)
     return integral / T
 
 
@@ -1255,10 +1414,9 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
             good[j[~ok]] = False
         # bands ending in a boundary layer next to a pole go to the graded quadrature (scalar)
         half = 0.5 * (zh - zl)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            layer = ((zl + 1.0 > _LAYER_MIN) & ((zl + 1.0) / half < _POLE_LAYER)) | (
-                (1.0 - zh > _LAYER_MIN) & ((1.0 - zh) / half < _POLE_LAYER)
-            )
+        layer = (half > 0.0) & (
+            (1.0 - np.abs(zl) < _POLE_LAYER * half) | (1.0 - np.abs(zh) < _POLE_LAYER * half)
+        )
         good &= ~layer
         vec[k[~good]] = False
         z_low[k], z_high[k] = zl, zh
@@ -1281,8 +1439,11 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
             omega[pole] = np.sqrt(2.0 * slope / g(top, zs[pole]))
             value[s] = 2.0 * math.pi / omega
         else:
-            # At a pole the precession angle of a vertical axis is undefined: NaN.
             value[s[~pole]] = W.sub(s[~pole]).phidot(zs[~pole])
+            # at a spinning pole: the limit of ⟨φ̇⟩ for a band shrinking onto it
+            for i in s[pole]:
+                w1 = _Well(top, float(E[i]), float(D[i]), float(lam[i]))
+                value[i] = _PoleForm(w1, float(zm[i])).phidot_limit()
 
     # The start z0 must lie in the band (up to the conditioning of the band).
     if z0 is not None:
@@ -1293,7 +1454,7 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
         inside = (z_low[live] - slack <= z0[live]) & (z0[live] <= z_high[live] + slack)
         bad = np.concatenate([v[(kind[v] == _NONE) & vec[v]], live[~inside]])
         for i in bad:
-            errors[i] = (_z0_message(float(z0[i]), float(E[i]), float(D[i]), float(lam[i])), True)
+            vec[i] = False  # to the scalar path, which takes z0 as a turning point if it can
     else:
         for i in v[(kind[v] == _NONE) & vec[v]]:
             msg = _no_motion_message(float(E[i]), float(D[i]), float(lam[i]), depth[i], z_min[i])
@@ -1307,8 +1468,12 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
         try:
             b = _band_scalar(top, e, dd, la, zz)
         except ValueError as exc:
-            errors[i] = (str(exc), True)
-            continue
+            e_start = None if zz is None else _start_energy(top, e, dd, la, zz)
+            if e_start is None:
+                errors[i] = (str(exc), True)
+                continue
+            e = e_start
+            b = _band_scalar(top, e, dd, la, zz)
         kind[i] = _KINDS.tolist().index(b.kind)
         z_low[i], z_high[i], z_min[i], depth[i] = b.z_low, b.z_high, b.z_min, b.depth
         if b.kind == "none":

@@ -22,6 +22,8 @@ from typing import NamedTuple
 
 import mpmath
 
+_EXTRA = 3
+
 
 class MpBand(NamedTuple):
     z_low: float
@@ -134,7 +136,7 @@ def reference(top, E, D, lam, z_in, *, dps=40, precession=True) -> MpBand:
             # grade towards an end down to the distance of the pole beyond it (the log layer)
             rel = gap / width
             if 0 < rel < mp("0.1"):
-                for k in range(1, int(-mpmath.log10(rel)) + 3):
+                for k in range(1, int(-mpmath.log10(rel)) + _EXTRA):
                     v = 2 * mpmath.asin(mpmath.sqrt(mp(10) ** (-k)))
                     cuts.add(mpmath.pi - v if end else v)
         cuts = sorted(cuts)
