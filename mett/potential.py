@@ -41,8 +41,10 @@ __all__ = [
     "g",
 ]
 
-# |N| below this fraction of its scale (|λ√d| + |R D (α − z)|) counts as zero at a pole.
-_POLE_RTOL = 1e-11
+# |N| below this fraction of its scale (|λ√d| + |R D (α − z)|) counts as zero at a pole: the
+# rounding of its two terms (a state at θ = 0 or π leaves a few ulps), not more — a vanishing spin's
+# N(±1) of 1e-12 of its terms is a real wall next to the pole.
+_POLE_RTOL = 64.0 * float(np.finfo(float).eps)
 
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:

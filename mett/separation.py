@@ -462,11 +462,81 @@ def _snap_to_pole(w, z: float) -> float:
     return z
 
 
+_NEAR_POLE = 1e-6  # wells closer than this to a pole (in z) are classified in the pole form
+
+
+def _near_pole_well(w: _Well, zm: float) -> bool:
+    """A well hugging a pole where N does not vanish (a vanishing spin's wall): see _pole_band."""
+    return 1.0 - abs(zm) < _NEAR_POLE and not (abs(zm) == 1.0 and w.n_vanishes(zm))
+
+
+def _pole_band(w: _Well, zm: float) -> Band:
+    """Classify and bound the band of a well hugging the pole p, in the distance u = 1 − p z.
+
+    With a vanishing spin the bottom of the well lies at u ~ |N(p)|, far below one ulp of z, and
+    the depth Ẽ − V there is below the rounding of the z-form: in the pole form
+    (:class:`_PoleForm`, exact A_p and N_p) the excess e(u) = P(u)/(u(2 − u)) keeps its digits. Its
+    maximum over a logarithmic grid of u decides the kind; the turning points are the roots of
+    P(u) on either side of it (the one at the pole side a hair off it, or the pole itself if N(p)
+    is 0 to the last bit).
+    """
+    p = math.copysign(1.0, zm)
+    form = _PoleForm(w, p, at_pole=False)
+    u = np.concatenate([np.logspace(-320, -7, 628), [1.0 - p * zm] if abs(zm) < 1.0 else []])
+    u = u[u > 0.0]
+    with np.errstate(all="ignore"):
+        e = form.P(u) / (u * (2.0 - u))
+    e[~np.isfinite(e)] = -np.inf
+    k = int(np.argmax(e))
+    u_m, depth = float(u[k]), float(e[k])
+    top = w.top
+    tol = 64.0 * _EPS * (abs(form.A) + w.mgR * top.alpha * u_m + abs(form.A - depth))
+    z_m = p * (1.0 - u_m)
+    if depth <= tol:
+        kind = "steady" if depth >= -(tol + 8.0 * _EPS * abs(w.E)) else "none"
+        z = zm if kind == "steady" else math.nan
+        return Band(kind, z, z, zm, max(depth, 0.0) if kind == "steady" else depth)
+    # pole side: a root in (0, u_m) if P(0) = −C N_p² < 0, else the pole itself
+    u_near = 0.0
+    if float(form.P(0.0)) < 0.0:
+        u_near = optimize.brentq(form.P, 0.0, u_m, xtol=1e-300, rtol=4 * _EPS)
+    # far side: the first sign change of P beyond u_m, bracketed by doubling up to z = 0; past
+    # it, in the form of the other pole (its distance v = 1 + p z keeps the digits near it)
+    lo, hi = u_m, min(2.0 * u_m, 1.0)
+    while hi < 1.0 and float(form.P(hi)) > 0.0:
+        lo, hi = hi, min(2.0 * hi, 1.0)
+    z_near = p * (1.0 - u_near)
+    if u_near > 0.0 and z_near == p:  # a wall closer to the pole than one ulp of z: not the pole
+        z_near = math.nextafter(p, 0.0)
+    if float(form.P(hi)) <= 0.0:
+        z_far = p * (1.0 - optimize.brentq(form.P, lo, hi, xtol=1e-300, rtol=4 * _EPS))
+    else:
+        other = _PoleForm(w, -p, at_pole=False)
+        v_lo = 0.0
+        if float(other.P(0.0)) >= 0.0:  # N(−p) negligible: the far pole is reached if A ≥ 0
+            v_lo = 1.0
+            while v_lo > 1e-300 and float(other.P(v_lo)) > 0.0:
+                v_lo *= 0.5
+            v_lo = 0.0 if float(other.P(v_lo)) > 0.0 else v_lo
+        if v_lo == 0.0 and float(other.P(0.0)) >= 0.0:
+            v_far = 0.0
+        else:
+            v_far = optimize.brentq(other.P, v_lo, 1.0, xtol=1e-300, rtol=4 * _EPS)
+        z_far = -p * (1.0 - v_far)
+        if v_far > 0.0 and z_far == -p:
+            z_far = math.nextafter(-p, 0.0)
+    z_lo, z_hi = min(z_near, z_far), max(z_near, z_far)
+    return Band("nutation", z_lo, z_hi, z_m if abs(z_m) < 1.0 else zm, depth)
+
+
 def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
     w = _Well(top, E, D, lam)
     mins = _wells(w)
     candidates = []
     for zm in mins:
+        if _near_pole_well(w, zm):
+            candidates.append(_pole_band(w, zm))
+            continue
         depth = w.excess(zm)
         tol, tol_in = (
             float(t)
@@ -1383,6 +1453,10 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
 
     W = _Wells(top, E, D, lam)
     zm, vec = _locate_wells(W)
+    near = vec & (1.0 - np.abs(zm) < _NEAR_POLE)
+    k = np.flatnonzero(near)
+    if k.size:  # wells hugging a pole: classified in the pole form (scalar path, _pole_band)
+        vec[k] = (np.abs(zm[k]) == 1.0) & W.sub(k).n_vanishes(zm[k])
     v = np.flatnonzero(vec)
     Wv = W.sub(v)
     zmv = zm[v]

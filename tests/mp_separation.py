@@ -32,12 +32,18 @@ class MpBand(NamedTuple):
     precession: float
 
 
-def _functions(top, E, D, lam):
+def _functions(top, E, D, lam, start=None):
     mp = mpmath.mpf
     m, R, al, I1, I3, gr = (mp(v) for v in (top.m, top.R, top.alpha, top.I1, top.I3, top.g))
     E, D, lam = mp(E), mp(D), mp(lam)
     gam, sig = I1 / I3, m * R**2 / I3
     Es = E - D**2 / (2 * I1) + m * lam**2 / (2 * I1 * I3)
+    if start is not None:
+        # the start z0 is a turning point: E = V(z0) (used where the rounded E lies below V(z0))
+        z0 = mp(start)
+        n0 = lam * mpmath.sqrt(gam + sig * (al - z0) ** 2 + sig * gam * (1 - z0 * z0))
+        n0 += R * D * (al - z0)
+        Es = m * gr * R * (1 - al * z0) + I3 * n0 * n0 / (2 * I1**2 * R**2) / (1 - z0 * z0)
     C = I3 / (2 * I1**2 * R**2)
 
     def sqd(z):
@@ -91,15 +97,18 @@ def _end(P, x, direction, step):
         s *= 2
 
 
-def reference(top, E, D, lam, z_in, *, dps=40, precession=True) -> MpBand:
+def reference(top, E, D, lam, z_in, *, dps=40, precession=True, start=False) -> MpBand:
     """Band, period and mean precession of the rolling motion through (or starting at) z_in.
 
     ``z_in`` is a point of the band or one of its turning points (a start at rest in θ): the side
-    of it where P > 0 is searched for within 1e-3 of it.
+    of it where P > 0 is searched for within 1e-3 of it. With ``start``, E is replaced by V(z_in)
+    (z_in is the turning point of a start at rest in θ) where the given E lies below V(z_in).
     """
     with mpmath.workdps(dps):
         mp = mpmath.mpf
         P, g, phidot = _functions(top, E, D, lam)
+        if start and not P(mp(z_in)) > 0:
+            P, g, phidot = _functions(top, E, D, lam, start=z_in)
         x = mp(z_in)
         tiny = mp(10) ** (-dps + 8)
         if not P(x) > 0:
