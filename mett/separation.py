@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 from scipy import optimize
 
 from . import _validate
-from .potential import _POLE_RTOL, _kinetic_coefficient, d, d2V_dz2, dd_dz, dV_dz, g
+from .potential import _N, _POLE_RTOL, _kinetic_coefficient, d, d2V_dz2, dd_dz, dV_dz, g
 
 if TYPE_CHECKING:
     from .top import TippeTop
@@ -201,7 +201,7 @@ class _Well:
         self.zr: float | None = None
 
     def N(self, z):
-        return self.lam * np.sqrt(d(self.top, z)) + self.top.R * self.D * (self.top.alpha - z)
+        return _N(self.top, np.sqrt(d(self.top, z)), z, self.D, self.lam)
 
     def gravity(self, z):
         return self.mgR * (1.0 - self.top.alpha * z)
@@ -322,7 +322,7 @@ class _Well:
         """(1 − z²)² ∂V/∂z: regular on [−1, 1]; its sign changes − → + are the minima of V."""
         top = self.top
         sqd = np.sqrt(d(top, z))
-        n = self.lam * sqd + top.R * self.D * (top.alpha - z)
+        n = _N(top, sqd, z, self.D, self.lam)
         dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
         w = 1.0 - z * z
         return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
@@ -470,6 +470,35 @@ def _near_pole_well(w: _Well, zm: float) -> bool:
     return 1.0 - abs(zm) < _NEAR_POLE and not (abs(zm) == 1.0 and w.n_vanishes(zm))
 
 
+def _root_towards(P, lo: float, hi: float) -> float:
+    """Root of P in [lo, hi] with P(lo) <= 0 < P(hi) (or the reverse), lo possibly 0 or tiny.
+
+    The bracket is first shrunk geometrically towards lo (by 16× per step) so that brentq starts
+    within a factor 16 of a root that may lie many decades below hi (a wall at u ~ 1e-25).
+    """
+    s_hi = float(P(hi)) > 0.0
+    while hi - lo > 16.0 * lo:
+        mid = hi / 16.0 if lo == 0.0 else math.sqrt(lo * hi) if lo > 0.0 else 0.5 * (lo + hi)
+        if not lo < mid < hi:
+            break
+        if (float(P(mid)) > 0.0) != s_hi:
+            lo = mid
+            break
+        hi = mid
+    return optimize.brentq(P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=400)
+
+
+def _interior_u(form: _PoleForm, u_hint: float) -> tuple[float, float]:
+    """(u, P(u)/(u(2 − u))): the largest excess Ẽ − V on a log grid of u up to 1e-7 and at u_hint."""
+    u = np.concatenate([np.logspace(-320, -7, 628), [u_hint] if 0.0 < u_hint < 2.0 else []])
+    u = u[u > 0.0]
+    with np.errstate(all="ignore"):
+        e = form.P(u) / (u * (2.0 - u))
+    e[~np.isfinite(e)] = -np.inf
+    k = int(np.argmax(e))
+    return float(u[k]), float(e[k])
+
+
 def _pole_band(w: _Well, zm: float) -> Band:
     """Classify and bound the band of a well hugging the pole p, in the distance u = 1 − p z.
 
@@ -482,13 +511,7 @@ def _pole_band(w: _Well, zm: float) -> Band:
     """
     p = math.copysign(1.0, zm)
     form = _PoleForm(w, p, at_pole=False)
-    u = np.concatenate([np.logspace(-320, -7, 628), [1.0 - p * zm] if abs(zm) < 1.0 else []])
-    u = u[u > 0.0]
-    with np.errstate(all="ignore"):
-        e = form.P(u) / (u * (2.0 - u))
-    e[~np.isfinite(e)] = -np.inf
-    k = int(np.argmax(e))
-    u_m, depth = float(u[k]), float(e[k])
+    u_m, depth = _interior_u(form, 1.0 - p * zm)
     top = w.top
     tol = 64.0 * _EPS * (abs(form.A) + w.mgR * top.alpha * u_m + abs(form.A - depth))
     z_m = p * (1.0 - u_m)
@@ -499,7 +522,7 @@ def _pole_band(w: _Well, zm: float) -> Band:
     # pole side: a root in (0, u_m) if P(0) = −C N_p² < 0, else the pole itself
     u_near = 0.0
     if float(form.P(0.0)) < 0.0:
-        u_near = optimize.brentq(form.P, 0.0, u_m, xtol=1e-300, rtol=4 * _EPS)
+        u_near = _root_towards(form.P, 0.0, u_m)
     # far side: the first sign change of P beyond u_m, bracketed by doubling up to z = 0; past
     # it, in the form of the other pole (its distance v = 1 + p z keeps the digits near it)
     lo, hi = u_m, min(2.0 * u_m, 1.0)
@@ -521,12 +544,33 @@ def _pole_band(w: _Well, zm: float) -> Band:
         if v_lo == 0.0 and float(other.P(0.0)) >= 0.0:
             v_far = 0.0
         else:
-            v_far = optimize.brentq(other.P, v_lo, 1.0, xtol=1e-300, rtol=4 * _EPS)
+            v_far = _root_towards(other.P, v_lo, 1.0)
         z_far = -p * (1.0 - v_far)
         if v_far > 0.0 and z_far == -p:
             z_far = math.nextafter(-p, 0.0)
     z_lo, z_hi = min(z_near, z_far), max(z_near, z_far)
     return Band("nutation", z_lo, z_hi, z_m if abs(z_m) < 1.0 else zm, depth)
+
+
+def _refine_layer_ends(w: _Well, b: Band) -> Band:
+    """Turning points in the layer of a pole re-solved in the pole form (:meth:`_PoleForm.root`).
+
+    The z-form P is accurate to ~ε of its largest terms, a few ulps of z next to a pole; the
+    distance u = 1 − p z from the pole is solved to full relative precision instead.
+    """
+    ends = [b.z_low, b.z_high]
+    mid = 0.5 * (b.z_low + b.z_high)
+    for i, layer in enumerate(_pole_layer(b)):
+        z = ends[i]
+        if layer and abs(z) < 1.0:
+            p = 1.0 if z >= 0.0 else -1.0
+            form = _PoleForm(w, p, at_pole=False)
+            u_in = 1.0 - p * mid
+            if not float(form.P(u_in)) > 0.0:
+                continue
+            zt = p * (1.0 - form.root(1.0 - p * z, u_in))
+            ends[i] = zt if abs(zt) < 1.0 else math.nextafter(p, 0.0)
+    return b._replace(z_low=ends[0], z_high=ends[1])
 
 
 def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
@@ -557,7 +601,7 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
                 # no sign change between the bottom and a pole: the band is below rounding
                 candidates.append(Band("steady", zm, zm, zm, depth))
                 continue
-            candidates.append(Band("nutation", z_low, z_high, zm, depth))
+            candidates.append(_refine_layer_ends(w, Band("nutation", z_low, z_high, zm, depth)))
     live = [b for b in candidates if b.kind != "none"]
     if z0 is not None:
         for b in live:
@@ -566,10 +610,7 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
             slack = (b.z_high - b.z_low) * (1e-6 + _conditioning(top, E, D, lam, b.depth)) + 1e-12
             if b.z_low - slack <= z0 <= b.z_high + slack:
                 return b
-        raise ValueError(
-            f"no admissible motion through z0 = {z0!r} for (E, D, lam) = ({E!r}, {D!r}, {lam!r}): "
-            "E is below V(z0)"
-        )
+        raise ValueError(_z0_message(z0, E, D, lam))
     if len(live) > 1:
         # Several disjoint wells: the one the motion is in depends on the start.
         bands = ", ".join(f"[{b.z_low:.6g}, {b.z_high:.6g}]" for b in live)
@@ -586,8 +627,9 @@ def _start_energy(top: TippeTop, E: float, D: float, lam: float, z0: float) -> f
     A start at rest in θ (a state) is a turning point: V(z0) = Ẽ exactly. Rounding E, D, λ to
     doubles moves Ẽ − V by up to ~8εS (:func:`_steady_tolerance`); at high spin that is more
     than the depth of the band, so the rounded triple can put z0 just outside its band, or leave
-    no band at all. Within that bound the smallest double Ẽ ≥ V(z0) (plus the computation's own
-    rounding) is returned, so that z0 is a turning point again; beyond it, None (inadmissible).
+    no band at all. Within that bound the double nearest V(z0) (stepped up by ulps until the
+    band holds z0) is returned, so that z0 is a turning point to one ulp of Ẽ; beyond it, None
+    (inadmissible).
     """
     w = _Well(top, E, D, lam)
     excess = float(w.excess(z0))
@@ -597,13 +639,13 @@ def _start_energy(top: TippeTop, E: float, D: float, lam: float, z0: float) -> f
     tol, tol_in = _steady_tolerance(top, E, D, lam, w.Es, float(w.gravity(z0)), kin)
     if -excess > float(tol + tol_in):
         return None
-    raised = E - excess + 2.0 * float(tol)
+    raised = E - excess
     for _ in range(64):
         try:
             _band_scalar(top, raised, D, lam, z0)
             return raised
         except ValueError:
-            raised = raised + 2.0 * float(tol) + math.ulp(raised)
+            raised = max(math.nextafter(raised, math.inf), raised + float(tol))
     return None
 
 
@@ -632,26 +674,10 @@ def _admissible(top: TippeTop, E, D, lam, z0) -> tuple[Band, _Well]:
         E = e_start
         b = _band_scalar(top, E, D, lam, z0)
     if b.kind == "none":
-        raise ValueError(
-            f"(E, D, lam) = ({E!r}, {D!r}, {lam!r}) admits no motion: E lies "
-            f"{-b.depth:.3g} J below the minimum of V (at z = {b.z_min:.6g}); need E >= min V"
-        )
+        raise ValueError(_no_motion_message(E, D, lam, b.depth, b.z_min))
     w = _Well(top, E, D, lam)
     w.set_reference(b.z_min)
     return b, w
-
-
-def _map(fn, E, D, lam, z0):
-    E, D, lam, z0 = _broadcast(E, D, lam, z0)
-    zz = [None] * E.size if z0 is None else z0.ravel()
-    res = [
-        fn(float(e), float(dd), float(la), None if z is None else float(z))
-        for e, dd, la, z in zip(E.ravel(), D.ravel(), lam.ravel(), zz, strict=True)
-    ]
-    arr = np.array(res, dtype=float)
-    if E.ndim == 0:
-        return float(arr[0]) if arr.ndim == 1 else arr[0]
-    return arr.reshape(E.shape + arr.shape[1:])
 
 
 def _near_pole_root(z_t, z_m):
@@ -705,6 +731,7 @@ def _gauss_sum(values):
 # A band with an end closer than this fraction of its half-width to a pole (or at the pole) is
 # integrated about that pole (:func:`_anchored_quadrature`).
 _POLE_LAYER = 1e-3
+_POLE_ABS = 1e-8  # ... or closer than this in z (a few ulps of z would be ≳1e-8 of the gap)
 _TAU_PANEL = 0.75  # width of the Gauss–Legendre panels in τ (see _anchored_half)
 _TAU_NODES = np.polynomial.legendre.leggauss(20)
 
@@ -719,9 +746,10 @@ def _pole_layer(b: Band) -> tuple[bool, bool]:
     below one ulp of z. All such bands are integrated in the distance u = 1 ∓ z from that pole.
     """
     h = 0.5 * (b.z_high - b.z_low)
-    if not h > 0.0:  # steady (or no) motion: no band, no layer
+    if b.kind != "nutation" or not h >= 0.0:  # steady (or no) motion: no band, no layer
         return False, False
-    return (1.0 - abs(b.z_low) < _POLE_LAYER * h), (1.0 - abs(b.z_high) < _POLE_LAYER * h)
+    gap = max(_POLE_LAYER * h, _POLE_ABS)
+    return (1.0 - abs(b.z_low) < gap), (1.0 - abs(b.z_high) < gap)
 
 
 def _pole_N(top: TippeTop, D: float, lam: float, pole: float) -> float:
@@ -880,6 +908,15 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tupl
     fb = _PoleForm(w, pb, abs(zb) == 1.0)
     ua0, ub0 = 1.0 - pa * za, 1.0 - pb * zb  # exact (Sterbenz) for |z| ≥ ½
     if pa == pb:
+        # both ends next to one pole: the roots about a point inside, found in u (in z the ends
+        # may be a few ulps apart or even equal)
+        u_in = _interior_u(fa, 1.0 - pa * b.z_min)[0]
+        u_lo = _root_towards(fa.P, 0.0, u_in) if float(fa.P(0.0)) < 0.0 else 0.0
+        lo, hi = u_in, 2.0 * u_in
+        while hi < 1.0 and float(fa.P(hi)) > 0.0:
+            lo, hi = hi, 2.0 * hi
+        u_hi = optimize.brentq(fa.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+        ua0, ub0 = (u_hi, u_lo) if pa > 0.0 else (u_lo, u_hi)
         us_a = us_b = 0.5 * (ua0 + ub0)
     else:
         zs = 0.5 * (za + zb)
@@ -1159,7 +1196,7 @@ class _Wells:
         return self._derive(lambda v: v[:, None])
 
     def N(self, z):
-        return self.lam * np.sqrt(d(self.top, z)) + self.top.R * self.D * (self.top.alpha - z)
+        return _N(self.top, np.sqrt(d(self.top, z)), z, self.D, self.lam)
 
     def gravity(self, z):
         return self.mgR * (1.0 - self.top.alpha * z)
@@ -1171,7 +1208,7 @@ class _Wells:
     def critical(self, z):
         top = self.top
         sqd = np.sqrt(d(top, z))
-        n = self.lam * sqd + top.R * self.D * (top.alpha - z)
+        n = _N(top, sqd, z, self.D, self.lam)
         dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
         w = 1.0 - z * z
         return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
@@ -1488,9 +1525,8 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
             good[j[~ok]] = False
         # bands ending in a boundary layer next to a pole go to the graded quadrature (scalar)
         half = 0.5 * (zh - zl)
-        layer = (half > 0.0) & (
-            (1.0 - np.abs(zl) < _POLE_LAYER * half) | (1.0 - np.abs(zh) < _POLE_LAYER * half)
-        )
+        gap = np.maximum(_POLE_LAYER * half, _POLE_ABS)
+        layer = (half >= 0.0) & ((1.0 - np.abs(zl) < gap) | (1.0 - np.abs(zh) < gap))
         good &= ~layer
         vec[k[~good]] = False
         z_low[k], z_high[k] = zl, zh

@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import mpmath
 
-_EXTRA = 3
+_EXTRA = 8  # panels beyond the pole gap
 
 
 class MpBand(NamedTuple):
