@@ -83,7 +83,7 @@ def test_start_on_the_inverted_pole_is_the_separatrix(omega3):
         assert math.isinf(mett.nutation_period(TOP, E, D, lam))
         # ⟨φ̇⟩ → φ̇ at the pole: −p N'(p)/(2 R I1 √d(p)), p = −1, N' = λ d'/(2√d) − R D
         sqd = math.sqrt(float(mett.d(TOP, -1.0)))
-        n1 = lam * float(sep.dd_dz(TOP, -1.0)) / (2 * sqd) - TOP.R * D
+        n1 = lam * float(mett.potential.dd_dz(TOP, -1.0)) / (2 * sqd) - TOP.R * D
         limit = n1 / (2 * TOP.R * TOP.I1 * sqd)
         assert mett.mean_precession(TOP, E, D, lam) == pytest.approx(limit, rel=1e-12, abs=1e-300)
 

@@ -355,7 +355,7 @@ def test_elements_passed_to_the_scalar_path_give_the_same_results(monkeypatch):
         return zm, single
 
     T_vec = mett.nutation_period(top, E, D, lam)
-    monkeypatch.setattr(sep, "_locate_wells", half)
+    monkeypatch.setattr(sep._api, "_locate_wells", half)  # where _solve looks it up
     sol = sep._solve(top, E, D, lam, None, "period")
     assert sol.scalar[::2].all()  # forced; the others only for pole-layer bands
     assert sol.scalar.sum() <= (E.size + 1) // 2 + sum(
