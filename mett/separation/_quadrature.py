@@ -21,7 +21,7 @@ from ..potential import d, d2V_dz2, dV_dz, g
 if TYPE_CHECKING:
     from ..top import TippeTop
 from ._roots import _offset_root, _offset_roots
-from ._shift import _EPS
+from ._shift import _EPS, _MAXITER
 from ._wells import Band, _interior_u, _pole_layer, _PoleForm, _root_towards, _Well, _Wells
 
 _N_QUAD = 96  # Gauss–Legendre nodes in u for periods and means
@@ -117,7 +117,7 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tupl
         lo, hi = u_in, 2.0 * u_in
         while hi < 1.0 and float(fa.P(hi)) > 0.0:
             lo, hi = hi, 2.0 * hi
-        u_hi = optimize.brentq(fa.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+        u_hi = optimize.brentq(fa.P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
         ua0, ub0 = (u_hi, u_lo) if pa > 0.0 else (u_lo, u_hi)
         us_a = us_b = 0.5 * (ua0 + ub0)
     else:

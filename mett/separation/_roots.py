@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize
 
-from ._shift import _EPS
+from ._shift import _EPS, _MAXITER
 
 if TYPE_CHECKING:
     from ._wells import _Well, _Wells
@@ -39,7 +39,7 @@ def _turning_point(w: _Well, pole: float, zm: float) -> float:
         if pole == zm or w.P(pole) >= 0.0:
             return pole  # the wall (N ≈ 0, a vanishing spin) is within one ulp of the pole
     lo, hi = (pole, zm) if pole < zm else (zm, pole)
-    root = optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+    root = optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
     return _polish_near_pole(w, root, pole, zm)
 
 
@@ -58,7 +58,7 @@ def _polish_near_pole(w, root: float, pole: float, zm: float) -> float:
     if not (w.P_direct(pole) < 0.0 < w.P_direct(mid)):
         return root
     lo, hi = (pole, mid) if pole < mid else (mid, pole)
-    return optimize.brentq(w.P_direct, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+    return optimize.brentq(w.P_direct, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
 
 
 def _near_pole_root(z_t, z_m):
@@ -93,14 +93,16 @@ def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
             pa, pb = w.P_offset(a), w.P_offset(b)
             if pa <= 0.0 <= pb:
                 lo, hi = min(a, b), max(a, b)
-                return optimize.brentq(w.P_offset, lo, hi, xtol=1e-300, rtol=4 * _EPS), True
+                return optimize.brentq(
+                    w.P_offset, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER
+                ), True
         step *= 4.0
     # No sign change next to z_t: a wall within one ulp of a pole (N ≈ 0, a vanishing spin; see
     # _turning_point), not a root of P.
     return x0, False
 
 
-def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter: int = 100):
+def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter: int = _MAXITER):
     """scipy.optimize.brentq for arrays of brackets [a, b], iterate for iterate.
 
     ``fun(x, k)`` evaluates the function of the elements with indices ``k`` (into ``a``) at ``x``.

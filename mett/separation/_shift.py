@@ -16,6 +16,9 @@ if TYPE_CHECKING:
     from ..top import TippeTop
 
 _EPS = np.finfo(float).eps
+# brentq iterations: a root within a few ulps of a pole, bracketed from the other end of [−1, 1],
+# can need more than scipy's default 100 (Brent falls back to ~1 bisection per 2 iterations)
+_MAXITER = 400
 
 
 # --- the exact energy shift ------------------------------------------------------------------

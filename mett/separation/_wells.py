@@ -16,7 +16,7 @@ from ..potential import _N, _POLE_RTOL, _kinetic_coefficient, d, dd_dz
 if TYPE_CHECKING:
     from ..top import TippeTop
 from ._roots import _brentq
-from ._shift import _EPS, _shift, _shifted_energy
+from ._shift import _EPS, _MAXITER, _shift, _shifted_energy
 
 _N_GRID = 401  # samples of the critical-point numerator when locating the wells of V
 _Z_GRID = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
@@ -206,7 +206,9 @@ def _wells(w: _Well) -> list[float]:
                 mins.append(float(zs[i + 1]))
             else:
                 mins.append(
-                    optimize.brentq(w.critical, zs[i], zs[i + 1], xtol=1e-300, rtol=4 * _EPS)
+                    optimize.brentq(
+                        w.critical, zs[i], zs[i + 1], xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER
+                    )
                 )
     # A pole where N vanishes and V decreases towards it is a minimum too (a stable spin).
     if cr[-1] <= 0.0 and cr[-2] < 0.0:
@@ -285,7 +287,7 @@ def _root_towards(P, lo: float, hi: float) -> float:
             lo = mid
             break
         hi = mid
-    return optimize.brentq(P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=400)
+    return optimize.brentq(P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
 
 
 def _interior_u(form: _PoleForm, u_hint: float) -> tuple[float, float]:
@@ -332,7 +334,9 @@ def _pole_band(w: _Well, zm: float) -> Band:
     if u_near > 0.0 and z_near == p:  # a wall closer to the pole than one ulp of z: not the pole
         z_near = math.nextafter(p, 0.0)
     if float(form.P(hi)) <= 0.0:
-        z_far = p * (1.0 - optimize.brentq(form.P, lo, hi, xtol=1e-300, rtol=4 * _EPS))
+        z_far = p * (
+            1.0 - optimize.brentq(form.P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
+        )
     else:
         other = _PoleForm(w, -p, at_pole=False)
         v_lo = 0.0
@@ -458,7 +462,7 @@ class _PoleForm:
             pa, pb = float(self.P(a)), float(self.P(b))
             if pa <= 0.0 < pb:
                 lo, hi = min(a, b), max(a, b)
-                return optimize.brentq(self.P, lo, hi, xtol=1e-300, rtol=4 * _EPS)
+                return optimize.brentq(self.P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
             step *= 4.0
         return u_guess
 
