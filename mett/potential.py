@@ -49,9 +49,14 @@ _POLE_RTOL = 64.0 * float(np.finfo(float).eps)
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d(z) = γ + σ(α − z)² + σγ(1 − z²) (theory.md §1); D = I3 ω3 √d(z)."""
-    z = _validate.cos_theta(z)
+    return _d(top, _validate.cos_theta(z))
+
+
+def _d(top: TippeTop, z):
+    """:func:`d` without validation, for checked z in [−1, 1] (the separation layer's inner loops)."""
     gam, sig, a = top.gamma, top.sigma, top.alpha
-    return gam + sig * (a - z) ** 2 + sig * gam * (1.0 - z * z)
+    t = a - z
+    return gam + sig * (t * t) + sig * gam * (1.0 - z * z)  # t * t: x**2 of arrays, also for floats
 
 
 def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:

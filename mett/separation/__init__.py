@@ -32,7 +32,7 @@ so an element gets bit for bit the numbers the scalar reference path (:func:`_ba
 elements the array path does not handle (V with several wells, a failed bracket) are passed to the
 scalar reference path.
 
-Layout: :mod:`._shift` (exact energy shift), :mod:`._wells` (P, wells, classification, the pole
+Layout: :mod:`._exact` (the exact energy shift), :mod:`._wells` (P, wells, classification, the pole
 form), :mod:`._roots` (vectorised root finding, turning points), :mod:`._quadrature` (periods and
 means), :mod:`._api` (the public functions and the per-element reference path).
 """
@@ -57,9 +57,9 @@ from ._api import (
     nutation_period,
     turning_points,
 )
+from ._exact import _EPS, _shift, _shifted_energy
 from ._quadrature import _anchored_quadrature, _quadrature
 from ._roots import _brentq
-from ._shift import _EPS, _shift, _shifted_energy
 from ._wells import (
     _NEAR_POLE,
     Band,

@@ -13,9 +13,9 @@ from ..potential import d2V_dz2, dV_dz, g
 
 if TYPE_CHECKING:
     from ..top import TippeTop
+from ._exact import _shift
 from ._quadrature import _phidot, _quadrature, _quadrature_vec, _small_oscillation_omega
 from ._roots import _turning_point, _turning_points_vec
-from ._shift import _shift
 from ._wells import (
     _NEAR_POLE,
     _POLE_ABS,

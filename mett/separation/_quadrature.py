@@ -16,12 +16,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize
 
-from ..potential import d, d2V_dz2, dV_dz, g
+from ..potential import _d, d2V_dz2, dV_dz, g
 
 if TYPE_CHECKING:
     from ..top import TippeTop
+from ._exact import _EPS, _MAXITER
 from ._roots import _offset_root, _offset_roots
-from ._shift import _EPS, _MAXITER
 from ._wells import Band, _interior_u, _pole_layer, _PoleForm, _root_towards, _Well, _Wells
 
 _N_QUAD = 96  # Gauss–Legendre nodes in u for periods and means
@@ -192,7 +192,7 @@ def _small_oscillation_omega(top: TippeTop, b: Band, w: _Well) -> float:
 
 def _phidot(top: TippeTop, w: _Well, z):
     """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (theory.md §4)."""
-    return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(d(top, z)))
+    return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(_d(top, z)))
 
 
 _SIN_U, _COS_U = np.sin(_U_NODES), np.cos(_U_NODES)

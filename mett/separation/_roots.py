@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize
 
-from ._shift import _EPS, _MAXITER
+from ._exact import _EPS, _MAXITER
 
 if TYPE_CHECKING:
     from ._wells import _Well, _Wells

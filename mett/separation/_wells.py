@@ -4,6 +4,7 @@ form of P (:class:`_PoleForm`) and the classification of a well as nutation, ste
 
 from __future__ import annotations
 
+import functools
 import math
 from fractions import Fraction
 from typing import TYPE_CHECKING, NamedTuple
@@ -11,12 +12,12 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from scipy import optimize
 
-from ..potential import _N, _POLE_RTOL, _kinetic_coefficient, d, dd_dz
+from ..potential import _N, _POLE_RTOL, _d, _kinetic_coefficient, dd_dz
 
 if TYPE_CHECKING:
     from ..top import TippeTop
+from ._exact import _EPS, _MAXITER, _shift, _shift_fraction, _shifted_energy
 from ._roots import _brentq
-from ._shift import _EPS, _MAXITER, _shift, _shifted_energy
 
 _N_GRID = 401  # samples of the critical-point numerator when locating the wells of V
 _Z_GRID = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
@@ -40,7 +41,7 @@ class _Well:
         self.zr: float | None = None
 
     def N(self, z):
-        return _N(self.top, np.sqrt(d(self.top, z)), z, self.D, self.lam)
+        return _N(self.top, np.sqrt(_d(self.top, z)), z, self.D, self.lam)
 
     def gravity(self, z):
         return self.mgR * (1.0 - self.top.alpha * z)
@@ -63,7 +64,7 @@ class _Well:
         self.zr = zr
         if self.pole_ref:
             top = self.top
-            self.sqd_r = float(np.sqrt(d(top, zr)))
+            self.sqd_r = float(np.sqrt(_d(top, zr)))
             self.dd_r = float(dd_dz(top, zr))
             self.A_r = float(_shift(top, self.E, self.D, self.lam, zr))
             return
@@ -73,7 +74,7 @@ class _Well:
             # is meaningless, and P needs none (nothing large cancels when N is that small).
             self.zr = None
             return
-        self.sqd_r = float(np.sqrt(d(self.top, zr)))
+        self.sqd_r = float(np.sqrt(_d(self.top, zr)))
         self.dd_r = float(dd_dz(self.top, zr))
         self.N_r = float(self.N(zr))
         self.depth_r = self.Es - float(self.gravity(zr)) - self.C * self.N_r**2 / self.w_r
@@ -110,7 +111,7 @@ class _Well:
         zsum = 2.0 * self.zr + a + x
         d_div = -2.0 * top.sigma * top.alpha + top.sigma * (1.0 - top.gamma) * zsum
         za, zx = np.clip(self.zr + a, -1.0, 1.0), np.clip(self.zr + x, -1.0, 1.0)
-        n_div = self.lam * d_div / (np.sqrt(d(top, za)) + np.sqrt(d(top, zx))) - top.R * self.D
+        n_div = self.lam * d_div / (np.sqrt(_d(top, za)) + np.sqrt(_d(top, zx))) - top.R * self.D
         n_a, n_x = self.N_r + self.delta_N(a), self.N_r + self.delta_N(x)
         w_a = self.w_r - (2.0 * self.zr + a) * a
         w_x = self.w_r - (2.0 * self.zr + x) * x
@@ -141,7 +142,7 @@ class _Well:
         z = np.clip(self.zr + delta, -1.0, 1.0)
         # d is quadratic: d(z) − d(z_r) = d'(z_r) δ + σ(1 − γ) δ² exactly.
         dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
-        return self.lam * dd / (np.sqrt(d(top, z)) + self.sqd_r) - top.R * self.D * delta
+        return self.lam * dd / (np.sqrt(_d(top, z)) + self.sqd_r) - top.R * self.D * delta
 
     def P_offset(self, delta):
         """P(z_r + δ) in terms of the offset δ (needs set_reference)."""
@@ -160,7 +161,7 @@ class _Well:
     def critical(self, z):
         """(1 − z²)² ∂V/∂z: regular on [−1, 1]; its sign changes − → + are the minima of V."""
         top = self.top
-        sqd = np.sqrt(d(top, z))
+        sqd = np.sqrt(_d(top, z))
         n = _N(top, sqd, z, self.D, self.lam)
         dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
         w = 1.0 - z * z
@@ -169,7 +170,7 @@ class _Well:
     def n_vanishes(self, z: float) -> bool:
         """Whether N(z) is zero to rounding (at a pole: the spinning solutions D = D0, D1)."""
         top = self.top
-        scale = abs(self.lam) * float(np.sqrt(d(top, z))) + abs(top.R * self.D * (top.alpha - z))
+        scale = abs(self.lam) * float(np.sqrt(_d(top, z))) + abs(top.R * self.D * (top.alpha - z))
         return abs(float(self.N(z))) <= _POLE_RTOL * scale
 
     def excess(self, z):
@@ -393,6 +394,14 @@ def _pole_N(top: TippeTop, D: float, lam: float, pole: float) -> float:
     return float(F(lam) * (F(s) + r) + F(top.R) * F(D) * (F(top.alpha) - F(pole)))
 
 
+@functools.lru_cache(maxsize=1024)
+def _pole_constants(top: TippeTop, E: float, D: float, lam: float, pole: float):
+    """(A_p, N(p), √d(p), d'(p)) for one element, A_p and N(p) correctly rounded (exact rationals;
+    cached: the pole form of one element is built several times on the per-element path)."""
+    A = _shift_fraction(top, E, D, lam, pole)
+    return A, _pole_N(top, D, lam, pole), math.sqrt(float(_d(top, pole))), float(dd_dz(top, pole))
+
+
 class _PoleForm:
     """P and φ̇ in the distance u = 1 − p z from the pole p = ±1, without cancellation near it.
 
@@ -409,12 +418,10 @@ class _PoleForm:
     def __init__(self, w: _Well, pole: float, at_pole: bool = True) -> None:
         top = w.top
         self.w, self.p = w, pole
-        self.A = float(_shift(top, w.E, w.D, w.lam, pole))
-        self.sqd_p = math.sqrt(float(d(top, pole)))
-        self.dd_p = float(dd_dz(top, pole))
+        self.A, n_p, self.sqd_p, self.dd_p = _pole_constants(top, w.E, w.D, w.lam, pole)
         # N_p is 0 for a band ending at the pole (it vanishes there to rounding); a turning point
         # a hair off the pole needs its exact small value
-        self.N_p = 0.0 if at_pole and w.n_vanishes(pole) else _pole_N(top, w.D, w.lam, pole)
+        self.N_p = 0.0 if at_pole and w.n_vanishes(pole) else n_p
 
     def z(self, u):
         return self.p * (1.0 - u)
@@ -423,7 +430,7 @@ class _PoleForm:
         """N[p, z] (see the class docstring)."""
         top, w = self.w.top, self.w
         zp = -self.p * u
-        sqd = np.sqrt(d(top, np.clip(self.z(u), -1.0, 1.0)))
+        sqd = np.sqrt(_d(top, np.clip(self.z(u), -1.0, 1.0)))
         num = self.dd_p + top.sigma * (1.0 - top.gamma) * zp
         return w.lam * num / (sqd + self.sqd_p) - top.R * w.D
 
@@ -435,7 +442,7 @@ class _PoleForm:
     def phidot(self, u):
         """φ̇ = N/(R I1 (1 − z²)√d(z)) = N_p/(R I1 u(2 − u)√d) − p N[p, z]/(R I1 (2 − u)√d)."""
         top = self.w.top
-        sqd = np.sqrt(d(top, np.clip(self.z(u), -1.0, 1.0)))
+        sqd = np.sqrt(_d(top, np.clip(self.z(u), -1.0, 1.0)))
         k = top.R * top.I1 * (2.0 - u) * sqd
         return self.N_p / (k * u) - self.p * self.n_div(u) / k
 
@@ -507,7 +514,7 @@ class _Wells:
         return self._derive(lambda v: v[:, None])
 
     def N(self, z):
-        return _N(self.top, np.sqrt(d(self.top, z)), z, self.D, self.lam)
+        return _N(self.top, np.sqrt(_d(self.top, z)), z, self.D, self.lam)
 
     def gravity(self, z):
         return self.mgR * (1.0 - self.top.alpha * z)
@@ -518,7 +525,7 @@ class _Wells:
 
     def critical(self, z):
         top = self.top
-        sqd = np.sqrt(d(top, z))
+        sqd = np.sqrt(_d(top, z))
         n = _N(top, sqd, z, self.D, self.lam)
         dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
         w = 1.0 - z * z
@@ -530,7 +537,7 @@ class _Wells:
 
     def n_vanishes(self, z):
         top = self.top
-        scale = np.abs(self.lam) * np.sqrt(d(top, z)) + np.abs(top.R * self.D * (top.alpha - z))
+        scale = np.abs(self.lam) * np.sqrt(_d(top, z)) + np.abs(top.R * self.D * (top.alpha - z))
         return np.abs(self.N(z)) <= _POLE_RTOL * scale
 
     def excess(self, z):
@@ -545,7 +552,7 @@ class _Wells:
         """As :meth:`_Well.set_reference`; ``pole_ref`` for zr = ±1 where N vanishes."""
         top = self.top
         self.zr, self.pole_ref = zr, pole_ref
-        self.sqd_r = np.sqrt(d(top, zr))
+        self.sqd_r = np.sqrt(_d(top, zr))
         self.dd_r = dd_dz(top, zr)
         if pole_ref:
             self.A_r = _shift(top, self.E, self.D, self.lam, zr)
@@ -558,7 +565,7 @@ class _Wells:
         top = self.top
         z = np.clip(self.zr + delta, -1.0, 1.0)
         dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
-        return self.lam * dd / (np.sqrt(d(top, z)) + self.sqd_r) - top.R * self.D * delta
+        return self.lam * dd / (np.sqrt(_d(top, z)) + self.sqd_r) - top.R * self.D * delta
 
     def delta_V_offset(self, delta):
         top = self.top
@@ -575,7 +582,7 @@ class _Wells:
         zsum = 2.0 * self.zr + a + x
         d_div = -2.0 * top.sigma * top.alpha + top.sigma * (1.0 - top.gamma) * zsum
         za, zx = np.clip(self.zr + a, -1.0, 1.0), np.clip(self.zr + x, -1.0, 1.0)
-        n_div = self.lam * d_div / (np.sqrt(d(top, za)) + np.sqrt(d(top, zx))) - top.R * self.D
+        n_div = self.lam * d_div / (np.sqrt(_d(top, za)) + np.sqrt(_d(top, zx))) - top.R * self.D
         n_a, n_x = self.N_r + self.delta_N(a), self.N_r + self.delta_N(x)
         w_a = self.w_r - (2.0 * self.zr + a) * a
         w_x = self.w_r - (2.0 * self.zr + x) * x
@@ -605,7 +612,7 @@ class _Wells:
 
     def phidot(self, z):
         top = self.top
-        return self.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(d(top, z)))
+        return self.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(_d(top, z)))
 
 
 def _locate_wells(W: _Wells) -> tuple[np.ndarray, np.ndarray]:
