@@ -467,6 +467,15 @@ class _PoleForm:
             else:
                 a, b = min(a, 2.0), max(b, u_in)
             pa, pb = float(self.P(a)), float(self.P(b))
+            if a == 0.0 and pa == 0.0 < pb:
+                # P(0) = 0 (N_p = 0): the pole is a root too; the turning point is the root
+                # between (P < 0 just off the pole, A_p < 0) or the pole itself (P > 0 down to it)
+                x = b
+                while x > 1e-300 and float(self.P(x)) > 0.0:
+                    x /= 16.0
+                if not float(self.P(x)) < 0.0:
+                    return 0.0
+                a, pa = x, float(self.P(x))
             if pa <= 0.0 < pb:
                 lo, hi = min(a, b), max(a, b)
                 return optimize.brentq(self.P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
