@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 __all__ = [
     "energy",
     "energy_of",
+    "integrals_of",
     "jellett",
     "jellett_of",
     "modified_energy",
@@ -42,24 +43,12 @@ def jellett_of(
 
     Conserved for any contact force applied at the contact point (Rutstam 2012 §3).
     """
-    s, c = np.sin(theta), np.cos(theta)
-    return R * I1 * phidot * s**2 - I3 * omega3 * (l - R * c)
+    return _jellett(np.sin(theta), np.cos(theta), phidot, omega3, R, l, I1, I3)
 
 
 def routh_of(theta: Any, omega3: Any, m: float, R: float, l: float, I1: float, I3: float) -> Any:
-    """Routh's integral D = I3 ω3 √d(cos θ) (J s); conserved only while rolling."""
-    return I3 * omega3 * np.sqrt(d_of(np.cos(theta), m, R, l, I1, I3))
-
-
-def _omega_cross_a(theta: Any, thetadot: Any, phidot: Any, omega3: Any, R: float, l: float):
-    s, c = np.sin(theta), np.cos(theta)
-    return thetadot * (l * c - R), s * (R * omega3 + phidot * (l - R * c)), -l * s * thetadot
-
-
-def _rotational_and_potential(theta, thetadot, phidot, omega3, m, R, l, I1, I3, g):
-    s, c = np.sin(theta), np.cos(theta)
-    rot = 0.5 * (I1 * (phidot**2 * s**2 + thetadot**2) + I3 * omega3**2)
-    return rot + m * g * (R - l * c)
+    """Routh's integral D = I3 ω3 √d(cos θ) (kg m²/s); conserved only while rolling."""
+    return _routh(np.cos(theta), omega3, m, R, l, I1, I3)
 
 
 def energy_of(
@@ -77,9 +66,9 @@ def energy_of(
     g: float,
 ) -> Any:
     """Total energy E = ½ m|ṙ|² + ½ ω·L + m g (R − l cos θ) (J), with ṙ = ν − ω × a."""
-    wx, wy, wz = _omega_cross_a(theta, thetadot, phidot, omega3, R, l)
-    kin = 0.5 * m * ((nu_x - wx) ** 2 + (nu_y - wy) ** 2 + wz**2)
-    return kin + _rotational_and_potential(theta, thetadot, phidot, omega3, m, R, l, I1, I3, g)
+    s, c = np.sin(theta), np.cos(theta)
+    w = _omega_cross_a(s, c, thetadot, phidot, omega3, R, l)
+    return _energy(m, nu_x, nu_y, w, _rot_pot(s, c, thetadot, phidot, omega3, m, R, l, I1, I3, g))
 
 
 def modified_energy_of(
@@ -99,9 +88,62 @@ def modified_energy_of(
     Ẽ = E − ½ m|ν|² + m ν·(ω × a): the energy of the Main Equation Ẽ = g(z) θ̇² + V(z, D, λ) while
     the top glides, equal to E when ν = 0; evaluated in this form (no cancellation).
     """
-    wx, wy, wz = _omega_cross_a(theta, thetadot, phidot, omega3, R, l)
-    kin = 0.5 * m * (wx**2 + wy**2 + wz**2)
-    return kin + _rotational_and_potential(theta, thetadot, phidot, omega3, m, R, l, I1, I3, g)
+    s, c = np.sin(theta), np.cos(theta)
+    w = _omega_cross_a(s, c, thetadot, phidot, omega3, R, l)
+    return _modified_energy(m, w, _rot_pot(s, c, thetadot, phidot, omega3, m, R, l, I1, I3, g))
+
+
+def integrals_of(
+    theta: Any,
+    thetadot: Any,
+    phidot: Any,
+    omega3: Any,
+    nu_x: Any,
+    nu_y: Any,
+    m: float,
+    R: float,
+    l: float,
+    I1: float,
+    I3: float,
+    g: float,
+) -> dict[str, Any]:
+    """E, Ẽ ("E_mod"), D and λ ("lam") together (sharing sin θ, cos θ and ω × a), as above."""
+    s, c = np.sin(theta), np.cos(theta)
+    w = _omega_cross_a(s, c, thetadot, phidot, omega3, R, l)
+    rot_pot = _rot_pot(s, c, thetadot, phidot, omega3, m, R, l, I1, I3, g)
+    return {
+        "E": _energy(m, nu_x, nu_y, w, rot_pot),
+        "E_mod": _modified_energy(m, w, rot_pot),
+        "D": _routh(c, omega3, m, R, l, I1, I3),
+        "lam": _jellett(s, c, phidot, omega3, R, l, I1, I3),
+    }
+
+
+def _energy(m, nu_x, nu_y, w, rot_pot):
+    # ½ m |ν − ω × a|² + rotational + potential
+    return 0.5 * m * ((nu_x - w[0]) ** 2 + (nu_y - w[1]) ** 2 + w[2] ** 2) + rot_pot
+
+
+def _modified_energy(m, w, rot_pot):
+    # ½ m |ω × a|² + rotational + potential
+    return 0.5 * m * (w[0] ** 2 + w[1] ** 2 + w[2] ** 2) + rot_pot
+
+
+def _jellett(s, c, phidot, omega3, R, l, I1, I3):
+    return R * I1 * phidot * s**2 - I3 * omega3 * (l - R * c)
+
+
+def _routh(c, omega3, m, R, l, I1, I3):
+    return I3 * omega3 * np.sqrt(d_of(c, m, R, l, I1, I3))
+
+
+def _omega_cross_a(s, c, thetadot, phidot, omega3, R, l):
+    return thetadot * (l * c - R), s * (R * omega3 + phidot * (l - R * c)), -l * s * thetadot
+
+
+def _rot_pot(s, c, thetadot, phidot, omega3, m, R, l, I1, I3, g):
+    rot = 0.5 * (I1 * (phidot**2 * s**2 + thetadot**2) + I3 * omega3**2)
+    return rot + m * g * (R - l * c)
 
 
 def jellett(top: TippeTop, state: State) -> np.ndarray:

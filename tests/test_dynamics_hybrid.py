@@ -161,3 +161,31 @@ def test_an_option_can_select_a_variant_model():
     assert tr.model == "gliding-switched" and len(tr.switches) == 1
     with pytest.raises(TypeError, match="switch_friction must be a bool"):
         simulate(TOP, START, 0.5, model=base, switch_friction="yes")
+
+
+def _back_at_once(t, y, p):
+    return t - 0.3  # exactly 0 where the frictionless phase of PINGPONG starts
+
+
+PINGPONG = dataclasses.replace(
+    SWITCHED,
+    name="gliding-pingpong",
+    phases=(
+        Phase(
+            "frictionless",
+            _rhs_frictionless,
+            _rhs_frictionless_into,
+            (
+                Event(_contact_frictionless, -1.0, "contact_lost"),
+                Event(_back_at_once, 0.0, "switch", target="friction"),
+            ),
+        ),
+    ),
+)
+
+
+@pytest.mark.parametrize("backend", ["compiled", "scipy"])
+def test_a_switch_event_that_is_zero_where_its_phase_starts_does_not_fire(backend):
+    tr = simulate(TOP, START, 0.5, model=PINGPONG, backend=backend)
+    assert tr.status == "completed"
+    assert [(round(t, 12), a, b) for t, a, b in tr.switches] == [(0.3, "friction", "frictionless")]

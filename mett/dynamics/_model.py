@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..integrals import energy_of, jellett_of, modified_energy_of, routh_of
+from ..integrals import integrals_of
 from .registry import Model, Params
 
 __all__ = [
@@ -159,10 +159,7 @@ def add_integrals(
     integrals are those of :mod:`mett.integrals` with the contact vector a = l 3̂ − R ẑ.
     """
     th, thd, phd, w3 = out["theta"], out["thetadot"], out["phidot"], out["omega3"]
-    out["E"] = energy_of(th, thd, phd, w3, out["nu_x"], out["nu_y"], m, R, l, I1, I3, g)
-    out["E_mod"] = modified_energy_of(th, thd, phd, w3, m, R, l, I1, I3, g)
-    out["D"] = routh_of(th, w3, m, R, l, I1, I3)
-    out["lam"] = jellett_of(th, phd, w3, R, l, I1, I3)
+    out.update(integrals_of(th, thd, phd, w3, out["nu_x"], out["nu_y"], m, R, l, I1, I3, g))
     return out
 
 

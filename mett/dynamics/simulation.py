@@ -622,9 +622,12 @@ def _solve_scipy(
 
         def model_event(t: float, y: np.ndarray, fn: Callable = ev.fn) -> float:
             try:
-                return float(fn(t, y, params))
+                value = float(fn(t, y, params))
             except ArithmeticError:
                 return math.nan
+            # a zero at the start of a phase is no event, as on the compiled backend (a switch
+            # event that vanishes where its phase begins must not switch straight back)
+            return math.nan if value == 0.0 and t == t0 else value
 
         model_event.terminal = 1  # type: ignore[attr-defined]
         model_event.direction = ev.direction  # type: ignore[attr-defined]
