@@ -465,12 +465,12 @@ def _gliding_params(p: tuple) -> tuple:
 
 
 def _params(top: Any, options: dict) -> tuple:
-    law = options["friction"]
+    law = options.get("friction")
     if law is None:
         raise ValueError(
             "the dry-friction models need friction=Coulomb(...) or RegularisedCoulomb(...)"
         )
-    band = options["stopping_band"]
+    band = options.get("stopping_band")
     if band is None:  # without an rtol to tie it to: 1e-9 of the velocity scale √(g R)
         band = 1e-9 * math.sqrt(top.g * top.R)
     regularised = isinstance(law, RegularisedCoulomb)
