@@ -7,7 +7,10 @@ Models (theory.md §2, §3, §10; Rutstam 2012; thesis eqs (10)–(15)):
 * ``"rolling"`` — the integrable rolling ball, v_A ≡ 0 (:mod:`.rolling`);
 * ``"gliding-hst"`` — gliding heavy symmetric top, R → 0 with Rα = l (:mod:`.reduced`);
 * ``"cylinder"`` — gliding eccentric cylinder, the subspace φ̇ = ω3 = ν_y = 0 (:mod:`.reduced`);
-* ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`).
+* ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`);
+* ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"`` — dry friction (exact
+  stick–slip, a hybrid of sliding and rolling phases; the regularised law), chosen by
+  ``simulate(..., friction=...)`` (:mod:`.stickslip`).
 
 Every model declares itself once, in its own module, with :func:`~.registry.register` (see
 :mod:`.registry` for the design): right-hand side, events, options, conserved quantities. Adding a

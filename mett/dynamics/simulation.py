@@ -226,6 +226,8 @@ def simulate(
           of "gliding"; stops with status "failed" near sin θ = 0 where it is singular.
         * ``"frictionless-routhian"``: the corrected seed-000 Routhian equations (no friction;
           ``vertical_cm=False`` for the printed approximation); equals "gliding" at μ = 0.
+        * ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"``: dry friction, chosen
+          by ``friction=`` (below).
     rtol : float, default 1e-10
         Relative tolerance, in [100 ε, 1) = [2.2e-14, 1). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
@@ -264,13 +266,16 @@ def simulate(
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
         (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
-        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). :class:`~mett.friction.Coulomb`
-        (exact stick–slip, optionally with Contensou spin friction) and
-        :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
-        scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
-        ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
-        frame), the torque ``M_n`` about the normal (N m) and ``switches``
-        (:class:`mett.dynamics.stickslip.Switch`).
+        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). A dry law selects the
+        registered model that declares the option ``friction`` and accepts it
+        (:mod:`mett.dynamics.stickslip`): :class:`~mett.friction.Coulomb` the hybrid
+        ``"coulomb"`` (exact stick–slip, phases "sliding"/"rolling"; ``"coulomb-contensou"`` with
+        a contact radius), :class:`~mett.friction.RegularisedCoulomb` ``"coulomb-regularised"``
+        (stiff: ``method="LSODA"`` or ``"Radau"``). They run on either backend, with user events;
+        their trajectories carry ``phase`` ("sliding"/"rolling" per sample), the tangential force
+        ``F_x``, ``F_y`` (N, lab frame), the torque ``M_n`` about the normal (N m), the cone
+        ``margin`` (N) and ``switches`` (:class:`mett.dynamics.stickslip.Switch`). Their option
+        ``stopping_band`` (m/s) defaults to 10 rtol × the start's velocity scale.
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
