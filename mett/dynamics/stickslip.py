@@ -344,15 +344,19 @@ def _contact_rolling(t: float, y: Any, p: Any) -> Any:
     return _stick(y, p)[1] * (1.0 / (p[0] * p[5]))
 
 
+def _positive_part(x: Any) -> Any:
+    """max(x, 0) as plain arithmetic, (x + √(x²))/2: no branch on a state value."""
+    return 0.5 * (x + (x * x) ** 0.5)
+
+
 def _stop_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is outside the cone: "stop" → rolling."""
-    neg = -_margin(y, p)
-    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * max(neg, 0.0)
+    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(-_margin(y, p))
 
 
 def _reversal_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is inside the cone: "reversal"."""
-    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * max(_margin(y, p), 0.0)
+    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(_margin(y, p))
 
 
 def _cone_event(t: float, y: Any, p: Any) -> Any:
