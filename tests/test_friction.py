@@ -433,3 +433,27 @@ def test_user_events_run_across_the_phases():
     cut = mett.simulate(THESIS, st, 0.25, friction=Coulomb(0.108), rtol=1e-9, events=[turning])
     assert cut.status == "completed" and cut.t_final == pytest.approx(times[2], abs=1e-9)
     assert cut.F_x.shape == cut.t.shape and cut.phase.shape == cut.t.shape
+
+
+def test_the_cone_decides_between_stop_and_reversal_at_the_band():
+    """At |v_A| = δ/2 exactly one of the two band events has crossed zero: "stop" (→ rolling)
+    where the force rolling needs is inside the cone, "reversal" (→ sliding again) where it is
+    outside; the reversal's jump restarts the slip at 2δ along the excess-force direction."""
+    st = mett.State(theta=0.5, thetadot=1.0, phidot=2.0, omega3=120.0)
+    y0 = gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {}))
+    for mu, inside in ((0.01, False), (5.0, True)):
+        p = params(THESIS, mu)
+        band = p[10]
+        y = stickslip._set_slip(y0, p, np.array([0.5 * band, 0.0, 0.0]))
+        assert np.linalg.norm(stickslip._slip(y, p)) == pytest.approx(0.5 * band, rel=1e-6)
+        stop, rev = stickslip._stop_event(0.0, y, p), stickslip._reversal_event(0.0, y, p)
+        assert (stop < 0.0) == inside and (rev < 0.0) == (not inside)
+        if not inside:
+            z = stickslip._reversal_jump(y, p)
+            slip = stickslip._slip(z, p)
+            assert np.linalg.norm(slip) == pytest.approx(2.0 * band, rel=1e-6)
+            u = stickslip._excess_direction(stickslip._set_slip(y, p, np.zeros(3)), p, np.ones(3))
+            assert slip[:2] / np.linalg.norm(slip) == pytest.approx(u[:2], abs=1e-6)
+            # λ is untouched by the impulses at A
+            lam = gliding.MODEL.derive(np.c_[y, z], gliding.MODEL.params(THESIS, {}))["lam"]
+            assert lam[1] == pytest.approx(lam[0], rel=1e-14)
