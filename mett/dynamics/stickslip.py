@@ -717,7 +717,6 @@ def _finish_regularised(traj: Any) -> None:
         setattr(traj, name, values)
     traj.extra = (*traj.extra, "phase", "F_x", "F_y", "M_n", "margin")
     traj.switches = []
-    traj.stopping_band = traj.params[10]
 
 
 REGULARISED = register(
@@ -735,7 +734,7 @@ REGULARISED = register(
         theta=gliding.MODEL.theta,
         scales=_scales,
         events=(Event(_contact_sliding, -1.0, "contact_lost"),),
-        options=(Option("friction", _check_regularised, None, "the regularised law"), _BAND),
+        options=(Option("friction", _check_regularised, None, "the regularised law"),),
         conserves=("lam",),
         finish=_finish_regularised,
     )
