@@ -113,8 +113,8 @@ STARTS = {
 }
 
 
-# models that need options of their own are checked separately (the stemmed top below)
-_OWN_TEST = {"stemmed"}
+# models that need options of their own are checked separately (stem, dry friction: below)
+_OWN_TEST = {"stemmed", "coulomb", "coulomb-contensou", "coulomb-regularised"}
 
 
 @pytest.mark.parametrize("name", sorted(STARTS))
@@ -223,3 +223,39 @@ def test_stemmed_top_touches_down_as_on_dop853():
     assert len(a.touchdowns) == len(b.touchdowns) >= 1
     np.testing.assert_allclose(a.touchdowns, b.touchdowns, rtol=0, atol=1e-9)
     assert a.contact[-1] == b.contact[-1]
+
+
+def test_dry_friction_models_run_on_the_taylor_backend():
+    # hybrid models that branch on their parameters (Contensou radius > 0): the kernel is traced
+    # for the run's parameters and serves every parameter set that takes the same branches
+    from mett.friction import Coulomb
+
+    start = mett.State.with_cm_at_rest(TOP, theta=0.1, omega3=155.0)
+    a = simulate(TOP, start, 0.8, friction=Coulomb(0.02), backend="taylor", rtol=1e-10)
+    b = simulate(TOP, start, 0.8, friction=Coulomb(0.02), backend="compiled", rtol=1e-10)
+    assert a.model == b.model == "coulomb"
+    # the first stop (sliding → rolling) and the first cone switch agree; near a cone switch the
+    # Taylor polynomials of max(x, 0) = (x + √x²)/2 can add zero-length switch pairs
+    np.testing.assert_allclose([s.t for s in a.switches[:2]], [s.t for s in b.switches[:2]],
+                               rtol=0, atol=1e-8)  # fmt: skip
+    assert abs(a.theta[-1] - b.theta[-1]) < 1e-7
+    assert abs(a.lam[-1] / a.lam[0] - 1.0) < 1e-9
+    c = simulate(TOP, start, 0.2, friction=Coulomb(0.3, contensou_radius=3e-3), backend="taylor")
+    d = simulate(TOP, start, 0.2, friction=Coulomb(0.3, contensou_radius=3e-3))
+    assert c.model == d.model == "coulomb-contensou"
+    assert abs(c.theta[-1] - d.theta[-1]) < 1e-7
+
+
+def test_a_kernel_refuses_parameters_that_take_other_branches():
+    def branchy(t, y, p, out):
+        out[0] = y[0] * p[0] if p[1] > 0.0 else -y[0] * p[0]
+
+    k = taylor.kernel(branchy, [], 1, 2, 10, "branchy", params=[1.0, 1.0])
+    up = taylor.solve(k, (0.0, 1.0), [1.0], [1.0, 2.0])[0]
+    assert up.dense(1.0)[0] == pytest.approx(math.e, rel=1e-8)  # order 10: ε ≈ e^-18
+    with pytest.raises(ValueError, match="other branches"):
+        taylor.solve(k, (0.0, 1.0), [1.0], [1.0, -1.0])
+    k2 = taylor.kernel(branchy, [], 1, 2, 10, "branchy", params=[1.0, -1.0])
+    assert k2 is not k
+    down = taylor.solve(k2, (0.0, 1.0), [1.0], [1.0, -1.0])[0]
+    assert down.dense(1.0)[0] == pytest.approx(math.exp(-1.0), rel=1e-8)

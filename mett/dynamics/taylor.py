@@ -69,9 +69,13 @@ __all__ = [
 class _Graph:
     """Expression DAG; node = (op, a, b, value). Hash-consing shares equal sub-expressions."""
 
-    def __init__(self) -> None:
+    def __init__(self, params: np.ndarray | None = None) -> None:
         self.nodes: list[tuple[str, int, int, float]] = []
         self._index: dict[tuple, int] = {}
+        self.params = params
+        # decisions on the parameters alone (a model may branch on an option, e.g. a Contensou
+        # radius > 0): (op, a, b, outcome), re-checked for the parameters of every later run
+        self.guards: list[tuple[str, int, int, bool]] = []
 
     def node(self, op: str, a: int = -1, b: int = -1, value: float = 0.0) -> _Sym:
         if op in ("add", "mul") and a > b:  # commutative: one key
@@ -161,12 +165,39 @@ class _Sym:
         return self._sincos()[1]
 
     def __bool__(self):
-        raise TypeError("a traced right-hand side cannot branch on state values")
+        vals = _scalar_values(self.g.nodes, self.g.params)
+        if vals is None or self.i not in vals:
+            raise TypeError("a traced right-hand side cannot branch on state values")
+        return self._compare(0.0, "ne")
 
-    def _compare(self, other):
-        raise TypeError("a traced right-hand side cannot branch on state values (comparison)")
+    def _compare(self, other, op):
+        o = self._w(other)
+        vals = _scalar_values(self.g.nodes, self.g.params)
+        if vals is None or self.i not in vals or o.i not in vals:
+            raise TypeError("a traced right-hand side cannot branch on state values (comparison)")
+        outcome = bool(_COMPARE[op](vals[self.i], vals[o.i]))
+        self.g.guards.append((op, self.i, o.i, outcome))
+        return outcome
 
-    __lt__ = __le__ = __gt__ = __ge__ = _compare
+    def __lt__(self, o):
+        return self._compare(o, "lt")
+
+    def __le__(self, o):
+        return self._compare(o, "le")
+
+    def __gt__(self, o):
+        return self._compare(o, "gt")
+
+    def __ge__(self, o):
+        return self._compare(o, "ge")
+
+    def __eq__(self, o):
+        return self._compare(o, "eq")
+
+    def __ne__(self, o):
+        return self._compare(o, "ne")
+
+    __hash__ = object.__hash__
 
     # numpy's ufuncs (np.sin, np.sqrt, …) on an object call the method of the same name
     def __array_ufunc__(self, ufunc, method, *inputs, **kwargs):
@@ -196,12 +227,62 @@ class _Traced:
     rhs: tuple[int, ...]
     events: tuple[int, ...]
     time: int
+    guards: tuple[tuple[str, int, int, bool], ...] = ()
+
+    def admits(self, params: ArrayLike) -> bool:
+        """Whether ``params`` take the branches of the parameters this graph was traced with."""
+        if not self.guards:
+            return True
+        vals = _scalar_values(self.nodes, np.asarray(params, dtype=float))
+        return all(bool(_COMPARE[op](vals[a], vals[b])) == out for op, a, b, out in self.guards)
 
 
-def trace(rhs_into: Callable, events: Sequence[Callable], n_state: int, n_params: int) -> _Traced:
+_COMPARE = {
+    "lt": lambda a, b: a < b,
+    "le": lambda a, b: a <= b,
+    "gt": lambda a, b: a > b,
+    "ge": lambda a, b: a >= b,
+    "eq": lambda a, b: a == b,
+    "ne": lambda a, b: a != b,
+}
+_SCALAR_OPS = {
+    "add": lambda a, b: a + b,
+    "sub": lambda a, b: a - b,
+    "mul": lambda a, b: a * b,
+    "div": lambda a, b: a / b if b != 0.0 else (math.copysign(math.inf, a) if a else math.nan),
+    "neg": lambda a, b: -a,
+    "sqrt": lambda a, b: math.sqrt(a) if a >= 0.0 else math.nan,
+    "sin": lambda a, b: math.sin(a),
+    "cos": lambda a, b: math.cos(a),
+}
+
+
+def _scalar_values(nodes: Sequence[tuple], params: np.ndarray | None) -> dict[int, float] | None:
+    """Values of the nodes that depend on the parameters alone (None without parameters)."""
+    if params is None:
+        return None
+    vals: dict[int, float] = {}
+    for i, (op, a, b, v) in enumerate(nodes):
+        if op == "par":
+            vals[i] = float(params[a])
+        elif op == "const":
+            vals[i] = v
+        elif op in _SCALAR_OPS and a in vals and (b < 0 or b in vals):
+            vals[i] = _SCALAR_OPS[op](vals[a], vals[b] if b >= 0 else 0.0)
+    return vals
+
+
+def trace(
+    rhs_into: Callable,
+    events: Sequence[Callable],
+    n_state: int,
+    n_params: int,
+    params: ArrayLike | None = None,
+) -> _Traced:
     """Trace a model's ``rhs_into(t, y, p, out)`` and event functions ``fn(t, y, p)`` into one
-    graph (shared sub-expressions are computed once)."""
-    g = _Graph()
+    graph (shared sub-expressions are computed once). With ``params``, comparisons of the
+    parameters alone are decided for those values and kept as the graph's guards."""
+    g = _Graph(None if params is None else np.asarray(params, dtype=float))
     y = [g.node("var", i) for i in range(n_state)]
     p = tuple(g.node("par", i) for i in range(n_params))
     t = g.node("time")
@@ -216,7 +297,7 @@ def trace(rhs_into: Callable, events: Sequence[Callable], n_state: int, n_params
     for fn in events:
         v = fn(t, y, p)
         ev.append((v if isinstance(v, _Sym) else g.const(float(v))).i)
-    return _Traced(tuple(g.nodes), n_state, n_params, rhs, tuple(ev), t.i)
+    return _Traced(tuple(g.nodes), n_state, n_params, rhs, tuple(ev), t.i, tuple(g.guards))
 
 
 def _live(tr: _Traced) -> list[int]:
@@ -607,7 +688,7 @@ class TaylorKernel:
         self.update = _JetAddress(self.address[1], _UPDATE_SIG)
 
 
-_KERNELS: dict[tuple, TaylorKernel] = {}
+_KERNELS: dict[tuple, list[TaylorKernel]] = {}
 
 
 def kernel(
@@ -618,14 +699,22 @@ def kernel(
     order: int,
     label: str = "model",
     lanes: int = 1,
+    params: ArrayLike | None = None,
 ) -> TaylorKernel:
     """The :class:`TaylorKernel` of a model phase (``rhs_into`` and its event functions) at
-    ``order`` for ``lanes`` trajectories at once; compiled once per process (and cached on disk)."""
+    ``order`` for ``lanes`` trajectories at once; compiled once per process (and cached on disk).
+
+    A right-hand side that branches on its parameters (an option of the model) is traced with
+    ``params``; the kernel serves every parameter set that takes the same branches.
+    """
     key = (rhs_into, tuple(events), n_state, n_params, order, lanes)
-    if key not in _KERNELS:
-        tr = trace(rhs_into, events, n_state, n_params)
-        _KERNELS[key] = TaylorKernel(tr, order, label, lanes)
-    return _KERNELS[key]
+    for k in _KERNELS.get(key, []):
+        if params is None or k.traced.admits(params):
+            return k
+    tr = trace(rhs_into, events, n_state, n_params, params)
+    k = TaylorKernel(tr, order, label, lanes)
+    _KERNELS.setdefault(key, []).append(k)
+    return k
 
 
 # --- the integration loop (numba, compiled once for all models) -------------------------------
@@ -973,6 +1062,12 @@ def solve(
     ev_dir = np.zeros(k.n_events) if direction is None else np.array(direction, dtype=float)
     if ev_dir.size != k.n_events:
         raise ValueError(f"direction needs one entry per event ({k.n_events}); got {ev_dir.size}")
+    bad = [j for j in range(m) if not k.traced.admits(P[j])]
+    if bad:
+        raise ValueError(
+            f"params[{bad[0]}] take other branches of the model than the kernel was traced for; "
+            "get a kernel for them with kernel(..., params=...)"
+        )
     if tol is None:
         tol_scale, fac = 1.0, math.exp(-0.7 / (k.order - 1)) / math.e**2
     else:
