@@ -266,13 +266,21 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
     Raises
     ------
     ValueError
-        If ``lam`` is not a positive finite number.
+        If ``lam`` is not a positive finite number, or so large that the end state's spin ω3
+        overflows.
     """
     _validate.instance("top", top, "TippeTop")
     lam = _validate.positive_jellett(lam)
     from .classification import stable_states
 
-    found = stable_states(top, lam)
+    with np.errstate(over="ignore"):  # a spin ω3 ∝ λ beyond the float range: checked here
+        found = stable_states(top, lam)
+    if not all(math.isfinite(st.omega3) for st in found):
+        lam_max = float(np.finfo(float).max) * top.R * top.I3 * (1.0 - top.alpha)
+        raise ValueError(
+            f"lam must be at most {lam_max:.3g} kg m^3/s for this top (beyond it the end state's "
+            f"spin omega3 overflows); got {lam!r}"
+        )
     if len(found) == 1:
         st = found[0]
         return st._replace(candidates=(st,))
