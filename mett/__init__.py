@@ -4,7 +4,7 @@ The numeric core (this package minus :mod:`mett.symbolic` and :mod:`mett.plottin
 numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
-from . import analysis, presets
+from . import analysis, friction, presets
 from ._validate import AccuracyWarning, MettDeprecationWarning, MettWarning, PhysicalityWarning
 from .asymptotics import HighSpin, high_spin
 from .classification import subgroup, tumbling_eigenvalues
@@ -77,6 +77,7 @@ __all__ = [
     "energy",
     "escape_time",
     "f",
+    "friction",
     "g",
     "high_spin",
     "jellett",

@@ -42,8 +42,10 @@ __all__ = [
     "g",
 ]
 
-# |N| below this fraction of its scale (|λ√d| + |R D (α − z)|) counts as zero at a pole.
-_POLE_RTOL = 1e-11
+# |N| below this fraction of its scale (|λ√d| + |R D (α − z)|) counts as zero at a pole: the
+# rounding of its two terms (a state at θ = 0 or π leaves a few ulps), not more — a vanishing spin's
+# N(±1) of 1e-12 of its terms is a real wall next to the pole.
+_POLE_RTOL = 64.0 * float(np.finfo(float).eps)
 
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
@@ -61,6 +63,11 @@ def d_of(z: ArrayLike, m: float, R: float, l: float, I1: float, I3: float) -> np
     Plain arithmetic on floats or arrays.
     """
     return (I1 * I3 + m * I3 * (l - R * z) ** 2 + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
+
+
+def _d(top: TippeTop, z):
+    """:func:`d` without validation, for checked z in [−1, 1] (the separation layer's inner loops)."""
+    return d_of(z, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
 
 
 def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:
@@ -83,10 +90,26 @@ def _inputs(z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, ...
     )
 
 
+def _N_terms(top: TippeTop, sqd, z, D, lam) -> tuple[np.ndarray, np.ndarray]:
+    """(N, |λ√d| + |R D(α − z)|): N(z) = λ√d(z) + R D(α − z) from √d(z), and the size of its terms.
+
+    The one place N is written out (the potential, its derivatives and mett.separation use it);
+    no validation: callers pass checked arrays. The second value scales its rounding error.
+    """
+    a = lam * sqd
+    b = top.R * D * (top.alpha - z)
+    return a + b, np.abs(a) + np.abs(b)
+
+
+def _N(top: TippeTop, sqd, z, D, lam):
+    """N(z) = λ√d(z) + R D(α − z) from √d(z) (see :func:`_N_terms`)."""
+    return lam * sqd + top.R * D * (top.alpha - z)
+
+
 def N(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
     """N(z) = λ√d(z) + R D(α − z) = R I1 φ̇ (1 − z²) √d(z) (theory.md §4)."""
     z, D, lam = _inputs(z, D, lam)
-    return lam * np.sqrt(d(top, z)) + top.R * D * (top.alpha - z)
+    return _N(top, np.sqrt(d(top, z)), z, D, lam)
 
 
 def dN_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
@@ -141,9 +164,7 @@ def V(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
         If |z| > 1 or an input is not finite.
     """
     z, D, lam = _inputs(z, D, lam)
-    sqd = np.sqrt(d(top, z))
-    n = lam * sqd + top.R * D * (top.alpha - z)
-    scale = np.abs(lam * sqd) + np.abs(top.R * D * (top.alpha - z))
+    n, scale = _N_terms(top, np.sqrt(d(top, z)), z, D, lam)
     kinetic = _kinetic_coefficient(top) * _pole_safe_ratio(n * n, 1.0 - z * z, n, scale)
     gravity = top.m * top.g * top.R * (1.0 - top.alpha * z)
     return gravity + kinetic + _constant(top, D, lam)
@@ -180,21 +201,25 @@ def dV_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarr
     """
     z, D, lam = _inputs(z, D, lam)
     sqd = np.sqrt(d(top, z))
-    n = lam * sqd + top.R * D * (top.alpha - z)
+    n, scale = _N_terms(top, sqd, z, D, lam)
     dn = lam * dd_dz(top, z) / (2.0 * sqd) - top.R * D
     w = 1.0 - z * z
-    scale = np.abs(lam * sqd) + np.abs(top.R * D * (top.alpha - z))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = 2.0 * n * (dn * w + z * n) / (w * w)
-    ratio = np.where(w == 0.0, _pole_derivative(n, dn, z, scale), ratio)
+    n, dn, z, w, scale = np.broadcast_arrays(n, dn, z, w, scale)
+    ratio = np.empty(n.shape)
+    inner = w != 0.0
+    ratio[inner] = 2.0 * n[inner] * (dn[inner] * w[inner] + z[inner] * n[inner]) / w[inner] ** 2
+    pole = ~inner
+    ratio[pole] = _pole_derivative(n[pole], dn[pole], z[pole], scale[pole])
     return -top.m * top.g * top.R * top.alpha + _kinetic_coefficient(top) * ratio
 
 
 def _pole_derivative(n, dn, z, scale):
-    # With N(±1) = 0, N²/(1 − z²) ≈ N'² (1 ∓ z)/(1 ± z) near the pole: its z-derivative tends to
-    # ∓N'(±1)²/2. Otherwise the derivative diverges (sign: the potential wall rises towards the pole).
+    # At z = ±1 only. With N(±1) = 0, N²/(1 − z²) ≈ N'² (1 ∓ z)/(1 ± z) near the pole: its
+    # z-derivative tends to ∓N'(±1)²/2. Otherwise it diverges (the wall rises towards the pole).
     vanish = np.abs(n) <= _POLE_RTOL * scale
-    return np.where(vanish, -np.sign(z) * dn * dn / 2.0, np.sign(z) * np.inf)
+    out = np.copysign(np.inf, z)
+    out[vanish] = -np.sign(z[vanish]) * dn[vanish] ** 2 / 2.0
+    return out
 
 
 def d2V_dz2(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
@@ -210,7 +235,7 @@ def d2V_dz2(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.nda
     sqd = np.sqrt(dz)
     dd = dd_dz(top, z)
     d2d = 2.0 * top.sigma * (1.0 - top.gamma)
-    n = lam * sqd + top.R * D * (top.alpha - z)
+    n = _N(top, sqd, z, D, lam)
     dn = lam * dd / (2.0 * sqd) - top.R * D
     d2n = lam * (d2d / (2.0 * sqd) - dd * dd / (4.0 * dz * sqd))
     w = 1.0 - z * z

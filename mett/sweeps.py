@@ -35,9 +35,12 @@ __all__ = ["GRID_NAMES", "classify_end", "sweep"]
 _TOP_FIELDS = tuple(f.name for f in dataclasses.fields(TippeTop))
 _STATE_FIELDS = ("theta0", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
 _DERIVED = ("gamma", "lam_ratio")
-GRID_NAMES = (*_TOP_FIELDS, *_STATE_FIELDS, *_DERIVED)
-"""Names a grid may vary: TippeTop fields, initial conditions, and two derived coordinates:
-``gamma`` (sets I1 = γ I3) and ``lam_ratio`` (sets ω3 so that λ = lam_ratio · λ_thres)."""
+_FRICTION = ("friction", "contensou_radius")
+GRID_NAMES = (*_TOP_FIELDS, *_STATE_FIELDS, *_DERIVED, *_FRICTION)
+"""Names a grid may vary: TippeTop fields, initial conditions, two derived coordinates:
+``gamma`` (sets I1 = γ I3) and ``lam_ratio`` (sets ω3 so that λ = lam_ratio · λ_thres), and the
+friction law: ``friction`` (names of :data:`mett.friction.LAW_NAMES`; its coefficient is ``mu``)
+and ``contensou_radius`` (m, Coulomb only)."""
 
 _CHECKPOINT_VERSION = 1
 # θ within this of a pole counts as that pole when classifying a simulated end state
@@ -127,6 +130,7 @@ def _run_point(base: dict, point: dict) -> dict:
     the top or the state), "error" (the simulation raised), or the simulation's own status; an
     exception of the prediction only sets ``predicted`` = "error" and keeps the simulated result.
     """
+    from . import friction
     from .dynamics import simulate
     from .integrals import jellett
     from .state import State
@@ -153,12 +157,21 @@ def _run_point(base: dict, point: dict) -> dict:
     except (ValueError, TypeError, ArithmeticError) as exc:  # an inadmissible point
         return finish(dict(status="invalid", message=str(exc), simulated="invalid"))
     try:
-        traj = simulate(top, state, base["t_end"], **base["simulate_kw"])
+        kw = dict(base["simulate_kw"])
+        law = point.get("friction", kw.get("friction"))
+        if law is not None:  # a law name: its coefficient is the point's mu
+            r = point.get("contensou_radius", kw.pop("contensou_radius", 0.0))
+            kw["friction"] = friction.from_name(law, top.mu, contensou_radius=r)
+        traj = simulate(top, state, base["t_end"], **kw)
     except Exception as exc:  # a sweep records a failing point and goes on
         return finish(dict(start, status="error", message=_describe(exc), simulated="error"))
     message = traj.message
+    candidates: tuple[str, ...] = ()
     try:
-        predicted = asymptotic_state(top, lam).kind if lam > 0 else "n/a"
+        pred = asymptotic_state(top, lam) if lam > 0 else None
+        predicted = pred.kind if pred is not None else "n/a"
+        # "bistable": the run agrees if it ends in either stable state
+        candidates = tuple(c.kind for c in pred.candidates) if pred is not None else ()
     except Exception as exc:  # the simulated result is kept
         predicted = "error"
         message = "; ".join(filter(None, [message, f"asymptotic_state: {_describe(exc)}"]))
@@ -175,7 +188,9 @@ def _run_point(base: dict, point: dict) -> dict:
             omega3_end=float(traj.omega3[-1]),
             predicted=predicted,
             simulated=simulated,
-            agree=bool(predicted == simulated),
+            agree=bool(
+                predicted == simulated or (predicted == "bistable" and simulated in candidates)
+            ),
         )
     )
 
@@ -197,6 +212,15 @@ def _grid_points(grid: Mapping[str, Any]) -> tuple[list[str], list[dict]]:
         raise ValueError("grid may vary lam_ratio or omega3, not both")
     axes = []
     for n in names:
+        if n == "friction":
+            from .friction import LAW_NAMES
+
+            laws = list(grid[n]) if not isinstance(grid[n], str) else [grid[n]]
+            bad = [v for v in laws if v not in LAW_NAMES]
+            if bad or not laws:
+                raise ValueError(f"grid['friction'] must name laws of {LAW_NAMES}; got {bad!r}")
+            axes.append(laws)
+            continue
         arr = _validate.as_finite_array(n, grid[n])
         if arr.ndim != 1 or arr.size == 0:
             raise ValueError(f"grid[{n!r}] must be a non-empty 1-D array; got shape {arr.shape}")
@@ -412,7 +436,8 @@ def sweep(
         One row per grid point, in grid order: the grid values, ``t_invert`` (first θ = π/2, NaN
         if never), ``status``, ``theta_end``, ``omega3_end``, ``lam``, ``lam_ratio`` (λ/λ_thres),
         ``predicted`` (:func:`mett.asymptotic_state` kind), ``simulated`` (kind read off θ_end, or
-        "not settled" if θ still moved over the last quarter of the run), ``agree``, and
+        "not settled" if θ still moved over the last quarter of the run), ``agree`` (for a
+        "bistable" prediction: the run ended in one of its two stable states), and
         ``message``. A point that fails is a row too: status "invalid" (its parameters are
         refused), "error" (the simulation raised; ``message`` says what) or the run's own status
         ("failed", "contact_lost") with the partial run's end values; the sweep goes on.

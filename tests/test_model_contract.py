@@ -193,6 +193,20 @@ class TestFrictionlessRouthian(ModelContract):
         assert on[-1] == 1.0 and off[-1] == 0.0
 
 
+class TestStemmed(ModelContract):
+    # the thesis body with a stem of radius 5 mm whose centre is 25 mm from the ball's centre:
+    # touchdown at arccos((0.005 - R)/0.025) = 2.21 rad, beyond both states (on the ball)
+    name = "stemmed"
+    states = (_SPUN, _TILTED)
+    options = {"stem_radius": 0.005, "stem_distance": 0.025}  # noqa: RUF012
+    bad_options = (
+        ({"stem_radius": -0.005, "stem_distance": 0.025}, ValueError),
+        ({"stem_distance": "0.025", "stem_radius": 0.005}, TypeError),
+        ({"stem_distance": 0.01, "stem_radius": 0.005}, ValueError),  # inside the ball
+        ({"stem_radius": 0.005}, ValueError),  # no distance
+    )
+
+
 def test_every_registered_model_has_a_contract_class():
     covered = {cls.name for cls in ModelContract.__subclasses__()}
     assert covered == set(MODELS)

@@ -48,7 +48,12 @@ def test_exact_inverted_spin_is_steady_with_the_pole_limit(omega3):
     slope = abs(float(mett.dV_dz(TOP, -1.0, D, lam)))
     limit = 2 * math.pi / math.sqrt(2 * slope / float(mett.g(TOP, -1.0)))
     assert mett.nutation_period(TOP, E, D, lam) == pytest.approx(limit, rel=1e-12)
-    assert math.isnan(mett.mean_precession(TOP, E, D, lam))  # precession of a vertical axis
+    # ⟨φ̇⟩: the limit of φ̇ = N/(R I1 (1 − z²)√d) at the pole, N'(−1)/(2 R I1 √d(−1)) (N(−1) = 0),
+    # not NaN (the precession angle of a vertical axis itself is undefined)
+    sqd = math.sqrt(float(mett.d(TOP, -1.0)))
+    n1 = float(mett.potential.dN_dz(TOP, -1.0, D, lam))
+    limit = n1 / (2 * TOP.R * TOP.I1 * sqd)
+    assert mett.mean_precession(TOP, E, D, lam) == pytest.approx(limit, rel=1e-12)
 
 
 def test_slightly_tilted_inverted_spin_tends_to_the_pole_limit():

@@ -210,7 +210,7 @@ def test_damaged_checkpoint_record_names_path_and_line(tmp_path):
 @pytest.mark.parametrize(
     ("kw", "error", "message"),
     [
-        ({"rtol": 2.0}, ValueError, r"rtol must lie in \[.*, 1\)"),
+        ({"rtol": 2.0}, ValueError, r"rtol must lie in"),
         ({"model": "nope"}, ValueError, "unknown model 'nope'"),
         ({"bogus": 1}, TypeError, "bogus"),
         ({"chunksize": -1}, ValueError, "chunksize must be an integer >= 1"),
@@ -273,7 +273,8 @@ def test_folded_tumbling_family_points_do_not_kill_the_sweep():
     table = sweep(TOP, {"lam_ratio": [0.2, 1.0], "gamma": [0.75]}, t_end=0.5, progress=False)
     assert len(table) == 2 and list(table["status"]) == ["completed", "completed"]
     assert set(table["simulated"]) <= {"upright", "tumbling", "inverted", NOT_SETTLED}
-    assert set(table["predicted"]) <= {"upright", "tumbling", "inverted", "error"}
+    # γ = 0.75 (class IIb): both the upright spin and a tumbling state are stable at λ_thres
+    assert set(table["predicted"]) <= {"upright", "tumbling", "inverted", "bistable"}
     assert np.all(np.isfinite(table["theta_end"]))
 
 

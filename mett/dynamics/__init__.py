@@ -22,7 +22,7 @@ first compiled run so that ``import mett`` does not import numba.
 
 # the registry first, then the built-in models, which register themselves in MODELS in this order
 from . import registry  # noqa: F401, I001
-from . import gliding, rolling, reduced, euler, routhian  # noqa: F401
+from . import gliding, rolling, reduced, euler, routhian, stem  # noqa: F401
 from .euler import euler_normal_force, euler_rhs
 from .gliding import gliding_normal_force, gliding_rhs
 from .reduced import cylinder_rhs, hst_euler_rhs

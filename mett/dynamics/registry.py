@@ -72,6 +72,7 @@ __all__ = [
     "ACTIONS",
     "MODELS",
     "Event",
+    "JumpFailed",
     "Model",
     "Option",
     "Phase",
@@ -86,6 +87,12 @@ Params = tuple[float, ...]
 
 ACTIONS = ("contact_lost", "fail", "switch")
 """What a model event does when the integrator locates it (see the module docstring)."""
+
+
+class JumpFailed(Exception):
+    """Raised by an :attr:`Event.jump` that cannot map the state across its switch (e.g. an impact
+    without a solution): the run ends there with status "failed" and this message, the samples up
+    to the switch kept."""
 
 
 @dataclass(frozen=True)
@@ -107,7 +114,8 @@ class Event:
     target : str
         The phase a "switch" event leads to.
     jump : callable, optional
-        ``jump(y, p) -> y`` applied to the state at a switch (identity if None).
+        ``jump(y, p) -> y`` applied to the state at a switch (identity if None); it may raise
+        :class:`JumpFailed` to end the run with status "failed".
     """
 
     fn: Callable[[float, Any, Any], float]

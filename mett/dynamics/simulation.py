@@ -11,6 +11,9 @@ Two backends run the same models (design.md, "Numerical design"):
   numba is imported on the first compiled run, not by ``import mett``.
 * ``backend="scipy"``: :func:`scipy.integrate.solve_ivp` with the pure-Python right-hand side, any of
   its methods; the reference path of the tests.
+* ``backend="taylor"``: the adaptive Taylor-series integrator of :mod:`.taylor`, whose recurrences
+  are generated from the same ``rhs_into`` source and compiled with LLVM; its dense output is the
+  Taylor polynomial of each step, and events are located on those polynomials.
 
 The compiled DOP853 takes the same steps as scipy's (same tableau, error norm and controller), so
 both backends agree to rounding: the thesis run's first θ = π/2 time to ~1e-12 s (tests/
@@ -19,6 +22,7 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -29,10 +33,12 @@ from numpy.typing import ArrayLike
 from scipy.integrate import OdeSolution, solve_ivp
 
 from .. import _validate
+from .. import friction as _friction
 from ..state import State
+from ..stem import StemmedTop
 from ..top import TippeTop
-from .registry import MODELS, Model, Phase, lookup, validate_options
-from .trajectory import Trajectory
+from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
+from .trajectory import Trajectory, _Constant  # _Constant: the saved form of a run at t0
 
 __all__ = ["MAX_STEPS", "MODELS", "RATE_MAX", "simulate"]
 
@@ -43,7 +49,7 @@ memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the glid
 plus the Trajectory's series, about 140 MB more. Measured on the thesis top (rtol = 1e-10; 1e6
 steps reach t = 74 000 s once the top has settled, about 3000 s while it still nutates fast): the
 process peaks at 0.96 GB RSS, of which 0.19 GB is the interpreter with numpy, scipy and numba."""
-_BACKENDS = ("auto", "compiled", "scipy")
+_BACKENDS = ("auto", "compiled", "scipy", "taylor")
 
 
 def _check_state(state: Any) -> State:
@@ -207,7 +213,7 @@ def _user_event(
 
 
 def simulate(
-    top: TippeTop,
+    top: TippeTop | StemmedTop,
     state: State | ArrayLike,
     t_end: float,
     *,
@@ -219,14 +225,18 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
+    friction: Any = None,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
 
     Parameters
     ----------
-    top : TippeTop
-        Body and friction parameters.
+    top : TippeTop or StemmedTop
+        Body and friction parameters. A :class:`~mett.stem.StemmedTop` (``top.with_stem(...)``)
+        runs the ``"stemmed"`` model: ball and stem contacts with inelastic impacts at each change
+        of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball" or
+        "stem" per sample) and ``touchdowns`` (s).
     state : State or array_like
         Initial state (θ, θ̇, φ̇, ω3, ν_x, ν_y); the default ν = 0 of :class:`~mett.State` is the
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.
@@ -269,7 +279,7 @@ def simulate(
     method : str, default "DOP853"
         Integration method: DOP853 on either backend, or another method of
         :func:`scipy.integrate.solve_ivp` ("RK45", "Radau", …) on the scipy backend.
-    backend : {"auto", "compiled", "scipy"}, default "auto"
+    backend : {"auto", "compiled", "scipy", "taylor"}, default "auto"
         ``"compiled"``: mett's numba DOP853 with the model's compiled right-hand side (the first
         call in a process loads it from numba's cache, about 0.5 s, or compiles it, a few seconds
         once per installation); DOP853 only. ``"scipy"``: :func:`scipy.integrate.solve_ivp` with
@@ -277,10 +287,25 @@ def simulate(
         steps and agree to rounding. ``"auto"``: compiled for DOP853 (every model has a compiled
         twin), scipy for other methods. ``Trajectory.backend`` says which ran. The compiled
         backend keeps every step in memory and stops with status "failed" after
-        :data:`MAX_STEPS` steps.
+        :data:`MAX_STEPS` steps. ``"taylor"``: the adaptive Taylor-series integrator
+        (:mod:`mett.dynamics.taylor`; order p = ⌈−½ ln rtol⌉ + 1, the step of Jorba & Zou 2005),
+        generated from the same equations and compiled with LLVM (a few seconds per model and
+        order, once per installation: the machine code is cached on disk); its dense output is
+        each step's Taylor polynomial. DOP853 only in ``method`` (it is not used).
     max_step : float, default inf
         Largest step (s); at least ``t_end / MAX_STEPS`` (a smaller one could not reach ``t_end``
         within the compiled backend's step budget, and is refused on both backends).
+    friction : mett.friction law, optional
+        The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
+        :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
+        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). :class:`~mett.friction.Coulomb`
+        (exact stick–slip, optionally with Contensou spin friction) and
+        :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
+        scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
+        ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
+        frame), the torque ``M_n`` about the normal (N m) and ``switches``
+        (:class:`mett.dynamics.stickslip.Switch`).
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -328,6 +353,12 @@ def simulate(
     >>> traj.status, round(float(traj.crossings(math.pi / 2)[0]), 4), round(float(traj.omega3[-1]), 3)
     ('completed', 5.8797, -82.866)
     """
+    if isinstance(top, StemmedTop):  # the ball and its stem: the "stemmed" model
+        from .stem import stemmed_run
+
+        return stemmed_run(simulate, top, state, t_end, model=model, rtol=rtol, atol=atol,
+                           t_eval=t_eval, events=events, method=method, backend=backend,
+                           max_step=max_step, friction=friction, **options)  # fmt: skip
     mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
@@ -336,28 +367,6 @@ def simulate(
     t_end = _validate.positive_scalar("t_end", t_end)
     rtol = _check_rtol(rtol)
     t_eval_arr = _check_t_eval(t_eval, t_end)
-    if method not in _METHODS:
-        raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
-    if backend not in _BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
-    model_options = validate_options(mdl, options)
-    if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
-        alt = mdl.variant(model_options)
-        if alt is not None and alt is not mdl:
-            mdl, model_options = alt, validate_options(alt, options)
-    compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
-    if backend == "auto":
-        backend = "compiled" if method == "DOP853" and compilable else "scipy"
-    elif backend == "compiled":
-        if method != "DOP853":
-            raise ValueError(
-                f"the compiled backend implements method 'DOP853' only; got method {method!r} "
-                "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
-            )
-        if not compilable:
-            raise ValueError(
-                f"model {mdl.name!r} has no compiled right-hand side; use backend='scipy'"
-            )
     if isinstance(max_step, (bool, np.bool_, str, bytes)) or max_step is None:
         raise TypeError(f"max_step must be a real number; got {max_step!r}")
     max_step = float(max_step)
@@ -368,6 +377,50 @@ def simulate(
             f"max_step must be at least t_end / MAX_STEPS = {t_end / MAX_STEPS:.3g} s (the run "
             f"would need more than {MAX_STEPS} steps); got {max_step!r}"
         )
+    if method not in _METHODS:
+        raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
+    if backend not in _BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    if friction is not None:
+        friction = _friction.check_law(friction)
+        if isinstance(friction, _friction.Viscous):
+            if friction.mu is not None:
+                top = dataclasses.replace(top, mu=friction.mu)
+            traj = simulate(
+                top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
+                events=events, method=method, backend=backend, max_step=max_step, **options,
+            )  # fmt: skip
+            if traj.model == "gliding":  # the force series, as dry-friction runs report them
+                from .stickslip import viscous_force
+
+                viscous_force(traj)
+            return traj
+        else:
+            return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
+                        t_eval_arr, events, max_step, options)  # fmt: skip
+    model_options = validate_options(mdl, options)
+    if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
+        alt = mdl.variant(model_options)
+        if alt is not None and alt is not mdl:
+            mdl, model_options = alt, validate_options(alt, options)
+    compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
+    if backend == "auto":
+        backend = "compiled" if method == "DOP853" and compilable else "scipy"
+    elif backend in ("compiled", "taylor"):
+        if backend == "taylor" and method != "DOP853":
+            raise ValueError(
+                f"method {method!r} is for the DOP853 and scipy backends; the taylor backend "
+                "chooses its own order from rtol"
+            )
+        if method != "DOP853":
+            raise ValueError(
+                f"the compiled backend implements method 'DOP853' only; got method {method!r} "
+                "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
+            )
+        if not compilable:
+            raise ValueError(
+                f"model {mdl.name!r} has no compiled right-hand side; use backend='scipy'"
+            )
     events = list(events or [])
     for k, ev in enumerate(events):
         if not callable(ev):
@@ -398,8 +451,9 @@ def simulate(
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
+    solvers = {"compiled": _solve_compiled, "scipy": _solve_scipy, "taylor": _solve_taylor}
     solve = functools.partial(
-        _solve_compiled if backend == "compiled" else _solve_scipy,
+        solvers[backend],
         t_end=t_end,
         rtol=rtol,
         atol_arr=atol_arr,
@@ -409,21 +463,6 @@ def simulate(
     if not mdl.hybrid:
         return solve(run, t_eval_arr=t_eval_arr, events=user)
     return _solve_hybrid(run, solve, table, t_eval_arr, user)
-
-
-class _AtStart:
-    """Dense output of a run (or phase) that never left its start time ``t0``."""
-
-    def __init__(self, t0: float, y0: np.ndarray) -> None:
-        self.ts = np.array([t0])
-        self.t_min = self.t_max = t0
-        self._y0 = y0
-
-    def __call__(self, t: Any) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        if t.ndim == 0:
-            return self._y0.copy()
-        return np.repeat(self._y0[:, None], t.size, axis=1)
 
 
 MAX_SWITCHES = 100_000
@@ -474,6 +513,7 @@ def _solve_hybrid(
     t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
     switches: list[tuple[float, str, str]] = []
     nfev = 0
+    jump_failed: str | None = None
     while True:
         events = [(ev, rem, dirn) for (ev, _, dirn), rem in zip(user, remaining, strict=True)]
         seg = solve(run, t_eval_arr=t_eval_arr, events=events, collect=True)
@@ -484,6 +524,15 @@ def _solve_hybrid(
                 remaining[k] = max(remaining[k] - te.size, 1)
         sols.append(seg.sol)
         last = run.switch is None or len(switches) >= MAX_SWITCHES
+        if not last:
+            index, t_sw = run.switch
+            ev = run.phase.events[index]
+            y_sw = np.asarray(seg.sol(t_sw), dtype=float)
+            if ev.jump is not None:
+                try:
+                    y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
+                except JumpFailed as exc:  # the run ends at the switch, state before it kept
+                    jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
         t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
         if not last:
             t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
@@ -492,11 +541,6 @@ def _solve_hybrid(
         phases.extend([run.phase.name] * t_seg.size)
         if last:
             break
-        index, t_sw = run.switch
-        ev = run.phase.events[index]
-        y_sw = np.asarray(seg.sol(t_sw), dtype=float)
-        if ev.jump is not None:
-            y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
         switches.append((t_sw, run.phase.name, ev.target))
         run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
@@ -504,7 +548,9 @@ def _solve_hybrid(
     kw["nfev"] = nfev
     kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
     status, message = seg.status, seg.message
-    if run.switch is not None:  # stopped for switching too often
+    if jump_failed is not None:
+        status, message = "failed", jump_failed
+    elif run.switch is not None:  # stopped for switching too often
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)
@@ -568,7 +614,7 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        sol = _AtStart(self.t0, self.y0)
+        sol = _Constant(self.t0, self.y0)
         return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
@@ -686,7 +732,7 @@ def _solve_scipy(
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _AtStart(t0, y0)
+        sol = _Constant(t0, y0)
     elif method in ("BDF", "LSODA"):  # solve_ivp sets this only for its own classes
         sol = OdeSolution(sol.ts, sol.interpolants, alt_segment=True)
     t_stop = float(sol.t_max)
@@ -756,6 +802,7 @@ def _solve_compiled(
     )
     dense = sol.dense
     t_stop = float(sol.t_steps[-1])
+    failure = None
     if sol.status < 0:
         base = dop853.STATUS_MESSAGES[sol.status]
         if sol.status == dop853.MAX_STEPS:
@@ -763,9 +810,30 @@ def _solve_compiled(
         failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
         if dense.h.size == 0:  # not a single step: nothing to interpolate
             return run.at_start("failed", failure, nfev=sol.nfev)
-    stopped_by = int(sol.event_index[-1]) if sol.status == dop853.TERMINAL_EVENT else None
+    stopped_by = None
+    if sol.status == dop853.TERMINAL_EVENT:
+        stopped_by = (int(sol.event_index[-1]), float(sol.event_t[-1]))
+    return _finish(run, dense, t_stop, _truncate, sol.nfev, stopped_by,
+                   failure, t_end, t_eval_arr, events)  # fmt: skip
 
-    kw: dict[str, Any] = {"nfev": sol.nfev, "t_events": []}
+
+def _finish(
+    run: _Run,
+    dense: Any,
+    t_stop: float,
+    truncate: Callable[[Any, float], Any],
+    nfev: int,
+    stopped_by: tuple[int, float] | None,
+    failure: str | None,
+    t_end: float,
+    t_eval_arr: np.ndarray | None,
+    events: list,
+) -> Any:
+    """The Trajectory of a compiled (DOP853 or Taylor) run that ended at ``t_stop``: user events
+    located on the dense output (a terminal one cuts the run there), the samples (the steps, or
+    ``t_eval``), and the status: stopped by a model event ``stopped_by`` = (index, time), failed
+    (``failure``), or completed."""
+    kw: dict[str, Any] = {"nfev": nfev, "t_events": []}
     user_stop = None
     if events:
         try:
@@ -774,7 +842,7 @@ def _solve_compiled(
             raise err.exc from None  # a user event's exception, unchanged (as on scipy)
         if t_term is not None and t_term <= t_stop:
             # the run would have stopped here: cut it, and its dense output, at the event
-            dense, t_stop, user_stop = _truncate(dense, t_term), t_term, k_term
+            dense, t_stop, user_stop = truncate(dense, t_term), t_term, k_term
         kw["t_events"] = [te[te <= t_stop] for te in t_user]
 
     if t_eval_arr is None:
@@ -789,10 +857,50 @@ def _solve_compiled(
         msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
         return run.result(t_out, Y, dense, "completed", msg, **kw)
     if stopped_by is not None:
-        return run.stopped(t_out, Y, dense, stopped_by, float(sol.event_t[-1]), **kw)
-    if sol.status < 0:
+        return run.stopped(t_out, Y, dense, stopped_by[0], stopped_by[1], **kw)
+    if failure is not None:
         return run.result(t_out, Y, dense, "failed", failure, **kw)
     return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
+
+
+def _solve_taylor(
+    run: _Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, events, method, collect=False
+) -> Any:
+    """The Taylor-series backend (:mod:`.taylor`): ``run.phase``'s jet at the order of ``rtol``.
+
+    The per-step truncation error of component i is held at ≈ max(atol_i, rtol |y_i|) (the
+    step-size norm of Jorba & Zou scaled by σ_i = atol_i/rtol). Model events are located on the
+    Taylor polynomials; user events after the run on the dense output, as for DOP853.
+    """
+    from . import taylor
+
+    mdl, params = run.mdl, run.params
+    run.collect = collect
+    ph = run.phase
+    kernel = taylor.kernel(
+        ph.rhs_into, [ev.fn for ev in ph.events], run.y0.size, len(params),
+        taylor.order_for(rtol), f"{mdl.name}_{ph.name}",
+    )  # fmt: skip
+    sol = taylor.solve(
+        kernel, (run.t0, t_end), run.y0, params, scales=atol_arr / rtol,
+        direction=[ev.direction for ev in ph.events], max_step=max_step, max_steps=MAX_STEPS,
+    )[0]  # fmt: skip
+    dense = sol.dense
+    t_stop = float(dense.t[-1])
+    nfev = sol.n_steps  # one jet per step (a jet of order p costs about p²/4 right-hand sides)
+    failure = None
+    if sol.status < 0:
+        base = taylor.STATUS_MESSAGES[sol.status]
+        if sol.status == taylor.MAX_STEPS:
+            base = f"maximum number of steps ({MAX_STEPS}) reached"
+        failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
+        if sol.n_steps == 0:
+            return run.at_start("failed", failure, nfev=nfev)
+    stopped_by = None
+    if sol.status == taylor.TERMINAL_EVENT:
+        stopped_by = (sol.event_index, t_stop)
+    return _finish(run, dense, t_stop, lambda d, t: d.truncate(t), nfev, stopped_by,
+                   failure, t_end, t_eval_arr, events)  # fmt: skip
 
 
 def _user_events_after_run(
@@ -856,3 +964,31 @@ def _truncate(dense: Any, t_stop: float) -> Any:
     t = np.append(dense.t[:k], t_stop)
     y = np.vstack([dense.y[:k], dense(t_stop)[None, :]])
     return DenseOutput(t, y, dense.h[:k], dense.F[:k])
+
+
+def _dry(
+    top, state, t_end, friction, mdl, backend, method, rtol, atol, t_eval, events, max_step, options
+) -> Trajectory:
+    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
+    from . import stickslip
+
+    if mdl.name != "gliding":
+        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {mdl.name!r}")
+    if options:
+        raise ValueError(f"model options {sorted(options)} do not apply to friction={friction!r}")
+    if backend == "compiled":
+        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
+    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
+        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
+    if events:
+        raise ValueError("user events are not supported with dry friction (friction=...) yet")
+    max_step = float(max_step)
+    if not max_step > 0.0:
+        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
+    p = mdl.params(top, {})
+    y0 = mdl.initial(state, p)
+    atol_arr = _check_atol(atol, y0.size, np.asarray(mdl.scales(y0, p), dtype=float))
+    return stickslip.simulate_dry(
+        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
+        method=method,
+    )  # fmt: skip

@@ -149,6 +149,12 @@ class Trajectory:
         Right-hand-side evaluations.
     backend : str
         ``"compiled"`` or ``"scipy"``: which integrator ran (see :func:`~mett.simulate`).
+    phase : ndarray of str
+        Contact phase per sample: ``"sliding"`` or ``"rolling"`` (the ``"rolling"`` model rolls
+        throughout, the other models glide; a Coulomb run switches, :mod:`mett.dynamics.stickslip`).
+    extra : tuple of str
+        Names of further per-sample series set by the run (e.g. ``phase``, ``F_x``, ``F_y`` of a
+        dry-friction run).
 
     Notes
     -----
@@ -191,6 +197,7 @@ class Trajectory:
         backend: str = "scipy",
         initial_state: State | None = None,
         options: Mapping[str, Any] | None = None,
+        extra: dict[str, np.ndarray] | None = None,
     ) -> None:
         if status not in STATUSES:
             raise ValueError(f"status must be one of {STATUSES}; got {status!r}")
@@ -216,6 +223,12 @@ class Trajectory:
             t0 = float(np.asarray(solution.ts, dtype=float)[0])
             initial_state = self._state(np.asarray(solution(t0), dtype=float).reshape(-1, 1), ())
         self.initial_state = initial_state
+        # per-sample series of the contact that the states alone do not fix (e.g. the phase of a
+        # stick–slip run, mett.dynamics.stickslip); they replace derived ones of the same name
+        self.extra = tuple(extra or ())
+        self.phase = np.full(self.t.shape, "rolling" if model.name == "rolling" else "sliding")
+        for name, values in (extra or {}).items():
+            setattr(self, name, np.asarray(values).reshape(self.t.shape))
 
     # --- summary -----------------------------------------------------------------------------
     def __len__(self) -> int:
@@ -405,7 +418,8 @@ class Trajectory:
 
         The dense output of a DOP853 run (either backend, the default) is stored as the solver's own
         per-step interpolant coefficients, so :meth:`at` and :meth:`crossings` of the loaded
-        trajectory equal the original's bit for bit. Other scipy methods (RK45, Radau, …) are
+        trajectory equal the original's bit for bit; a run of the Taylor backend is stored as its
+        steps' Taylor polynomials, with the same effect. Other scipy methods (RK45, Radau, …) are
         stored as their step states and right-hand-side values, and the loaded trajectory
         interpolates between the steps with cubic Hermite polynomials: equal at the steps (to
         rounding), and between them within the interpolation error O(h⁴) of the step size h
@@ -645,6 +659,8 @@ def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str
         return {"kind": "constant"}, {"t": ts, "y": np.asarray(sol(ts[0]), dtype=float)}
     if isinstance(sol, DenseOutput):
         return {"kind": "dop853"}, {"t": sol.t, "y": sol.y, "h": sol.h, "F": sol.F}
+    if type(sol).__name__ == "TaylorDense":  # the Taylor backend: each step's polynomial
+        return {"kind": "taylor"}, {"t": sol.t, "y": sol.y, "C": sol.C[:, : sol.n]}
     ts = np.asarray(sol.ts, dtype=float)
     interpolants = list(getattr(sol, "interpolants", []))
     if interpolants and all(type(i).__name__ == "Dop853DenseOutput" for i in interpolants):
@@ -684,4 +700,8 @@ def _decode_dense(desc: dict, arrays: dict[str, np.ndarray]) -> Any:
         )
     if kind == "hermite":
         return _Hermite(arrays["dense_t"], arrays["dense_y"], arrays["dense_dy"])
+    if kind == "taylor":
+        from .taylor import TaylorDense
+
+        return TaylorDense(arrays["dense_t"], arrays["dense_y"], arrays["dense_C"])
     raise ValueError(f"unknown dense output kind {kind!r}")

@@ -1,0 +1,143 @@
+"""Benchmark: mett's Taylor-series backend against its DOP853 and against heyoka, in one run.
+
+1. One thesis trajectory (rutstam2013, θ0 = 0.1, ω3 = 155 rad/s; 8 s, the vector-form gliding
+   model) at tolerances 1e-10 and 1e-12: mett's Taylor backend (the integrator alone and the whole
+   ``simulate`` call), mett's compiled DOP853, and heyoka's ``taylor_adaptive`` (if installed: the
+   ``bench`` extra) on the very same equations (the model's ``rhs_into`` traced with heyoka's
+   variables). Each prints the error of the first θ = π/2 time against its converged value.
+2. A sweep of 64 friction coefficients (4 s runs) on one core: mett's Taylor integrator with 4 SIMD
+   lanes against heyoka's batch mode (4 lanes), runs per second.
+
+Times are CPU times of this thread (``time.thread_time``), best of several repeats: on a shared
+machine they are less disturbed than wall-clock times, and both codes are timed the same way.
+Run ``python benchmarks/bench_taylor.py``; it prints numbers and ratios and asserts nothing. The
+first run on a machine compiles the Taylor kernels (a few seconds each; cached on disk).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+from scipy.optimize import brentq
+
+import mett
+from mett.dynamics import MODELS, dop853, taylor
+
+T_HALF = 5.879749518045809  # converged first θ = π/2 of the thesis run (tests/test_taylor.py)
+
+
+def cpu_best(fn: Callable[[], object], repeat: int) -> float:
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.thread_time()
+        fn()
+        best = min(best, time.thread_time() - t0)
+    return best
+
+
+def t_half(dense: Callable, ez_row: int = 9) -> float:
+    tt = np.linspace(5.5, 6.5, 2001)
+    ez = dense(tt)[ez_row]
+    i = int(np.flatnonzero(np.diff(np.sign(ez)))[0])
+    return brentq(lambda t: float(dense(t)[ez_row]), tt[i], tt[i + 1], xtol=1e-15)
+
+
+def heyoka_system(mdl, p):
+    """The model's equations as heyoka expressions: ``rhs_into`` traced with heyoka variables."""
+    import heyoka as hy
+
+    y = hy.make_vars(*[f"y{i}" for i in range(10)])
+    out: dict[int, object] = {}
+    mdl.rhs_into(0.0, list(y), tuple(p), out)
+    return [(y[i], out[i]) for i in range(10)]
+
+
+def main() -> None:
+    try:
+        import heyoka as hy
+    except ImportError:  # the bench extra is not installed
+        hy = None
+    top = mett.presets.get("rutstam2013")
+    start = mett.State(theta=0.1, omega3=155.0)
+    mdl = MODELS["gliding"]
+    p = np.array(mdl.params(top, {}))
+    y0 = np.asarray(mdl.initial(start, tuple(p)))
+    scales = mdl.scales(y0, tuple(p))
+    events = [ev.fn for ev in mdl.events]
+    rhs, ev = dop853_kernels(mdl)
+    print("1. thesis trajectory, 8 s (CPU ms, best of 15; error of t(θ = π/2) in s)")
+    for tol in (1e-10, 1e-12):
+        k = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding")
+
+        def mett_taylor(k=k, tol=tol):
+            return taylor.solve(k, (0.0, 8.0), y0, p, scales=scales, direction=[-1.0])[0]
+
+        def mett_dop853(tol=tol):
+            return dop853.solve(rhs, (0.0, 8.0), y0, p, rtol=tol, atol=tol * scales, events=ev,
+                                direction=[-1.0], terminal=[True])  # fmt: skip
+
+        def mett_simulate(tol=tol):
+            return mett.simulate(top, start, 8.0, backend="taylor", rtol=tol)
+
+        sol = mett_taylor()
+        row = {
+            "taylor": (cpu_best(mett_taylor, 15), t_half(sol.dense) - T_HALF, sol.n_steps),
+            "simulate(taylor)": (cpu_best(mett_simulate, 5), math.nan, sol.n_steps),
+        }
+        d = mett_dop853()
+        row["dop853"] = (cpu_best(mett_dop853, 15), t_half(d.dense) - T_HALF, d.n_accepted)
+        if hy is not None:
+            ta = hy.taylor_adaptive(heyoka_system(mdl, p), y0, tol=tol)
+
+            def hey(ta=ta):
+                ta.time = 0.0
+                ta.state[:] = y0
+                return ta.propagate_until(8.0, c_output=True)
+
+            out = hey()
+            c = out[-1] if callable(out[-1]) else out[4]
+            row["heyoka"] = (cpu_best(hey, 15), t_half(lambda t, c=c: c(t).T) - T_HALF, out[3])
+        base = row.get("heyoka", row["dop853"])[0]
+        for name, (sec, err, steps) in row.items():
+            print(f"   tol {tol:g}  {name:17s} {sec * 1e3:7.2f} ms  ({steps} steps, error "
+                  f"{err:+.1e})  ×{sec / base:.2f} of {'heyoka' if hy else 'dop853'}")  # fmt: skip
+    print("2. sweep: 64 friction coefficients, 4 s runs, one core (runs/s, best of 3)")
+    mus = np.linspace(0.05, 0.5, 64)
+    P = np.tile(p, (64, 1))
+    P[:, 5] = mus
+    Y = np.tile(y0, (64, 1))
+    for tol in (1e-12, 2.220446049250313e-16):
+        k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding", lanes=4)
+        sec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales,
+                                                  direction=[-1.0]), 3)  # fmt: skip
+        line = f"   tol {tol:.1e}  mett taylor 4 lanes {64 / sec:7.0f} runs/s"
+        if hy is not None:
+            import heyoka as hy
+
+            pp = [*p[:5], hy.par[0], p[6]]
+            ta = hy.taylor_adaptive_batch(heyoka_system(mdl, pp), np.tile(y0[:, None], (1, 4)),
+                                          tol=tol, pars=np.zeros((1, 4)))  # fmt: skip
+
+            def hb(ta=ta):
+                for g in range(16):
+                    ta.set_time(0.0)
+                    ta.state[:] = y0[:, None]
+                    ta.pars[0, :] = mus[4 * g : 4 * g + 4]
+                    ta.propagate_until(4.0)
+
+            hsec = cpu_best(hb, 3)
+            line += f" | heyoka batch {64 / hsec:7.0f} runs/s | ratio {hsec / sec:.2f}"
+        print(line)
+
+
+def dop853_kernels(mdl):
+    from mett.dynamics import _kernels
+
+    return _kernels.compiled(mdl, mdl.phase)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,225 @@
+"""The Taylor-series backend (mett.dynamics.taylor): recurrences, accuracy, events, batches.
+
+Independent checks: the jet's coefficients against closed-form series (exp, 1/(1 − t), the
+pendulum's energy) and against the model's own right-hand side and its derivative along the flow
+(finite differences); every registered model against the compiled DOP853 at a much tighter
+tolerance; the thesis inversion time against its converged value; event times against DOP853's;
+several trajectories in one SIMD batch against the same trajectories one at a time.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import mett
+from mett.dynamics import MODELS, simulate, taylor
+
+TOP = mett.presets.get("rutstam2013")
+THESIS = mett.State(theta=0.1, omega3=155.0)
+T_HALF = 5.879749518045809  # first θ = π/2 of the thesis run, converged (DOP853 and Taylor, 1e-14)
+
+
+def _exp_into(t, y, p, out):
+    out[0] = p[0] * y[0]
+
+
+def _blowup_into(t, y, p, out):
+    out[0] = y[0] * y[0]
+
+
+def _pendulum_into(t, y, p, out):
+    out[0] = y[1]
+    out[1] = -p[0] * np.sin(y[0])
+
+
+def _jet(rhs_into, y0, p, order, events=()):
+    k = taylor.kernel(rhs_into, list(events), len(y0), len(p), order, "test")
+    sol = taylor.solve(k, (0.0, 1e-300), y0, p)[0]  # one (tiny) step: its coefficients
+    return sol.dense.C[0]
+
+
+def test_jet_of_exp_is_the_exponential_series():
+    C = _jet(_exp_into, [2.0], [0.5], 12)
+    k = np.arange(13)
+    expected = 2.0 * 0.5**k / np.array([math.factorial(j) for j in k], dtype=float)
+    np.testing.assert_allclose(C[0], expected, rtol=1e-15, atol=0)
+
+
+def test_jet_of_a_square_is_the_geometric_series():
+    # y' = y², y(0) = 1: y = 1/(1 − t) = Σ t^k
+    C = _jet(_blowup_into, [1.0], [], 14)
+    np.testing.assert_allclose(C[0], np.ones(15), rtol=1e-14)
+
+
+def test_sin_cos_recurrences_conserve_the_pendulum_energy():
+    k = taylor.kernel(_pendulum_into, [], 2, 1, 20, "pendulum")
+    sol = taylor.solve(k, (0.0, 50.0), [2.5, 0.0], [9.81])[0]
+    tt = np.linspace(0.0, 50.0, 2001)
+    th, om = sol.dense(tt)
+    energy = 0.5 * om**2 - 9.81 * np.cos(th)
+    assert np.ptp(energy) < 1e-11 * abs(energy[0])
+    assert sol.status == taylor.COMPLETED
+
+
+def test_first_coefficients_are_the_rhs_and_its_flow_derivative():
+    mdl = MODELS["gliding"]
+    p = mdl.params(TOP, {})
+    y0 = np.asarray(mdl.initial(mett.State(theta=1.0, omega3=100.0, phidot=5.0, nu_x=0.1), p))
+    C = _jet(mdl.rhs_into, y0, np.array(p), 8)
+    f0 = mdl.rhs(0.0, y0, p)
+    np.testing.assert_allclose(C[:10, 1], f0, rtol=1e-13, atol=1e-13 * np.abs(f0).max())
+    # y_2 = ½ (d/dt) f(y(t)) = ½ J f, by a central difference along f
+    eps = 1e-6
+    df = (mdl.rhs(0.0, y0 + eps * f0, p) - mdl.rhs(0.0, y0 - eps * f0, p)) / (2 * eps)
+    np.testing.assert_allclose(C[:10, 2], 0.5 * df, rtol=1e-6, atol=1e-8 * np.abs(df).max())
+
+
+def test_a_branch_on_the_state_cannot_be_traced():
+    def branchy(t, y, p, out):
+        out[0] = y[0] if y[0] > 0 else -y[0]
+
+    with pytest.raises(TypeError, match="branch"):
+        taylor.trace(branchy, [], 1, 0)
+
+
+def test_finite_time_blowup_is_a_status_not_a_crash():
+    k = taylor.kernel(_blowup_into, [], 1, 0, 16, "blowup")
+    sol = taylor.solve(k, (0.0, 2.0), [1.0], [])[0]
+    assert sol.status in (taylor.STEP_TOO_SMALL, taylor.NON_FINITE)
+    assert 0.99 < sol.dense.t_max < 1.0 + 1e-12  # y = 1/(1 − t) ends at t = 1
+
+
+def test_thesis_inversion_time_within_1e_10_at_rtol_1e_12():
+    traj = simulate(TOP, THESIS, 8.0, backend="taylor", rtol=1e-12)
+    assert traj.status == "completed"
+    assert traj.backend == "taylor"
+    assert abs(traj.crossings(math.pi / 2)[0] - T_HALF) < 1e-10
+    assert abs(traj.lam[-1] / traj.lam[0] - 1.0) < 1e-11
+    # the end state: ω3 → −λ/(R I3 (1 + α)) (inverted spin)
+    w_end = -traj.lam[0] / (TOP.R * TOP.I3 * (1 + TOP.alpha))
+    assert abs(traj.omega3[-1] / w_end - 1.0) < 1e-4
+
+
+STARTS = {
+    "gliding": mett.State(theta=0.5, omega3=155.0, phidot=3.0, nu_x=0.05),
+    "rolling": mett.State(theta=1.0, omega3=100.0, phidot=5.0),
+    "gliding-hst": mett.State(theta=0.5, omega3=155.0),
+    "cylinder": mett.State(theta=0.5, thetadot=2.0, nu_x=0.01),
+    "gliding-euler": mett.State(theta=0.5, omega3=155.0, thetadot=1.0),
+    "frictionless-routhian": mett.State(theta=0.5, omega3=155.0, thetadot=1.0),
+}
+
+
+# models that need options of their own are checked separately (the stemmed top below)
+_OWN_TEST = {"stemmed"}
+
+
+@pytest.mark.parametrize("name", sorted(STARTS))
+def test_every_model_agrees_with_dop853(name):
+    compiled = {n for n, m in MODELS.items() if m.rhs_into is not None}
+    assert set(STARTS) | _OWN_TEST >= compiled
+    mdl = MODELS[name]
+    a = simulate(TOP, STARTS[name], 1.0, model=name, backend="taylor", rtol=1e-12)
+    b = simulate(TOP, STARTS[name], 1.0, model=name, backend="compiled", rtol=3e-14)
+    assert a.status == b.status == "completed"
+    tt = np.linspace(0.0, 1.0, 101)
+    p = mdl.params(TOP, {})
+    scale = mdl.scales(a.states_at(0.0), p)
+    err = np.abs((a.states_at(tt) - b.states_at(tt)) / scale[:, None]).max()
+    assert err < 1e-9, err
+
+
+def test_dense_output_is_continuous_at_the_steps():
+    mdl = MODELS["gliding"]
+    k = taylor.kernel(mdl.rhs_into, [ev.fn for ev in mdl.events], 10, 7, 15, "gliding")
+    p = mdl.params(TOP, {})
+    dense = taylor.solve(k, (0.0, 2.0), mdl.initial(THESIS, p), p, direction=[-1.0])[0].dense
+    ends = dense(dense.t[1:] * (1 - 1e-16))  # each step's polynomial at its end ...
+    starts = dense.y[1:].T  # ... and the next step's start
+    scale = mdl.scales(dense.y[0], p)
+    assert np.abs((ends - starts) / scale[:, None]).max() < 1e-12
+
+
+def test_contact_loss_located_like_dop853():
+    top = TOP.replace(mu=0.1)
+    start = mett.State(theta=0.1, omega3=250.0)
+    a = simulate(top, start, 20.0, backend="taylor", rtol=1e-12)
+    b = simulate(top, start, 20.0, backend="compiled", rtol=1e-13)
+    assert a.status == b.status == "contact_lost"
+    assert abs(a.t_contact_lost - b.t_contact_lost) < 1e-7
+    assert a.gn[-1] == pytest.approx(0.0, abs=1e-9 * top.m * top.g)
+
+
+def test_pole_guard_of_the_euler_form_stops_the_run():
+    start = mett.State(theta=0.02, omega3=0.0, thetadot=-1.0)
+    a = simulate(TOP, start, 1.0, model="gliding-euler", backend="taylor", rtol=1e-12)
+    b = simulate(TOP, start, 1.0, model="gliding-euler", backend="compiled", rtol=1e-13)
+    assert a.status == b.status == "failed"
+    assert abs(a.t[-1] - b.t[-1]) < 1e-9
+
+
+def test_user_events_and_t_eval_work_as_on_dop853():
+    def half(t, s):
+        return s.theta - math.pi / 2
+
+    half.terminal = True
+    t_eval = np.linspace(0.0, 8.0, 81)
+    a = simulate(TOP, THESIS, 8.0, backend="taylor", rtol=1e-12, events=[half], t_eval=t_eval)
+    assert a.t_events[0][0] == pytest.approx(T_HALF, abs=1e-9)
+    assert a.t[-1] == pytest.approx(T_HALF, abs=1e-9)
+    np.testing.assert_array_equal(a.t[:-1], t_eval[t_eval < a.t[-1]])
+
+
+def test_a_batch_of_lanes_equals_one_trajectory_at_a_time():
+    mdl = MODELS["gliding"]
+    p = np.array(mdl.params(TOP, {}))
+    y0 = np.asarray(mdl.initial(THESIS, tuple(p)))
+    P = np.tile(p, (6, 1))
+    P[:, 5] = np.linspace(0.1, 0.6, 6)  # six friction coefficients; 6 = one full batch of 4 + 2
+    events = [ev.fn for ev in mdl.events]
+    k1 = taylor.kernel(mdl.rhs_into, events, 10, 7, 15, "gliding", lanes=1)
+    k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, 15, "gliding", lanes=4)
+    one = [taylor.solve(k1, (0.0, 1.0), y0, P[j], direction=[-1.0])[0] for j in range(6)]
+    many = taylor.solve(k4, (0.0, 1.0), np.tile(y0, (6, 1)), P, direction=[-1.0])
+    for a, b in zip(one, many, strict=True):
+        assert a.n_steps == b.n_steps
+        np.testing.assert_allclose(b.dense.y, a.dense.y, rtol=1e-14, atol=1e-300)
+
+
+def test_taylor_backend_refuses_another_method():
+    with pytest.raises(ValueError, match="taylor backend"):
+        simulate(TOP, THESIS, 1.0, backend="taylor", method="RK45")
+
+
+def test_order_follows_the_tolerance():
+    assert taylor.order_for(1e-10) == 13
+    assert taylor.order_for(1e-12) == 15
+    assert taylor.order_for(1e-16) == 20
+
+
+def test_save_and_load_keep_the_taylor_dense_output(tmp_path):
+    traj = simulate(TOP, THESIS, 2.0, backend="taylor", rtol=1e-12)
+    path = tmp_path / "run.npz"
+    traj.save(path)
+    back = mett.Trajectory.load(path)
+    tt = np.linspace(0.0, 2.0, 501)
+    np.testing.assert_array_equal(back.states_at(tt), traj.states_at(tt))
+    np.testing.assert_array_equal(back.theta, traj.theta)
+    assert back.backend == "taylor"
+
+
+def test_stemmed_top_touches_down_as_on_dop853():
+    # a hybrid model (ball and stem phases, impacts as jumps): a Leine–Glocker-like body just
+    # before touchdown (the stem tests' start)
+    ball = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=0.3)
+    top = ball.with_stem(radius=0.005, distance=0.016)
+    start = mett.State(theta=2.15, thetadot=2.0, phidot=110.0, omega3=-76.0, nu_y=0.16)
+    a = simulate(top, start, 0.5, backend="taylor", rtol=1e-12)
+    b = simulate(top, start, 0.5, backend="compiled", rtol=1e-13)
+    assert a.status == b.status
+    assert len(a.touchdowns) == len(b.touchdowns) >= 1
+    np.testing.assert_allclose(a.touchdowns, b.touchdowns, rtol=0, atol=1e-9)
+    assert a.contact[-1] == b.contact[-1]
