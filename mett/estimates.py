@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from . import _validate
-from .potential import d, d2V_dz2, g
+from .potential import _check_integrals, d, d2V_dz2, g
 from .separation import _Well, _wells
 from .thresholds import pole_spins
 
@@ -52,6 +52,7 @@ def potential_minimum(top: TippeTop, D: float, lam: float) -> float:
     _validate.instance("top", top, "TippeTop")
     D = _validate.finite_scalar("D", D)
     lam = _validate.finite_scalar("lam", lam)
+    _check_integrals(top, D=np.asarray(D), lam=np.asarray(lam))
     w = _Well(top, 0.0, D, lam)
     mins = _wells(w)
     return max(mins, key=w.excess)  # the deepest well: largest 0 − V

@@ -524,3 +524,78 @@ def test_simulate_refuses_a_max_step_beyond_the_step_budget_before_any_work():
         mett.simulate(TOP, s, t_end, max_step="1e-3")
     tr = mett.simulate(TOP, s, t_end, max_step=1e-4)  # ordinary values still run
     assert tr.status == "completed" and np.max(np.diff(tr.t)) <= 1e-4 * (1 + 1e-12)
+
+
+_POTENTIAL_CALLS = {
+    "d": lambda t: mett.d(t, 0.3),
+    "g": lambda t: mett.g(t, 0.3),
+    "V": lambda t: mett.V(t, 0.3, 1e-4, 1e-5),
+    "V_rational": lambda t: mett.V_rational(t, 0.3, 1e-4, 1e-5),
+    "dV_dz": lambda t: mett.dV_dz(t, 0.3, 1e-4, 1e-5),
+    "d2V_dz2": lambda t: mett.d2V_dz2(t, 0.3, 1e-4, 1e-5),
+    "f": lambda t: mett.f(t, 0.3, 0.01, 1e-4, 1e-5),
+    "band": lambda t: mett.band(t, 0.01, 1e-4, 1e-5),
+    "turning_points": lambda t: mett.turning_points(t, 0.01, 1e-4, 1e-5),
+    "nutation_period": lambda t: mett.nutation_period(t, 0.01, 1e-4, 1e-5),
+    "mean_precession": lambda t: mett.mean_precession(t, 0.01, 1e-4, 1e-5),
+    "classify_motion": lambda t: mett.classify_motion(t, 0.01, 1e-4, 1e-5),
+}
+
+
+@pytest.mark.parametrize("name", list(_POTENTIAL_CALLS))
+def test_potential_and_separation_refuse_a_top_that_is_not_a_tippe_top(name):
+    with pytest.raises(TypeError, match="top must be a TippeTop; got NoneType"):
+        _POTENTIAL_CALLS[name](None)
+
+
+def test_integral_bounds_are_the_top_natural_scales():
+    rate = math.sqrt(TOP.g / TOP.R)
+    big = mett.potential.INTEGRAL_MAX
+    D_max, lam_max = big * TOP.I3 * rate, big * TOP.R * TOP.I3 * rate
+    E_max = big**2 * max(TOP.m * TOP.g * TOP.R, TOP.I3 * TOP.g / TOP.R)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy RuntimeWarning either
+        for fn in (mett.V, mett.dV_dz, mett.V_rational):
+            with pytest.raises(ValueError, match=r"D must lie in \[-.*\] kg m\^2/s .* got 1e\+155"):
+                fn(TOP, 0.3, 1e155, 1e-5)
+            with pytest.raises(ValueError, match=r"lam must lie in .* kg m\^3/s .* got -1e\+300"):
+                fn(TOP, 0.3, 1e-4, [1e-5, -1e300])
+        for fn in (mett.band, mett.nutation_period, mett.turning_points, mett.classify_motion):
+            with pytest.raises(ValueError, match=r"E must lie in .* J .* got 1e\+300"):
+                fn(TOP, 1e300, 1e-4, 1e-5)
+        with pytest.raises(ValueError, match="E must lie in"):
+            mett.f(TOP, 0.3, -1e300, 1e-4, 1e-5)
+        with pytest.raises(ValueError, match="lam must lie in"):
+            mett.potential_minimum(TOP, 1e-4, 1e155)
+        # at the bounds themselves V is finite and equals its closed form (interior z)
+        z = 0.3
+        v = float(mett.V(TOP, z, D_max, lam_max))
+        n = lam_max * math.sqrt(float(mett.d(TOP, z))) + TOP.R * D_max * (TOP.alpha - z)
+        expected = (
+            TOP.m * TOP.g * TOP.R * (1 - TOP.alpha * z)
+            + TOP.I3 / (2 * TOP.I1**2 * TOP.R**2) * n * n / (1 - z * z)
+            + D_max**2 / (2 * TOP.I1)
+            - TOP.m * lam_max**2 / (2 * TOP.I1 * TOP.I3)
+        )
+        assert math.isfinite(v) and v == pytest.approx(expected, rel=1e-12)
+        assert np.all(np.isfinite(mett.f(TOP, [0.0, 0.3], E_max, D_max, lam_max)))
+
+
+def test_tiny_integrals_give_finite_answers_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for tiny in (5e-324, -1e-300):
+            assert np.all(np.isfinite(mett.V(TOP, [-0.5, 0.0, 0.5], tiny, tiny)))
+            assert np.all(np.isfinite(mett.dV_dz(TOP, [-0.5, 0.0, 0.5], tiny, tiny)))
+            assert mett.classify_motion(TOP, 0.01, tiny, tiny) in ("nutation", "steady", "none")
+
+
+def test_dV_dz_on_a_grid_through_z_zero_has_no_warning():
+    z = np.linspace(-0.9, 0.9, 7)  # contains 0 exactly
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dv = mett.dV_dz(TOP, z, 1e-4, 1e-5)
+    # against a central difference of V
+    h = 1e-6
+    fd = (mett.V(TOP, z + h, 1e-4, 1e-5) - mett.V(TOP, z - h, 1e-4, 1e-5)) / (2 * h)
+    np.testing.assert_allclose(dv, fd, rtol=1e-6, atol=1e-9)
