@@ -23,10 +23,23 @@ exactly where λ'(θ_t) does (checked in ``tests/test_classification.py`` agains
 linearisation of the Euler-angle form and against simulations started next to tumbling states).
 
 S is a concave quadratic in z whose vertex z = α/u lies outside [−1, 1] for group II, so the
-tumbling family is monotone or has a single fold. That gives six classes, as many as the six groups
-Ia–III that Ciocci & Langerock (2007) derive from the existence and stability of the steady
-states; the criteria below are derived here, and which letter a, b, c names which case is our
-assignment, not checked against their text:
+tumbling family is monotone or has a single fold. That gives six classes, as many as the "six
+groups according to the existence and stability type of the steady states" of Ciocci & Langerock
+(2007, abstract; arXiv:0704.1221), a classification that one version of their abstract says was
+"proposed in [1]", i.e. it predates the paper. What has been checked against the literature is
+the Roman numeral only: group I tops "never flip over however large a spin they are given",
+group II tops "show a complete inversion",
+group III tops "tend to turn over up to a certain inclination angle θf such that θf < π" (Ueda,
+Sasaki & Watanabe 2005, abstract) -- the "nontipping", "tipping" and "hanging" tops of Ciocci,
+Malengier, Langerock & Grimonprez (2012, abstract); ``tests/test_classification.py`` pins this at
+sample points. The boundaries below are derived here, and the letters a, b, c are mett's own
+labels: the section of Ciocci & Langerock that defines the subgroups was not available to the
+review, so whether e.g. their IIb is mett's IIb is UNVERIFIED. Their model also differs: a sliding
+friction with the translational dynamics ignored, reduced by Routh to a two-degree-of-freedom
+system, where mett keeps the gliding CM with viscous friction (:mod:`mett.dynamics.gliding`), and
+Ueda et al. use "a modified Coulomb law for the sliding friction". mett's amended potential is the
+energy minimised with the CM at rest, so it does not involve the translational terms they drop,
+but their Routhian and stability conditions were not compared with it.
 
 | class | where | tumbling family λ(θ_t) and stable states |
 | --- | --- | --- |
@@ -181,7 +194,11 @@ def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
 
 
 def subgroup(top: TippeTop) -> str:
-    """Class of ``top`` among Ia, Ib, IIa, IIb, IIc, III (module table; Ciocci & Langerock 2007).
+    """Class of ``top`` among Ia, Ib, IIa, IIb, IIc, III (module table).
+
+    The Roman numeral is the group of Ueda, Sasaki & Watanabe (2005); the letters are mett's labels
+    for the six cases of the module table, not verified to match Ciocci & Langerock's (2007)
+    subgroups (module docstring).
 
     All presets shipped with mett are IIa (e.g. the thesis body, α = 0.3, γ = 0.936).
     """

@@ -126,6 +126,44 @@ def test_each_class_is_represented():
         assert top.subgroup == name
 
 
+@pytest.mark.parametrize(
+    ("alpha", "gamma"),
+    [(0.3, g) for g in (0.55, 0.69, 0.72, 0.75, 0.9357, 1.0, 1.29, 1.31, 1.6)]
+    + [(0.02, g) for g in (0.8, 0.979, 0.982, 1.01, 1.03)]
+    + [(0.45, 0.54), (0.45, 0.56)]
+    + [(0.6, g) for g in (0.9, 1.59, 1.61)],
+)
+def test_groups_have_the_published_large_spin_behaviour(alpha, gamma):
+    """The Roman numeral is the group of Ueda, Sasaki & Watanabe (2005, abstract), which Ciocci &
+    Langerock (2007) refine into six: "Group I never flip over however large a spin they are
+    given", "Group II show a complete inversion", "Group III tend to turn over up to a certain
+    inclination angle θf such that θf < π, when they are spun sufficiently rapidly" (the
+    nontipping, tipping and hanging tops of Ciocci et al. 2012, abstract). Checked on the stable
+    steady states at large λ; the letters a, b, c are not covered by this test."""
+    top = top_with(gamma, alpha)
+    group = str(C.classify(alpha, gamma)).rstrip("abc")
+    assert group == top.group
+    finite = [x for x in (top.lambda_0, top.lambda_thres) if math.isfinite(x)]
+    assert len(finite) == (2 if group == "II" else 1)
+    gaps = []
+    for factor in (3.0, 30.0, 1e3):
+        states = C.stable_states(top, factor * max(finite))
+        kinds = [s.kind for s in states]
+        if group == "I":  # the upright spin stays stable: a top spun upright never flips
+            assert "upright" in kinds
+            assert "tumbling" not in kinds
+        elif group == "II":  # the inverted spin is the only end state
+            assert kinds == ["inverted"]
+        else:  # one tumbling state, below θ_f = arccos(α/(1 − γ)) < π and tending to it
+            theta_f = math.acos(alpha / (1.0 - gamma))
+            assert kinds == ["tumbling"]
+            assert 0.0 < states[0].theta < theta_f < math.pi
+            gaps.append(theta_f - states[0].theta)
+    if group == "III":
+        assert gaps[0] > gaps[1] > gaps[2]
+        assert gaps[2] < 0.01
+
+
 def test_boundaries_separate_the_classes():
     alphas = np.array([0.01, 0.03, 0.06, 0.1, 0.3, 0.5])
     b = C.subgroup_boundaries(alphas)

@@ -56,6 +56,14 @@ def _random_model_state(name: str, rng: np.random.Generator) -> mett.State:
 # --- the compiled right-hand sides are the Python ones, compiled ------------------------------
 
 
+# options a model cannot run without (the dry-friction models need their law)
+_NEEDED = {
+    "coulomb": {"friction": mett.friction.Coulomb(0.3)},
+    "coulomb-contensou": {"friction": mett.friction.Coulomb(0.3, contensou_radius=3e-3)},
+    "coulomb-regularised": {"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-3)},
+}
+
+
 # "stemmed" needs its stem options and has a phase per contact: its contract class in
 # test_model_contract.py checks compiled == Python for each phase
 @pytest.mark.parametrize("name", [n for n in MODELS if n != "stemmed"])
@@ -65,7 +73,7 @@ def test_compiled_rhs_and_events_equal_the_python_model(name, top):
     rng = np.random.default_rng(17)
     worst = 0.0
     for _ in range(50):
-        p = model.params(top, {})
+        p = model.parameters(top, **_NEEDED.get(name, {}))
         y = np.asarray(model.initial(_random_model_state(name, rng), p), dtype=float)
         # off the constraint manifold too: an unnormalised axis, a moved CM
         y = y * (1.0 + 1e-3 * rng.normal(size=y.size))

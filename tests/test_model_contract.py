@@ -132,6 +132,7 @@ class ModelContract:
 
 _SPUN = mett.State(theta=0.1, omega3=155.0)
 _TILTED = mett.State(theta=1.2, thetadot=-2.0, phidot=8.0, omega3=120.0, nu_x=0.05, nu_y=-0.1)
+_SLIPPING = mett.State(theta=0.5, thetadot=1.0, omega3=120.0, nu_x=0.02)
 
 
 class TestGliding(ModelContract):
@@ -205,6 +206,47 @@ class TestStemmed(ModelContract):
         ({"stem_distance": 0.01, "stem_radius": 0.005}, ValueError),  # inside the ball
         ({"stem_radius": 0.005}, ValueError),  # no distance
     )
+
+
+class TestCoulomb(ModelContract):
+    """Exact Coulomb stick–slip (friction=Coulomb(mu)): both phases compiled and checked."""
+
+    name = "coulomb"
+    states = (_SPUN, _TILTED)  # rolls from the start; slides (and stops within 0.5 s)
+    options = {"friction": mett.friction.Coulomb(0.3)}  # noqa: RUF012
+    conserved_rtol = 1e-9
+    bad_options = (
+        ({"stopping_band": -1e-9}, ValueError),
+        ({"stopping_band": "1e-9"}, TypeError),
+        ({"l": 0.01}, ValueError),
+    )
+
+    def test_both_phases_are_visited(self):
+        tr = simulate(TOP, _TILTED, 0.5, model=self.name, **self.options)
+        assert set(tr.phase) == {"sliding", "rolling"}
+        reasons = [s.reason for s in tr.switches]
+        assert reasons[0] == "stop" and set(reasons) <= {"stop", "cone", "reversal"}
+        for sw in tr.switches:  # the phase series agrees with the recorded switches
+            # (the sample at a switch time is the state after the switch)
+            assert tr.phase[np.searchsorted(tr.t, sw.t, side="left")] == sw.after
+
+
+class TestCoulombContensou(ModelContract):
+    name = "coulomb-contensou"
+    states = (_SPUN, _SLIPPING)
+    options = {"friction": mett.friction.Coulomb(0.3, contensou_radius=3e-3)}  # noqa: RUF012
+
+    def test_selected_by_the_law(self):
+        tr = simulate(TOP, _SPUN, 0.01, friction=self.options["friction"])
+        assert tr.model == self.name
+        assert simulate(TOP, _SPUN, 0.01, friction=mett.friction.Coulomb(0.3)).model == "coulomb"
+
+
+class TestCoulombRegularised(ModelContract):
+    name = "coulomb-regularised"
+    states = (_SPUN, _SLIPPING)
+    options = {"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-2)}  # noqa: RUF012
+    bad_options = (({"friction": mett.friction.Coulomb(0.3)}, TypeError),)
 
 
 def test_every_registered_model_has_a_contract_class():

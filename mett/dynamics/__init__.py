@@ -7,7 +7,10 @@ Models (theory.md §2, §3, §10; Rutstam 2012; thesis eqs (10)–(15)):
 * ``"rolling"`` — the integrable rolling ball, v_A ≡ 0 (:mod:`.rolling`);
 * ``"gliding-hst"`` — gliding heavy symmetric top, R → 0 with Rα = l (:mod:`.reduced`);
 * ``"cylinder"`` — gliding eccentric cylinder, the subspace φ̇ = ω3 = ν_y = 0 (:mod:`.reduced`);
-* ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`).
+* ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`);
+* ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"`` — dry friction (exact
+  stick–slip, a hybrid of sliding and rolling phases; the regularised law), chosen by
+  ``simulate(..., friction=...)`` (:mod:`.stickslip`).
 
 Every model declares itself once, in its own module, with :func:`~.registry.register` (see
 :mod:`.registry` for the design): right-hand side, events, options, conserved quantities. Adding a
@@ -22,7 +25,7 @@ first compiled run so that ``import mett`` does not import numba.
 
 # the registry first, then the built-in models, which register themselves in MODELS in this order
 from . import registry  # noqa: F401, I001
-from . import gliding, rolling, reduced, euler, routhian, stem  # noqa: F401
+from . import gliding, rolling, reduced, euler, routhian, stickslip, stem  # noqa: F401
 from .euler import euler_normal_force, euler_rhs
 from .gliding import gliding_normal_force, gliding_rhs
 from .reduced import cylinder_rhs, hst_euler_rhs

@@ -42,7 +42,8 @@ p)`` chooses the phase at t = 0. :meth:`Model.phase_table` lists all phases. :fu
 runs a hybrid model phase by phase: each phase until one of its events is located; a "switch"
 event restarts the integration (same tolerances, same backend) in the target phase from the
 located time and the (jumped) state; ``Trajectory.phase`` gives the phase of every sample and
-``Trajectory.switches`` the (time, from, to) of every switch. As for any event, a zero at the start
+``Trajectory.switches`` the (time, from, to) of every switch (``Trajectory.jumps`` the states
+before and after its jump). As for any event, a zero at the start
 of a phase is not an event: a phase's switch functions must start away from 0 on the side they
 leave (e.g. a slip speed that must fall through a small positive level, not through 0 itself),
 or the phase would never end. A run stops with status "failed" after
@@ -216,6 +217,10 @@ class Model:
         ``variant(options) -> Model or None``: the model that actually runs for these validated
         options (None: this one). E.g. "gliding" with ``friction=Coulomb(...)`` can hand over to a
         hybrid stick–slip model; the variant must accept the same options.
+    finish : callable, optional
+        ``finish(traj)``: adds series that the states alone do not fix to a finished
+        :class:`~mett.Trajectory` (e.g. the contact force of each sample's phase of a stick–slip
+        run, which needs ``traj.phase``); called by :func:`mett.simulate` on every run.
     """
 
     name: str
@@ -235,6 +240,7 @@ class Model:
     phases: tuple[Phase, ...] = field(default=())
     start_phase: Callable[[np.ndarray, Params], str] | None = None
     variant: Callable[[dict], Model | None] | None = None
+    finish: Callable[[Any], None] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

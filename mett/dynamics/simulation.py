@@ -256,6 +256,8 @@ def simulate(
           of "gliding"; stops with status "failed" near sin θ = 0 where it is singular.
         * ``"frictionless-routhian"``: the corrected seed-000 Routhian equations (no friction;
           ``vertical_cm=False`` for the printed approximation); equals "gliding" at μ = 0.
+        * ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"``: dry friction, chosen
+          by ``friction=`` (below).
     rtol : float, default 1e-10
         Relative tolerance, in [100 ε, 1) = [2.2e-14, 1). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
@@ -299,13 +301,16 @@ def simulate(
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
         (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
-        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). :class:`~mett.friction.Coulomb`
-        (exact stick–slip, optionally with Contensou spin friction) and
-        :class:`~mett.friction.RegularisedCoulomb` run the ``"gliding"`` model's state on the
-        scipy backend (:func:`mett.dynamics.stickslip.simulate_dry`); their trajectories carry
-        ``phase`` ("sliding"/"rolling" per sample), the tangential force ``F_x``, ``F_y`` (N, lab
-        frame), the torque ``M_n`` about the normal (N m) and ``switches``
-        (:class:`mett.dynamics.stickslip.Switch`).
+        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). A dry law selects the
+        registered model that declares the option ``friction`` and accepts it
+        (:mod:`mett.dynamics.stickslip`): :class:`~mett.friction.Coulomb` the hybrid
+        ``"coulomb"`` (exact stick–slip, phases "sliding"/"rolling"; ``"coulomb-contensou"`` with
+        a contact radius), :class:`~mett.friction.RegularisedCoulomb` ``"coulomb-regularised"``
+        (stiff: ``method="LSODA"`` or ``"Radau"``). They run on either backend, with user events;
+        their trajectories carry ``phase`` ("sliding"/"rolling" per sample), the tangential force
+        ``F_x``, ``F_y`` (N, lab frame), the torque ``M_n`` about the normal (N m), the cone
+        ``margin`` (N) and ``switches`` (:class:`mett.dynamics.stickslip.Switch`). Their option
+        ``stopping_band`` (m/s) defaults to 10 rtol × the start's velocity scale.
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -395,9 +400,20 @@ def simulate(
 
                 viscous_force(traj)
             return traj
-        else:
-            return _dry(top, state, t_end, friction, mdl, backend, method, rtol, atol,
-                        t_eval_arr, events, max_step, options)  # fmt: skip
+        # a dry law: the registered model that declares the option ``friction`` and accepts it
+        # ("coulomb", "coulomb-regularised", :mod:`.stickslip`) runs instead of "gliding"
+        if not _declares(mdl, "friction"):
+            if mdl.name != "gliding":
+                raise ValueError(
+                    f"friction={friction!r} applies to model 'gliding' (or a model that declares "
+                    f"the option friction); got model {mdl.name!r}"
+                )
+            mdl = _model_of_law(friction)
+        options = {**options, "friction": friction}
+        if _declares(mdl, "stopping_band") and options.get("stopping_band") is None:
+            from .stickslip import stopping_band  # tied to rtol, as the integration error is
+
+            options["stopping_band"] = stopping_band(top, state, rtol)
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
@@ -512,6 +528,7 @@ def _solve_hybrid(
     remaining = [term for _, term, _ in user]
     t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
     switches: list[tuple[float, str, str]] = []
+    jumps: list[tuple[np.ndarray, np.ndarray]] = []
     nfev = 0
     jump_failed: str | None = None
     while True:
@@ -527,10 +544,11 @@ def _solve_hybrid(
         if not last:
             index, t_sw = run.switch
             ev = run.phase.events[index]
-            y_sw = np.asarray(seg.sol(t_sw), dtype=float)
+            y_ev = np.asarray(seg.sol(t_sw), dtype=float)
+            y_sw = y_ev
             if ev.jump is not None:
                 try:
-                    y_sw = np.asarray(ev.jump(y_sw, params), dtype=float)
+                    y_sw = np.asarray(ev.jump(y_ev, params), dtype=float)
                 except JumpFailed as exc:  # the run ends at the switch, state before it kept
                     jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
         t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
@@ -542,6 +560,7 @@ def _solve_hybrid(
         if last:
             break
         switches.append((t_sw, run.phase.name, ev.target))
+        jumps.append((y_ev, y_sw))
         run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
     kw = dict(seg.kw)
@@ -554,10 +573,13 @@ def _solve_hybrid(
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)
-    run.collect = False
+    run.collect, run.joining = False, True
     traj = run.result(t_all, Y_all, _Segments(sols), status, message, **kw)
     traj.phase = np.array(phases)
     traj.switches = switches
+    traj.jumps = jumps
+    if mdl.finish is not None:
+        mdl.finish(traj)
     return traj
 
 
@@ -592,12 +614,13 @@ class _Run:
         self.phase, self.t0 = phase, t0
         self.state, self.options = state, options  # kept on the Trajectory (saved with it)
         self.collect = False  # True: result() returns the pieces, for a hybrid run to join
+        self.joining = False  # True: result() builds the joined hybrid run (finished by the caller)
         self.switch: tuple[int, float] | None = None  # (event index, time) of a "switch" stop
 
     def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Any:
         if self.collect:
             return _Piece(t, Y, sol, status, message, kw)
-        return Trajectory(
+        traj = Trajectory(
             t=t,
             states=Y,
             model=self.mdl,
@@ -611,6 +634,12 @@ class _Run:
             options=self.options,
             **kw,
         )
+        if self.mdl.hybrid:  # one phase throughout (a hybrid run joins its phases itself)
+            traj.phase = np.full(traj.t.shape, self.phase.name)
+            traj.switches, traj.jumps = [], []
+        if self.mdl.finish is not None and not self.joining:
+            self.mdl.finish(traj)
+        return traj
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
@@ -966,29 +995,19 @@ def _truncate(dense: Any, t_stop: float) -> Any:
     return DenseOutput(t, y, dense.h[:k], dense.F[:k])
 
 
-def _dry(
-    top, state, t_end, friction, mdl, backend, method, rtol, atol, t_eval, events, max_step, options
-) -> Trajectory:
-    """Validate the options of a dry-friction run and hand it to :mod:`.stickslip`."""
-    from . import stickslip
+def _declares(mdl: Model, option: str) -> bool:
+    return any(o.name == option for o in mdl.options)
 
-    if mdl.name != "gliding":
-        raise ValueError(f"friction={friction!r} applies to model 'gliding' only; got {mdl.name!r}")
-    if options:
-        raise ValueError(f"model options {sorted(options)} do not apply to friction={friction!r}")
-    if backend == "compiled":
-        raise ValueError("dry friction runs on the scipy backend only; use backend='auto'")
-    if method not in ("DOP853", "RK45", "Radau", "BDF", "LSODA"):
-        raise ValueError(f"method {method!r} is not available with friction={friction!r}")
-    if events:
-        raise ValueError("user events are not supported with dry friction (friction=...) yet")
-    max_step = float(max_step)
-    if not max_step > 0.0:
-        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
-    p = mdl.params(top, {})
-    y0 = mdl.initial(state, p)
-    atol_arr = _check_atol(atol, y0.size, np.asarray(mdl.scales(y0, p), dtype=float))
-    return stickslip.simulate_dry(
-        top, state, t_end, friction, rtol=rtol, atol=atol_arr, t_eval=t_eval, max_step=max_step,
-        method=method,
-    )  # fmt: skip
+
+def _model_of_law(law: Any) -> Model:
+    """The first registered model whose option ``friction`` accepts ``law``."""
+    for mdl in MODELS.values():
+        for opt in mdl.options:
+            if opt.name != "friction":
+                continue
+            try:
+                opt.check("friction", law)
+            except (TypeError, ValueError):
+                continue
+            return mdl
+    raise ValueError(f"no registered model runs friction={law!r}")

@@ -1,4 +1,11 @@
-"""Dry friction integrated exactly: Coulomb and Coulomb–Contensou stick–slip.
+"""Dry friction integrated exactly: the registered models "coulomb" and "coulomb-regularised".
+
+``mett.simulate(top, state, t_end, friction=Coulomb(...))`` runs the hybrid model ``"coulomb"``
+(Coulomb and Coulomb–Contensou stick–slip, phases "sliding" and "rolling"), and
+``friction=RegularisedCoulomb(...)`` the single-phase model ``"coulomb-regularised"``; both are
+ordinary registered models (:mod:`.registry`): compiled DOP853 by default (the phase right-hand
+sides and event functions below are plain float arithmetic, compiled by :mod:`._kernels`), scipy
+on request, user events allowed.
 
 The state is that of the ``"gliding"`` model, ``y = [x, y, ẋ, ẏ, L_x, L_y, L_z, 3̂_x, 3̂_y, 3̂_z]``
 (:mod:`.gliding`), and the equations are those of the eccentric sphere under a contact force
@@ -21,23 +28,38 @@ matrix). The vertical component of v̇_A vanishes (contact), which fixes g_n; th
   G F = −h (3×3, Cramer's rule) for the force the rolling constraint needs; it is admissible while
   it lies inside the friction cone, margin μ g_n − |F_t| ≥ 0.
 
-Switching (:func:`simulate_dry`), all by located events:
+Switching, all by events located by the integrator (:func:`mett.simulate` runs the phases, see
+:mod:`.registry`):
 
-* rolling → sliding when the cone margin falls through 0. The slip starts opposite to the required
-  tangential force (friction at the cone edge equals the required force, so the slip acceleration
-  starts from zero and grows as the required force leaves the cone).
-* sliding → stop when |v_A| falls through a stopping band δ (10 rtol × the velocity scale): the
-  remaining O(δ) of slip is removed by the contact impulse P with G P = −v_A (:func:`_set_slip`;
-  it keeps λ exactly and changes E by −½ v_A·G⁻¹v_A ≤ 0). Then the cone decides: rolling if the required force is inside, else sliding
-  continues from |v_A| = 2δ in the direction u of the excess force, the solution of
-  s u = v̇_A(u), s > 0 (slip acceleration parallel to the slip under the Coulomb force −μ g_n u).
+* rolling → sliding ("cone") when the cone margin (μ g_n − |F_t|)/(m g) of the required force
+  falls through 0. The slip starts opposite to the required tangential force (friction at the
+  cone edge equals the required force, so the slip acceleration starts from zero and grows as the
+  required force leaves the cone); the switch's ``jump`` gives it the speed 2δ in the excess-force
+  direction below.
+* sliding → rolling ("stop") when |γ| falls through a stopping band δ (10 rtol × the velocity
+  scale, the option ``stopping_band``) with the required force inside the cone: the ``jump``
+  removes the remaining O(δ) of slip by the contact impulse P with G P = −v_A (:func:`_set_slip`;
+  it keeps λ exactly and changes E by −½ v_A·G⁻¹v_A ≤ 0).
+* sliding → sliding ("reversal") when |γ| falls through δ with the required force outside the
+  cone: the ``jump`` removes the slip as above and restarts it with |v_A| = 2δ in the direction u
+  of the excess force, the solution of s u = v̇_A(u), s > 0 (slip acceleration parallel to the
+  slip under the Coulomb force −μ g_n u; a root search, :func:`_excess_direction`, in plain
+  Python: jumps run between phases). The cone decides between "stop" and "reversal" inside the
+  two event functions (:func:`_stop_event`, :func:`_reversal_event`): each is |γ| − δ plus a
+  term that keeps it positive on the wrong side of the cone.
 * Coulomb–Contensou: the same phases on the generalised slip γ = (v_A, r* ω_z); stick also holds
   ω̇_z = 0 with the drilling torque M it needs (:func:`_solve_GM`), inside the ellipsoid
   |F_t|² + (M/r*)² ≤ (μ g_n)²; slip restarts opposite to the generalised required force, and the
   impulses at a switch include an angular impulse about ẑ.
-* Near v_A = 0 the slip direction is a fast variable (its rate is ~ μ g_n |G| / |v_A|): sliding
-  with |v_A| below ρ_s (where that rate reaches 1e4 /s) is integrated with LSODA (stiff-capable;
-  7× faster than Radau on the stick–slip tests), above 2 ρ_s with DOP853.
+* Near v_A = 0 the slip direction is a fast variable (its rate is ~ μ g_n |G| / |v_A|); the slip
+  reaches the band in finite time, and the explicit integrator's steps shrink with |v_A|, so the
+  approach costs a number of steps logarithmic in (initial slip)/δ.
+
+The start (:func:`_initial`, ``start_phase``): a state whose slip is within the band starts
+rolling (after the stopping impulse) if the cone holds, else sliding from 2δ in the excess-force
+direction. After a run (``Model.finish``, :func:`_finish`) the trajectory carries ``phase``, the
+contact force ``F_x``, ``F_y``, ``M_n``, the normal force and the cone ``margin`` of each sample's
+phase, and ``switches`` as :class:`Switch` records.
 
 Energy: rolling conserves E, sliding dissipates μ g_n |v_A| ≥ 0, the stopping impulse
 ½ v_A·G⁻¹v_A = O(m δ²). λ = −L·a is conserved by every force at A without a torque about the
@@ -48,35 +70,38 @@ M (R − l cos θ).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, NamedTuple
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from ..friction import Coulomb, RegularisedCoulomb
 from . import gliding
-from .registry import Event, Model
-from .trajectory import Trajectory
+from .registry import Event, Model, Option, Phase, register
 
 __all__ = [
-    "MAX_SWITCHES",
+    "CONTENSOU",
+    "MODEL",
     "PHASES",
+    "REGULARISED",
     "Switch",
     "contact_quantities",
-    "simulate_dry",
     "slide_rhs",
     "stick_rhs",
+    "stopping_band",
+    "viscous_force",
 ]
 
 PHASES = ("sliding", "rolling")
-MAX_SWITCHES = 20_000
-"""A run that switches between sliding and rolling more often than this stops with status
-"failed" (a Zeno accumulation of switches must not stall the integrator)."""
 
-# law codes of the parameter tuple p = (m, R, l, I1, I3, g, mu, r_star, eps, law)
+# law codes of the parameter tuple p = (m, R, l, I1, I3, g, mu, r_star, eps, law, delta)
 _COULOMB, _REGULARISED = 0.0, 1.0
+
+_CONE_SIDE = 1e6
+"""Weight of the cone term in the stop/reversal events (dimensionless): a margin of −1e-6 m g
+delays a "stop" by one band δ, so at the band crossing the event of the cone's side fires first."""
 
 
 # --- the contact mechanics, plain float arithmetic (floats or equal-shape arrays) -------------
@@ -155,7 +180,11 @@ def _slide(y: Any, p: tuple, fx: Any, fy: Any, fm: Any, kin: tuple | None = None
     gn = -h[2] / (Gf[2] + fm * s[2])
     F = (gn * fx, gn * fy, gn)
     M = gn * fm
-    vdot = tuple(gn * (Gf[k] + fm * s[k]) + h[k] for k in range(3))
+    vdot = (
+        gn * (Gf[0] + fm * s[0]) + h[0],
+        gn * (Gf[1] + fm * s[1]) + h[1],
+        gn * (Gf[2] + fm * s[2]) + h[2],
+    )
     return _derivatives(y, p, F, M, w, de, a), gn, F, M, vdot
 
 
@@ -170,24 +199,10 @@ def _law(y: Any, p: tuple, kin: tuple | None = None) -> tuple:
     return k * nu[0], k * nu[1], k * rs * rs * w[2]
 
 
-def slide_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
-    """Right-hand side of the sliding phase (Coulomb, Coulomb–Contensou or regularised law).
-
-    Parameters
-    ----------
-    t : float
-        Time (s); autonomous.
-    y : ndarray, shape (10,)
-        Gliding state (:func:`mett.dynamics.gliding_rhs`).
-    p : tuple
-        ``(m, R, l, I1, I3, g, mu, r_star, eps, law)``: body, friction coefficient (–), effective
-        Contensou radius (m), regularisation velocity (m/s) and law code (0 Coulomb, 1 regularised).
-    """
-    if np.ndim(y) == 1:
-        y = y.tolist()  # Python floats: scalar arithmetic several times faster than numpy's
-    kin = _kinematics(y, p)
-    fx, fy, fm = _law(y, p, kin)
-    return np.array(_slide(y, p, fx, fy, fm, kin)[0])
+def _spin_rate(F: tuple, e: tuple, a: tuple, I1: Any, c: Any) -> Any:
+    """(J⁻¹(a × F))_z: the spin acceleration about ẑ per unit contact force."""
+    tx, ty, tz = a[1] * F[2] - a[2] * F[1], a[2] * F[0] - a[0] * F[2], a[0] * F[1] - a[1] * F[0]
+    return tz / I1 + c * (tx * e[0] + ty * e[1] + tz * e[2]) * e[2]
 
 
 def _solve_G(y: Any, p: tuple, b: tuple, kin: tuple | None = None) -> tuple:
@@ -221,12 +236,8 @@ def _solve_GM(y: Any, p: tuple, b: tuple, bz: Any, kin: tuple) -> tuple:
     F0 = _solve_G(y, p, b, kin)[0]
     q = _solve_G(y, p, s, kin)[0]
 
-    def spin_rate(F: tuple) -> Any:  # (J⁻¹(a × F))_z
-        tx, ty, tz = a[1] * F[2] - a[2] * F[1], a[2] * F[0] - a[0] * F[2], a[0] * F[1] - a[1] * F[0]
-        return tz / I1 + c * (tx * e[0] + ty * e[1] + tz * e[2]) * e[2]
-
     jz = 1.0 / I1 + c * e[2] * e[2]
-    M = (bz - spin_rate(F0)) / (jz - spin_rate(q))
+    M = (bz - _spin_rate(F0, e, a, I1, c)) / (jz - _spin_rate(q, e, a, I1, c))
     return (F0[0] - M * q[0], F0[1] - M * q[1], F0[2] - M * q[2]), M
 
 
@@ -257,6 +268,54 @@ def _required(y: Any, p: tuple) -> tuple:
     return gn, (F[0], F[1], fm), p[6] * gn - (F[0] ** 2 + F[1] ** 2 + fm**2) ** 0.5
 
 
+def _slip_speed(y: Any, p: Any) -> Any:
+    """|γ| = √(|v_A|² + (r* ω_z)²) (m/s), plain arithmetic."""
+    kin = _kinematics(y, p)
+    nu, w = kin[4], kin[1]
+    rs = p[7]
+    return (nu[0] * nu[0] + nu[1] * nu[1] + (rs * w[2]) * (rs * w[2])) ** 0.5
+
+
+def _margin(y: Any, p: Any) -> Any:
+    """Cone margin of the force rolling needs, (μ g_n − |(F_t, M/r*)|)/(m g), plain arithmetic."""
+    return _required(y, p)[2] * (1.0 / (p[0] * p[5]))
+
+
+# --- the phases: right-hand sides and events (compiled from this source) -----------------------
+
+
+def slide_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
+    """Right-hand side of the sliding phase (Coulomb or Coulomb–Contensou).
+
+    Parameters
+    ----------
+    t : float
+        Time (s); autonomous.
+    y : ndarray, shape (10,)
+        Gliding state (:func:`mett.dynamics.gliding_rhs`).
+    p : tuple
+        ``(m, R, l, I1, I3, g, mu, r_star, eps, law, delta)``: body, friction coefficient (–),
+        effective Contensou radius (m), regularisation velocity (m/s), law code (0 Coulomb,
+        1 regularised) and stopping band (m/s).
+    """
+    if np.ndim(y) == 1:
+        y = y.tolist()  # Python floats: scalar arithmetic several times faster than numpy's
+    return np.array(_slide_law(y, p)[0])
+
+
+def _slide_law(y: Any, p: Any) -> tuple:
+    kin = _kinematics(y, p)
+    f = _law(y, p, kin)
+    return _slide(y, p, f[0], f[1], f[2], kin)
+
+
+def _slide_into(t: float, y: Any, p: Any, out: Any) -> None:
+    """:func:`slide_rhs` written into ``out`` (the source of the compiled twin)."""
+    d = _slide_law(y, p)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+
+
 def stick_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     """Right-hand side of the rolling (stick) phase: v̇_A = 0, force from the constraint.
 
@@ -268,44 +327,44 @@ def stick_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     return np.array(_stick(y, p)[0])
 
 
-def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.ndarray]:
-    """g_n, F_t, M and the cone margin at states ``Y`` (shape (10, k)) in the given phases.
-
-    ``rolling`` is a boolean per sample. The margin μ g_n − |F_t| is that of the required force in
-    rolling samples and of the sliding force (≈ 0 for Coulomb) in sliding ones.
-    """
-    Y = np.asarray(Y, dtype=float).reshape(10, -1)
-    rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
-    with np.errstate(divide="ignore", invalid="ignore"):  # the sliding law at v_A = 0
-        fx, fy, fm = _law(Y, p)
-        s = _slide(Y, p, fx, fy, fm)
-    r = _stick(Y, p)
-    gn = np.where(rolling, r[1], s[1])
-    Fx = np.where(rolling, r[2][0], s[2][0])
-    Fy = np.where(rolling, r[2][1], s[2][1])
-    M = np.where(rolling, r[3], s[3])
-    fm = M / p[7] if p[7] > 0.0 else 0.0 * M
-    return {
-        "gn": gn,
-        "F_x": Fx,
-        "F_y": Fy,
-        "M_n": M,
-        "margin": p[6] * gn - np.sqrt(Fx**2 + Fy**2 + fm**2),
-    }
+def _stick_into(t: float, y: Any, p: Any, out: Any) -> None:
+    """:func:`stick_rhs` written into ``out``."""
+    d = _stick(y, p)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
 
 
-def viscous_force(traj: Trajectory) -> None:
-    """Add ``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 to a viscous "gliding" run.
+def _contact_sliding(t: float, y: Any, p: Any) -> Any:
+    """g_n/(m g) while sliding: contact lost when it falls through 0."""
+    return _slide_law(y, p)[1] * (1.0 / (p[0] * p[5]))
 
-    So that runs under every law report their friction force (:func:`mett.simulate` with
-    ``friction=Viscous(...)``); ``traj.params`` is the gliding model's (m, R, l, I1, I3, μ, g).
-    """
-    m, R, l, I1, I3, mu, g = traj.params
-    nu = _kinematics(traj.states, (m, R, l, I1, I3, g))[4]
-    traj.F_x = -mu * traj.gn * nu[0]
-    traj.F_y = -mu * traj.gn * nu[1]
-    traj.M_n = np.zeros_like(traj.gn)
-    traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
+
+def _contact_rolling(t: float, y: Any, p: Any) -> Any:
+    """g_n/(m g) while rolling."""
+    return _stick(y, p)[1] * (1.0 / (p[0] * p[5]))
+
+
+def _positive_part(x: Any) -> Any:
+    """max(x, 0) as plain arithmetic, (x + √(x²))/2: no branch on a state value."""
+    return 0.5 * (x + (x * x) ** 0.5)
+
+
+def _stop_event(t: float, y: Any, p: Any) -> Any:
+    """|γ| − δ, kept positive while the required force is outside the cone: "stop" → rolling."""
+    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(-_margin(y, p))
+
+
+def _reversal_event(t: float, y: Any, p: Any) -> Any:
+    """|γ| − δ, kept positive while the required force is inside the cone: "reversal"."""
+    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(_margin(y, p))
+
+
+def _cone_event(t: float, y: Any, p: Any) -> Any:
+    """The cone margin of rolling: "cone" → sliding when it falls through 0."""
+    return _margin(y, p)
+
+
+# --- the jumps at the switches (plain Python, between phases) ---------------------------------
 
 
 def _nu(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -381,6 +440,118 @@ def _set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:
     return out
 
 
+def _stop_jump(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Sliding → rolling: the contact impulse that removes the last slip (|γ| = δ → 0)."""
+    return _set_slip(y, p, np.zeros(3))
+
+
+def _restart(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Slip restarted with |γ| = 2δ in the excess-force direction (from v_A = 0)."""
+    return _set_slip(y, p, 2.0 * p[10] * _excess_direction(y, p, -np.array(_required(y, p)[1])))
+
+
+def _reversal_jump(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Sliding → sliding at the band, outside the cone: stop, then restart along the excess force."""
+    return _restart(_set_slip(y, p, np.zeros(3)), p)
+
+
+def _cone_jump(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Rolling → sliding: the slip starts along the excess-force direction."""
+    return _restart(y, p)
+
+
+# --- conversions and the trajectory's contact series -------------------------------------------
+
+
+def _gliding_params(p: tuple) -> tuple:
+    """The "gliding" model's (m, R, l, I1, I3, mu, g) with μ = 0 (its conversions only)."""
+    return (p[0], p[1], p[2], p[3], p[4], 0.0, p[5])
+
+
+def _params(top: Any, options: dict) -> tuple:
+    law = options.get("friction")
+    if law is None:
+        raise ValueError(
+            "the dry-friction models need friction=Coulomb(...) or RegularisedCoulomb(...)"
+        )
+    band = options.get("stopping_band")
+    if band is None:  # without an rtol to tie it to: 1e-9 of the velocity scale √(g R)
+        band = 1e-9 * math.sqrt(top.g * top.R)
+    regularised = isinstance(law, RegularisedCoulomb)
+    r_star = 0.0 if regularised else law.r_star
+    eps = law.eps if regularised else 0.0
+    code = _REGULARISED if regularised else _COULOMB
+    l = top.R * top.alpha
+    return (top.m, top.R, l, top.I1, top.I3, top.g, law.mu, r_star, eps, code, band)
+
+
+def _initial(state: Any, p: tuple) -> np.ndarray:
+    """The gliding state; a slip within the band is removed (rolling) or restarted (cone)."""
+    y = np.asarray(gliding.MODEL.initial(state, _gliding_params(p)), dtype=float)
+    if p[9] == _COULOMB and float(np.linalg.norm(_slip(y, p))) <= p[10]:
+        y = _set_slip(y, p, np.zeros(3))
+        if _required(y, p)[2] < 0.0:
+            y = _restart(y, p)
+    return y
+
+
+def _start_phase(y0: np.ndarray, p: tuple) -> str:
+    return "rolling" if float(np.linalg.norm(_slip(y0, p))) <= p[10] else "sliding"
+
+
+def _rolling_guess(Y: np.ndarray, p: tuple) -> np.ndarray:
+    """Where the phase is not stored (dense output between samples): rolling where the slip is
+    within the band and the cone holds."""
+    slip = np.sqrt(np.sum(_slip(Y, p) ** 2, axis=0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        margin = _required(Y, p)[2]
+    return (slip <= p[10]) & (margin >= 0.0) & (p[9] == _COULOMB)
+
+
+def _normal_force(y: np.ndarray, p: tuple) -> Any:
+    """g_n (N) of state(s) ``y``: rolling's where the slip is within the band, else sliding's."""
+    Y = np.asarray(y, dtype=float)
+    return contact_quantities(Y.reshape(10, -1), p, _rolling_guess(Y.reshape(10, -1), p))[
+        "gn"
+    ].reshape(Y.shape[1:])
+
+
+def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
+    out = gliding.MODEL.derive(Y, _gliding_params(p))
+    Y = np.asarray(Y, dtype=float)
+    out["gn"] = _normal_force(Y, p)
+    return out
+
+
+def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
+    return gliding.MODEL.scales(y0, _gliding_params(p))
+
+
+def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.ndarray]:
+    """g_n, F_t, M and the cone margin at states ``Y`` (shape (10, k)) in the given phases.
+
+    ``rolling`` is a boolean per sample. The margin μ g_n − |F_t| (N) is that of the required force
+    in rolling samples and of the sliding force (≈ 0 for Coulomb) in sliding ones.
+    """
+    Y = np.asarray(Y, dtype=float).reshape(10, -1)
+    rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
+    with np.errstate(divide="ignore", invalid="ignore"):  # the sliding law at v_A = 0
+        s = _slide_law(Y, p)
+        r = _stick(Y, p)
+    gn = np.where(rolling, r[1], s[1])
+    Fx = np.where(rolling, r[2][0], s[2][0])
+    Fy = np.where(rolling, r[2][1], s[2][1])
+    M = np.where(rolling, r[3], s[3])
+    fm = M / p[7] if p[7] > 0.0 else 0.0 * M
+    return {
+        "gn": gn,
+        "F_x": Fx,
+        "F_y": Fy,
+        "M_n": M,
+        "margin": p[6] * gn - np.sqrt(Fx**2 + Fy**2 + fm**2),
+    }
+
+
 class Switch(NamedTuple):
     """A change of contact phase of a stick–slip run (``Trajectory.switches``)."""
 
@@ -400,272 +571,172 @@ class Switch(NamedTuple):
     """|v_A| (m/s) at the event that triggered the switch."""
 
 
-class _Piecewise:
-    """Dense output of a run made of segments (one per phase), as a Trajectory needs it."""
-
-    def __init__(self, segments: list[tuple[float, float, Any]]) -> None:
-        self._segs = segments
-        self._starts = np.array([s[0] for s in segments])
-        ts = [np.asarray(sol.ts, dtype=float) for _, _, sol in segments]
-        self.ts = np.unique(np.concatenate(ts))
-        self.t_min, self.t_max = segments[0][0], segments[-1][1]
-
-    def __call__(self, t: Any) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        scalar = t.ndim == 0
-        tt = np.atleast_1d(t)
-        # a switch time belongs to the segment that starts there
-        idx = np.clip(np.searchsorted(self._starts, tt, side="right") - 1, 0, len(self._segs) - 1)
-        out = np.empty((10, tt.size))
-        for k in np.unique(idx):
-            sel = idx == k
-            out[:, sel] = np.asarray(self._segs[k][2](tt[sel]), dtype=float).reshape(10, -1)
-        return out[:, 0] if scalar else out
+_REASONS = {
+    ("sliding", "rolling"): "stop",
+    ("rolling", "sliding"): "cone",
+    ("sliding", "sliding"): "reversal",
+}
 
 
-class _ScipyDense:
-    """scipy's OdeSolution with the ``ts`` breakpoints a Trajectory bisects on."""
-
-    def __init__(self, sol: Any, t: np.ndarray) -> None:
-        self._sol, self.ts = sol, np.asarray(t, dtype=float)
-
-    def __call__(self, t: Any) -> np.ndarray:
-        return self._sol(t)
-
-
-def _phase_model(params: tuple) -> Model:
-    """The Model record of a dry-friction trajectory: gliding's conversions, this module's g_n."""
-
-    def derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
-        base = (p[0], p[1], p[2], p[3], p[4], 0.0, p[5])
-        out = gliding.MODEL.derive(Y, base)
-        Y = np.asarray(Y, dtype=float)
-        nu = np.hypot(out["nu_x"], out["nu_y"])
-        # outside a run's own samples the phase is not stored: rolling where v_A vanishes to
-        # the stopping band and the cone holds
-        q = contact_quantities(Y, p, rolling=False)
-        r = contact_quantities(Y, p, rolling=True)
-        slip = np.hypot(nu, p[7] * _kinematics(Y, p)[1][2])
-        roll = (slip <= p[10]) & (r["margin"] >= 0.0) & (p[9] == _COULOMB)
-        out["gn"] = np.where(roll, r["gn"], q["gn"])
-        return out
-
-    return Model(
-        name="gliding",
-        summary="tippe top under dry friction (exact stick–slip), gliding state",
-        rhs=slide_rhs,
-        normal_force=lambda y, p: _slide(y, p, *_law(y, p))[1],
-        params=lambda top, options: params,
-        initial=gliding.MODEL.initial,
-        derive=derive,
-        theta=gliding.MODEL.theta,
-        scales=lambda y0, p: gliding.MODEL.scales(y0, (*p[:5], 0.0, p[5])),
-        events=(Event(lambda t, y, p: _slide(y, p, *_law(y, p))[1], -1.0, "contact_lost"),),
-    )
+def _finish(traj: Any) -> None:
+    """The contact series of a finished run: force and margin of each sample's phase, switches
+    as :class:`Switch` records (margin after the stopping impulse, slip at the event)."""
+    p = traj.params
+    rolling = np.asarray(traj.phase) == "rolling"
+    cq = contact_quantities(traj.states, p, rolling)
+    for name, values in cq.items():
+        setattr(traj, name, values)
+    traj.extra = (*traj.extra, "phase", "F_x", "F_y", "M_n", "margin")
+    records = []
+    for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
+        why = _REASONS[(before, after)]
+        # the cone decision is made at v_A = 0: after the stopping impulse, before a restart
+        y_dec = y_ev if why == "cone" else _set_slip(y_ev, p, np.zeros(3))
+        gn, _, m = _required(y_dec, p)
+        speed = float(np.linalg.norm(_slip(y_ev, p)))
+        records.append(Switch(t, before, after, why, float(m / (p[6] * gn)), speed))
+    traj.switches = records
+    traj.stopping_band = p[10]
 
 
-def simulate_dry(
-    top: Any,
-    state: Any,
-    t_end: float,
-    friction: Coulomb | RegularisedCoulomb,
-    *,
-    rtol: float = 1e-10,
-    atol: np.ndarray | None = None,
-    t_eval: np.ndarray | None = None,
-    max_step: float = math.inf,
-    max_switches: int = MAX_SWITCHES,
-    method: str = "DOP853",
-) -> Trajectory:
-    """Integrate the tippe top under :class:`~mett.friction.Coulomb` (exact stick–slip) or
-    :class:`~mett.friction.RegularisedCoulomb`; called by :func:`mett.simulate`.
+def stopping_band(top: Any, state: Any, rtol: float) -> float:
+    """The stopping band δ (m/s) of a run at ``rtol``: 10 rtol × the velocity scale of the start.
 
-    Inputs are validated by :func:`mett.simulate`. Returns a :class:`Trajectory` whose extra
-    series ``phase`` ("sliding"/"rolling" per sample), ``F_x``, ``F_y`` (tangential force, N),
-    ``M_n`` (Contensou torque about ẑ, N m), ``margin`` (μ g_n − |F_t|, N) and ``switches``
-    (a list of :class:`Switch`) describe the contact; ``stopping_band`` is δ (m/s). ``method`` is the integrator of the regularised law and of fast sliding.
+    Below δ the slip is removed by an impulse (module docstring); δ ≫ the integration error of
+    v_A, so a located stop is a real one.
     """
-    R, l = top.R, top.R * top.alpha
-    coulomb = isinstance(friction, Coulomb)
-    r_star = friction.r_star if coulomb else 0.0
-    eps = 0.0 if coulomb else friction.eps
-    law = _COULOMB if coulomb else _REGULARISED
-    p0 = (top.m, R, l, top.I1, top.I3, top.g, friction.mu, r_star, eps, law)
-    y0 = np.asarray(gliding.MODEL.initial(state, (top.m, R, l, top.I1, top.I3, 0.0, top.g)))
-    scales = np.asarray(gliding.MODEL.scales(y0, (top.m, R, l, top.I1, top.I3, 0.0, top.g)))
-    if atol is None:
-        atol = rtol * scales
-    vscale = float(scales[2])
-    delta = max(10.0 * rtol, 1e-13) * vscale  # stopping band (m/s)
-    # Below ρ_s the slip direction is stiff: its rate μ g_n |G|/|v_A| exceeds 1e4 /s, with
-    # |G| ≤ (1 + m |a|²/I1)/m; there LSODA integrates. A fixed ρ_s = 1e-3 × the velocity scale
-    # sent long stretches of slow slip to LSODA, whose global error is looser than DOP853's: λ
-    # drifted 1e-11 per second instead of 5e-13.
-    amax = R + abs(l)
-    rho_s = max(100.0 * delta, friction.mu * top.g * (1.0 + top.m * amax**2 / top.I1) * 1e-4)
-    p = (*p0, delta)
-    exact = coulomb
-    weight = 1.0 / (top.m * top.g)
+    pg = gliding.MODEL.params(top, {})
+    y0 = np.asarray(gliding.MODEL.initial(state, pg), dtype=float)
+    vscale = float(gliding.MODEL.scales(y0, pg)[2])
+    return max(10.0 * rtol, 1e-13) * vscale
 
-    def ev(fn: Any, direction: float) -> Any:
-        fn.terminal, fn.direction = True, direction
-        return fn
 
-    def slide_f(t: float, y: np.ndarray) -> np.ndarray:
-        if y.ndim == 2 and y.shape[1] == 1:  # a vectorized solver asks for one state as a column
-            return slide_rhs(t, y[:, 0], p)[:, None]
-        return slide_rhs(t, y, p)
+def viscous_force(traj: Any) -> None:
+    """Add ``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 to a viscous "gliding" run.
 
-    def stick_f(t: float, y: np.ndarray) -> np.ndarray:
-        return stick_rhs(t, y, p)
+    So that runs under every law report their friction force (:func:`mett.simulate` with
+    ``friction=Viscous(...)``); ``traj.params`` is the gliding model's (m, R, l, I1, I3, μ, g).
+    """
+    m, R, l, I1, I3, mu, g = traj.params
+    nu = _kinematics(traj.states, (m, R, l, I1, I3, g))[4]
+    traj.F_x = -mu * traj.gn * nu[0]
+    traj.F_y = -mu * traj.gn * nu[1]
+    traj.M_n = np.zeros_like(traj.gn)
+    traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
 
-    contact_slide = ev(lambda t, y: _slide(y, p, *_law(y, p))[1] * weight, -1.0)
-    contact_stick = ev(lambda t, y: _stick(y, p)[1] * weight, -1.0)
 
-    def margin(t: float, y: np.ndarray) -> float:
-        return _required(y, p)[2] * weight
+def _check_coulomb(name: str, value: Any) -> Coulomb:
+    if not isinstance(value, Coulomb):
+        raise TypeError(f"{name} of model 'coulomb' must be a mett.friction.Coulomb; got {value!r}")
+    return value
 
-    def record(t: float, y_ev: np.ndarray, y_new: np.ndarray, before: str, after: str, why: str):
-        gn, _, m = _required(y_new, p)
-        switches.append(Switch(t, before, after, why, m / (friction.mu * gn), speed(t, y_ev)))
 
-    def speed(t: float, y: np.ndarray) -> float:
-        return float(np.linalg.norm(_slip(y, p)))
+def _check_regularised(name: str, value: Any) -> RegularisedCoulomb:
+    if not isinstance(value, RegularisedCoulomb):
+        raise TypeError(
+            f"{name} of model 'coulomb-regularised' must be a mett.friction.RegularisedCoulomb; "
+            f"got {value!r}"
+        )
+    return value
 
-    def excess(y: np.ndarray) -> np.ndarray:
-        return _excess_direction(y, p, -np.array(_required(y, p)[1]))
 
-    ev_margin = ev(margin, -1.0)
-    ev_stop = ev(lambda t, y: speed(t, y) - delta, -1.0)
-    ev_slow = ev(lambda t, y: speed(t, y) - rho_s, -1.0)
-    ev_fast = ev(lambda t, y: speed(t, y) - 2.0 * rho_s, 1.0)
+def _check_band(name: str, value: Any) -> float:
+    from .registry import positive_length
 
-    segments: list[tuple[float, float, Any]] = []
-    samples_t: list[np.ndarray] = []
-    samples_y: list[np.ndarray] = []
-    samples_roll: list[np.ndarray] = []
-    switches: list[Switch] = []
-    nfev = 0
-    t, y = 0.0, y0.copy()
-    status, message, t_lost = "completed", f"reached t_end = {t_end:g} s", None
+    return positive_length(name, value)
 
-    # the starting phase
-    if exact and speed(0.0, y) <= delta:
-        y = _set_slip(y, p, np.zeros(3))
-        if margin(0.0, y) >= 0.0:
-            phase = "rolling"
-        else:
-            y = _set_slip(y, p, 2.0 * delta * excess(y))
-            phase = "slow"
-    elif exact:
-        phase = "slow" if speed(0.0, y) < rho_s else "fast"
-    else:
-        phase = "smooth"
 
-    while True:
-        if len(switches) > max_switches:
-            status = "failed"
-            message = (
-                f"more than {max_switches} stick–slip switches by t = {t:.9g} s "
-                "(Zeno accumulation); the run is kept up to there"
-            )
-            break
-        if phase == "rolling":
-            fun, events, meth = stick_f, [contact_stick, ev_margin], "DOP853"
-        elif phase == "fast":
-            fun, events, meth = slide_f, [contact_slide, ev_slow], method
-        elif phase == "slow":
-            fun, events, meth = slide_f, [contact_slide, ev_stop, ev_fast], "LSODA"
-        else:
-            fun, events, meth = slide_f, [contact_slide], method
-        te = None if t_eval is None else t_eval[(t_eval >= t) & (t_eval <= t_end)]
-        with np.errstate(all="ignore"):
-            res = solve_ivp(
-                fun, (t, t_end), y, method=meth, dense_output=True,
-                rtol=rtol, atol=atol,
-                events=events, t_eval=te, max_step=max_step, vectorized=meth == "Radau",
-            )  # fmt: skip
-        nfev += res.nfev
-        sol = res.sol
-        t_stop = float(sol.t_max) if sol is not None else t
-        tt, YY = np.asarray(res.t, dtype=float), np.asarray(res.y, dtype=float).reshape(10, -1)
-        if tt.size == 0 or tt[-1] < t_stop:
-            keep = tt < t_stop
-            tt = np.append(tt[keep], t_stop)
-            end = sol(t_stop) if sol is not None else y
-            YY = np.hstack([YY[:, keep], np.asarray(end, dtype=float).reshape(10, 1)])
-        if sol is not None:
-            segments.append((t, t_stop, _ScipyDense(sol, sol.ts)))
-        if samples_t and tt.size > 1 and tt[0] == t:
-            # the switch time is already the last sample of the previous segment
-            tt, YY = tt[1:], YY[:, 1:]
-        samples_t.append(tt)
-        samples_y.append(YY)
-        samples_roll.append(np.full(tt.size, phase == "rolling"))
-        if res.status == -1 or not np.all(np.isfinite(YY)):
-            status, message = "failed", f"integrator failed at t = {t_stop:.9g} s: {res.message}"
-            break
-        if res.status == 0:
-            break
-        # which terminal event: the one with an event at t_stop
-        k = next(i for i, te_ in enumerate(res.t_events) if te_.size)
-        y_ev = np.asarray(res.y_events[k][0], dtype=float)
-        t = float(res.t_events[k][0])
-        if k == 0:
-            status, t_lost = "contact_lost", t
-            message = f"contact lost: the normal force g_n reached 0 at t = {t:.9g} s"
-            break
-        if phase == "rolling":  # the required force left the cone
-            y = _set_slip(y_ev, p, 2.0 * delta * excess(y_ev))
-            record(t, y_ev, y_ev, "rolling", "sliding", "cone")
-            phase = "slow"
-        elif phase == "fast":
-            y, phase = y_ev, "slow"
-        elif k == 2:  # slow sliding, |v_A| rose above 2 ρ_s
-            y, phase = y_ev, "fast"
-        else:  # slow sliding, |v_A| fell to δ: stop, then the cone decides
-            y = _set_slip(y_ev, p, np.zeros(3))
-            if margin(t, y) >= 0.0:
-                record(t, y_ev, y, "sliding", "rolling", "stop")
-                phase = "rolling"
-            else:
-                record(t, y_ev, y, "sliding", "sliding", "reversal")
-                y = _set_slip(y, p, 2.0 * delta * excess(y))
-                phase = "slow"
+_BAND = Option(
+    "stopping_band",
+    _check_band,
+    None,
+    "slip speed (m/s) below which the slip is removed by an impulse; default 10 rtol × R|ω|",
+)
 
-    t_all = np.concatenate(samples_t)
-    Y_all = np.hstack(samples_y)
-    roll = np.concatenate(samples_roll)
-    if not segments:
-        from .trajectory import _Constant
-
-        dense: Any = _Constant(0.0, y0)
-    else:
-        dense = _Piecewise(segments)
-    cq = contact_quantities(Y_all, p, roll)
-    extra = {
-        "phase": np.where(roll, "rolling", "sliding"),
-        "gn": cq["gn"],
-        "F_x": cq["F_x"],
-        "F_y": cq["F_y"],
-        "M_n": cq["M_n"],
-        "margin": cq["margin"],
-    }
-    traj = Trajectory(
-        t=t_all,
-        states=Y_all,
-        model=_phase_model(p),
-        top=top,
-        params=p,
-        solution=dense,
-        status=status,
-        message=message,
-        t_contact_lost=t_lost,
-        nfev=nfev,
-        backend="scipy",
-        extra=extra,
+MODEL = register(
+    Model(
+        name="coulomb",
+        summary=(
+            "tippe top under Coulomb (or Coulomb–Contensou) dry friction, exact stick–slip: "
+            "phases sliding and rolling (Rutstam 2012 §2; Leine & Glocker 2003)"
+        ),
+        rhs=slide_rhs,
+        rhs_into=_slide_into,
+        normal_force=_normal_force,
+        params=_params,
+        initial=_initial,
+        derive=_derive,
+        theta=gliding.MODEL.theta,
+        scales=_scales,
+        events=(
+            Event(_contact_sliding, -1.0, "contact_lost"),
+            Event(_stop_event, -1.0, "switch", target="rolling", jump=_stop_jump),
+            Event(_reversal_event, -1.0, "switch", target="sliding", jump=_reversal_jump),
+        ),
+        options=(Option("friction", _check_coulomb, None, "the Coulomb law"), _BAND),
+        phase="sliding",
+        phases=(
+            Phase(
+                "rolling",
+                stick_rhs,
+                _stick_into,
+                (
+                    Event(_contact_rolling, -1.0, "contact_lost"),
+                    Event(_cone_event, -1.0, "switch", target="sliding", jump=_cone_jump),
+                ),
+            ),
+        ),
+        conserves=("lam",),
+        start_phase=_start_phase,
+        variant=lambda options: CONTENSOU if options["friction"].contensou_radius > 0 else None,
+        finish=_finish,
     )
-    traj.switches = switches
-    traj.friction = friction
-    traj.stopping_band = delta
-    return traj
+)
+"""Exact Coulomb stick–slip (``friction=Coulomb(mu)``): λ conserved (no torque about ẑ)."""
+
+CONTENSOU = register(
+    dataclasses.replace(
+        MODEL,
+        name="coulomb-contensou",
+        summary=(
+            "tippe top under Coulomb–Contensou dry friction (a contact disc), exact stick–slip: "
+            "phases sliding and rolling (Leine & Glocker 2003)"
+        ),
+        conserves=(),
+        variant=None,
+    )
+)
+"""Coulomb–Contensou stick–slip (``friction=Coulomb(mu, contensou_radius=r)``, r > 0): the same
+equations as :data:`MODEL` with the drilling torque, which changes λ (module docstring)."""
+
+
+def _finish_regularised(traj: Any) -> None:
+    """Force series of a regularised run (one phase, "sliding")."""
+    cq = contact_quantities(traj.states, traj.params, False)
+    for name, values in cq.items():
+        setattr(traj, name, values)
+    traj.extra = (*traj.extra, "phase", "F_x", "F_y", "M_n", "margin")
+    traj.switches = []
+
+
+REGULARISED = register(
+    Model(
+        name="coulomb-regularised",
+        summary="tippe top under regularised Coulomb friction μ g_n v_A/√(|v_A|² + ε²) (stiff)",
+        rhs=slide_rhs,
+        rhs_into=_slide_into,
+        normal_force=lambda y, p: _slide_law(y, p)[1],
+        params=_params,
+        initial=lambda state, p: np.asarray(
+            gliding.MODEL.initial(state, _gliding_params(p)), dtype=float
+        ),
+        derive=_derive,
+        theta=gliding.MODEL.theta,
+        scales=_scales,
+        events=(Event(_contact_sliding, -1.0, "contact_lost"),),
+        options=(Option("friction", _check_regularised, None, "the regularised law"),),
+        conserves=("lam",),
+        finish=_finish_regularised,
+    )
+)
+"""The regularised law (``friction=RegularisedCoulomb(...)``), one smooth stiff right-hand side."""
