@@ -16,12 +16,13 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import estimates, potential, separation
+from . import _validate, estimates, potential, separation
 
 if TYPE_CHECKING:
     from .dynamics import Trajectory
 
 __all__ = [
+    "MAX_SUBDIVISION",
     "PeriodComparison",
     "TurningPoints",
     "deforming_potential",
@@ -39,6 +40,7 @@ def mett_residual(traj: Trajectory, *, relative: bool = True) -> np.ndarray:
     Relative to Ẽ(t) by default. ~1e-13 for the thesis run; feeding E instead of Ẽ would give up to
     ~1e-1 (theory.md §12, trap 3).
     """
+    _validate.instance("traj", traj, "Trajectory")
     z = np.cos(traj.theta)
     rhs = potential.g(traj.top, z) * traj.thetadot**2 + potential.V(traj.top, z, traj.D, traj.lam)
     res = traj.E_mod - rhs
@@ -58,9 +60,24 @@ def deforming_potential(
         V(z, D(t_i), λ(t_i)) (J).
     theta : ndarray, shape (nt,)
         θ(t_i) from the dense output.
+
+    Raises
+    ------
+    TypeError
+        If ``traj`` is not a :class:`~mett.Trajectory`, or ``times`` or ``z`` are not real numbers.
+    ValueError
+        If ``times`` or ``z`` have more than one dimension, or ``z`` leaves [−1, 1] (a scalar is a
+        grid of one point).
     """
-    times = np.atleast_1d(np.asarray(times, dtype=float))
-    z = np.linspace(-0.9995, 0.9995, 801) if z is None else np.asarray(z, dtype=float)
+    _validate.instance("traj", traj, "Trajectory")
+    times = np.atleast_1d(_validate.as_finite_array("times", times))
+    if z is None:
+        z = np.linspace(-0.9995, 0.9995, 801)
+    else:
+        z = np.atleast_1d(_validate.cos_theta(z, "z"))
+    for name, arr in (("times", times), ("z", z)):
+        if arr.ndim != 1:
+            raise ValueError(f"{name} must be a scalar or 1-D array; got shape {arr.shape}")
     s = traj.at(times)
     D, lam = _integrals_at(traj, s)
     V = potential.V(traj.top, z[None, :], D[:, None], lam[:, None])
@@ -79,7 +96,11 @@ def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarra
     Default: 200 times spread over the run. Moves from near 1 to near −1 during an inversion
     (RR14 §3; theory.md §8).
     """
-    times = np.linspace(traj.t[0], traj.t[-1], 200) if times is None else np.asarray(times)
+    _validate.instance("traj", traj, "Trajectory")
+    if times is None:
+        times = np.linspace(traj.t[0], traj.t[-1], 200)
+    else:
+        times = _validate.as_finite_array("times", times)
     s = traj.at(np.atleast_1d(times))
     D, lam = _integrals_at(traj, s)
     return np.array(
@@ -138,19 +159,60 @@ def theta_extrema(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
     Each interval between output samples is cut into ``subdivision`` pieces to bracket the sign
     changes of θ̇ (with the solver's own steps as samples, the default of :func:`mett.simulate`,
     that resolves every nutation); all brackets are then refined together to ~1e-13 s.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        A simulated run.
+    subdivision : int, default 4
+        Pieces per output interval, 1 to :data:`MAX_SUBDIVISION` (10 000). The dense output is
+        evaluated in blocks of at most a million points, so memory does not grow with it (the
+        time does, linearly).
+
+    Raises
+    ------
+    TypeError
+        If ``traj`` is not a :class:`~mett.Trajectory` or ``subdivision`` not an integer.
+    ValueError
+        If ``subdivision`` is outside [1, 10 000].
     """
+    _validate.instance("traj", traj, "Trajectory")
+    subdivision = _validate.positive_int("subdivision", subdivision)
+    if subdivision > MAX_SUBDIVISION:
+        raise ValueError(
+            f"subdivision must be an integer in [1, {MAX_SUBDIVISION}]; got {subdivision!r}"
+        )
+    return _theta_extrema(traj, subdivision)
+
+
+MAX_SUBDIVISION = 10_000
+"""Largest ``subdivision`` of :func:`theta_extrema`: 10 000 pieces per output interval is far
+below any nutation the solver's steps could miss; more would only cost time."""
+_BLOCK_POINTS = 1_000_000  # dense-output points evaluated at once (memory bound)
+
+
+def _theta_extrema(traj: Trajectory, subdivision: int) -> TurningPoints:
+    """:func:`theta_extrema` without the checks (``subdivision`` may exceed the public bound)."""
     t = np.asarray(traj.t, dtype=float)
     frac = np.arange(subdivision) / subdivision
-    grid = np.append((t[:-1, None] + np.diff(t)[:, None] * frac).ravel(), t[-1])
-    thd = np.asarray(traj.at(grid).thetadot)
-    idx = np.flatnonzero(thd[:-1] * thd[1:] < 0.0)
-    if idx.size == 0:
+    per_block = max(1, _BLOCK_POINTS // subdivision)  # output intervals per block
+    lo, hi, f_lo, f_hi = [], [], [], []
+    for i0 in range(0, max(t.size - 1, 1), per_block):
+        i1 = min(i0 + per_block, t.size - 1)
+        tb = t[i0 : i1 + 1]
+        # each block ends on the sample the next one starts at, so no sign change is missed
+        grid = np.append((tb[:-1, None] + np.diff(tb)[:, None] * frac).ravel(), tb[-1])
+        thd = np.asarray(traj.at(grid).thetadot)
+        idx = np.flatnonzero(thd[:-1] * thd[1:] < 0.0)
+        lo.append(grid[idx])
+        hi.append(grid[idx + 1])
+        f_lo.append(thd[idx])
+        f_hi.append(thd[idx + 1])
+    lo, hi, f_lo, f_hi = (np.concatenate(x) for x in (lo, hi, f_lo, f_hi))
+    if lo.size == 0:
         return TurningPoints(np.empty(0), np.empty(0), np.empty(0, dtype=int))
-    times = _illinois(
-        lambda tt: np.asarray(traj.at(tt).thetadot),
-        grid[idx], grid[idx + 1], thd[idx], thd[idx + 1], tol=1e-13,
-    )  # fmt: skip
-    kinds = np.where(thd[idx] > 0, 1, -1)
+    times = _illinois(lambda tt: np.asarray(traj.at(tt).thetadot), lo, hi, f_lo, f_hi, tol=1e-13)
+    kinds = np.where(f_lo > 0, 1, -1)
     return TurningPoints(times, traj.theta_at(times), kinds)
 
 
@@ -220,7 +282,7 @@ def period_comparison(traj: Trajectory) -> PeriodComparison:
     # the mirror image ω3 → −ω3 maps (D, λ) → (−D, −λ) and leaves V and every period unchanged
     sign = 1.0 if lam_run > 0 else -1.0
     est = estimates.period_estimates(traj.top, abs(lam_run))
-    tp = theta_extrema(traj, subdivision=_subdivision(traj))
+    tp = _theta_extrema(traj, _subdivision(traj))
     tmax = tp.t[tp.kind == TurningPoints.MAX]
     if tmax.size < 2:
         empty = np.empty(0)

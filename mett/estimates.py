@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from . import _validate
-from .potential import d, d2V_dz2, g
+from .potential import _check_integrals, d, d2V_dz2, g
 from .separation import _Well, _wells
 from .thresholds import pole_spins
 
@@ -49,8 +49,10 @@ def potential_minimum(top: TippeTop, D: float, lam: float) -> float:
     Found from the sign changes of the regular numerator (1 − z²)² ∂V/∂z, so a pole is returned
     when V decreases towards it (possible only when N vanishes there, D = D0 or D1).
     """
+    _validate.instance("top", top, "TippeTop")
     D = _validate.finite_scalar("D", D)
     lam = _validate.finite_scalar("lam", lam)
+    _check_integrals(top, D=np.asarray(D), lam=np.asarray(lam))
     w = _Well(top, 0.0, D, lam)
     mins = _wells(w)
     return max(mins, key=w.excess)  # the deepest well: largest 0 − V
@@ -72,6 +74,7 @@ def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Co
 
     V'' is sampled at ``samples`` Chebyshev points inside (−1, 1), denser towards the poles.
     """
+    _validate.instance("top", top, "TippeTop")
     D = _validate.finite_scalar("D", D)
     lam = _validate.finite_scalar("lam", lam)
     z = np.cos(np.pi * (np.arange(samples) + 0.5) / samples)
@@ -85,6 +88,7 @@ def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:
     ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)) with z_m = :func:`potential_minimum`; at a spinning pole
     (z_m = ±1) ω_θ² = 2|V'(±1)|/g(±1).
     """
+    _validate.instance("top", top, "TippeTop")
     from .potential import dV_dz
 
     zm = potential_minimum(top, D, lam)
@@ -107,15 +111,34 @@ class PeriodEstimates(NamedTuple):
 def period_estimates(top: TippeTop, lam: float) -> PeriodEstimates:
     """(T(D0), T(D1)) of RR14 for the Jellett integral ``lam`` > 0 (module docstring).
 
-    For the thesis run (λ = 6.8944e-6) T(D0) = 0.03208 s and T(D1) = 0.09207 s.
+    For the thesis run (λ = 6.8944e-6) T(D0) = 0.03208 s and T(D1) = 0.09207 s. The periods are
+    ∝ 1/λ, so any positive λ up to the float maximum gives finite, positive periods, except a λ so
+    small (below 3.5e-315 kg m³/s for the thesis body) that they would exceed the float range.
+
+    Raises
+    ------
+    TypeError
+        If ``top`` is not a :class:`~mett.TippeTop` or ``lam`` not a real number.
+    ValueError
+        If ``lam`` is not positive and finite, or so small that the periods overflow.
     """
+    _validate.instance("top", top, "TippeTop")
     lam = _validate.positive_jellett(lam)
     a, sig = top.alpha, top.sigma
-    w0, w1 = pole_spins(top, lam)
+    # the spins per unit λ, so that a subnormal λ does not make ω3 subnormal first
+    w0, w1 = pole_spins(top, 1.0)
     w1 = -w1  # the size of the inverted spin
     T0 = 2.0 * math.pi * float(d(top, 1.0)) / (w0 * (1.0 + sig * (1.0 - a)))
     T1 = 2.0 * math.pi * float(d(top, -1.0)) / (w1 * (1.0 + sig * (1.0 + a)))
-    return PeriodEstimates(T0, T1)
+    if lam < max(T0, T1) / _FLOAT_MAX:  # T/λ would overflow
+        raise ValueError(
+            f"lam must be at least {max(T0, T1) / _FLOAT_MAX:.3g} kg m^3/s for this top (below it "
+            f"the periods exceed the floating-point range); got {lam!r}"
+        )
+    return PeriodEstimates(T0 / lam, T1 / lam)
+
+
+_FLOAT_MAX = float(np.finfo(float).max)
 
 
 def oscillation_ratio(top: TippeTop, lam: float, t_inversion: float) -> float:
@@ -123,5 +146,6 @@ def oscillation_ratio(top: TippeTop, lam: float, t_inversion: float) -> float:
 
     RR14's oscillation criterion: θ(t) oscillates during the inversion when this ratio is ≫ 1.
     """
+    _validate.instance("top", top, "TippeTop")
     t_inversion = _validate.positive_scalar("t_inversion", t_inversion)
     return t_inversion / max(period_estimates(top, lam))

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from .top import TippeTop
 
 __all__ = [
+    "INTEGRAL_MAX",
     "N",
     "V",
     "V_rational",
@@ -50,6 +51,7 @@ _POLE_RTOL = 64.0 * float(np.finfo(float).eps)
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d(z) = γ + σ(α − z)² + σγ(1 − z²) (theory.md §1); D = I3 ω3 √d(z)."""
+    _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     return d_of(z, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
 
@@ -72,22 +74,55 @@ def _d(top: TippeTop, z):
 
 def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d'(z) = −2σ(α − z + γ z)."""
+    _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     return -2.0 * top.sigma * (top.alpha - z + top.gamma * z)
 
 
 def g(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """g(z) = ½ I3 [γ + σ(1 + α² − 2αz)], the coefficient of θ̇² in the METT (theory.md §4)."""
+    _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     return 0.5 * top.I3 * (top.gamma + top.sigma * (1.0 + top.alpha**2 - 2.0 * top.alpha * z))
 
 
-def _inputs(z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, ...]:
-    return (
-        _validate.cos_theta(z),
-        _validate.as_finite_array("D", D),
-        _validate.as_finite_array("lam", lam),
-    )
+INTEGRAL_MAX = 1e30
+"""Largest |D|, |λ| the potential and the separation equation accept, in units of the top's
+natural scales I3 √(g/R) (D) and R I3 √(g/R) (λ), and |Ẽ| in units of INTEGRAL_MAX² times
+max(m g R, I3 g/R): a spin of 1e30 √(g/R), many decades above any real top, and far enough below
+the float range that the squares in V (D², λ², N²) cannot overflow."""
+
+
+def _check_integrals(top: TippeTop, **values: np.ndarray) -> None:
+    """ValueError naming the first of ``E``, ``D``, ``lam`` beyond :data:`INTEGRAL_MAX` (arrays).
+
+    Called by every public function of the potential, the separation equation and the estimates
+    after their inputs are validated as finite arrays, so no overflow reaches their arithmetic.
+    """
+    rate = np.sqrt(top.g / top.R)  # FIELD_RANGE keeps it finite and nonzero
+    scales = {
+        "E": (INTEGRAL_MAX**2 * max(top.m * top.g * top.R, top.I3 * top.g / top.R), "J"),
+        "D": (INTEGRAL_MAX * top.I3 * rate, "kg m^2/s"),
+        "lam": (INTEGRAL_MAX * top.R * top.I3 * rate, "kg m^3/s"),
+    }
+    for name, value in values.items():
+        bound, unit = scales[name]
+        big = np.abs(value) > bound
+        if np.any(big):
+            raise ValueError(
+                f"{name} must lie in [-{bound:.3g}, {bound:.3g}] {unit} for this top (the "
+                f"integrals of a spin up to {INTEGRAL_MAX:g} sqrt(g/R)); "
+                f"got {np.asarray(value)[big].ravel()[0].item()!r}"
+            )
+
+
+def _inputs(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, ...]:
+    _validate.instance("top", top, "TippeTop")
+    z = _validate.cos_theta(z)
+    D = _validate.as_finite_array("D", D)
+    lam = _validate.as_finite_array("lam", lam)
+    _check_integrals(top, D=D, lam=lam)
+    return z, D, lam
 
 
 def _N_terms(top: TippeTop, sqd, z, D, lam) -> tuple[np.ndarray, np.ndarray]:
@@ -108,13 +143,13 @@ def _N(top: TippeTop, sqd, z, D, lam):
 
 def N(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
     """N(z) = λ√d(z) + R D(α − z) = R I1 φ̇ (1 − z²) √d(z) (theory.md §4)."""
-    z, D, lam = _inputs(z, D, lam)
+    z, D, lam = _inputs(top, z, D, lam)
     return _N(top, np.sqrt(d(top, z)), z, D, lam)
 
 
 def dN_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
     """N'(z) = λ d'(z)/(2√d(z)) − R D."""
-    z, D, lam = _inputs(z, D, lam)
+    z, D, lam = _inputs(top, z, D, lam)
     return lam * dd_dz(top, z) / (2.0 * np.sqrt(d(top, z))) - top.R * D
 
 
@@ -163,7 +198,7 @@ def V(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
     ValueError
         If |z| > 1 or an input is not finite.
     """
-    z, D, lam = _inputs(z, D, lam)
+    z, D, lam = _inputs(top, z, D, lam)
     n, scale = _N_terms(top, np.sqrt(d(top, z)), z, D, lam)
     kinetic = _kinetic_coefficient(top) * _pole_safe_ratio(n * n, 1.0 - z * z, n, scale)
     gravity = top.m * top.g * top.R * (1.0 - top.alpha * z)
@@ -181,8 +216,8 @@ def V_rational(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.
     ValueError
         If the top is not rational (see :attr:`TippeTop.is_rational`), or on bad input.
     """
+    z, D, lam = _inputs(top, z, D, lam)
     beta = top.beta  # raises ValueError for a non-rational top
-    z, D, lam = _inputs(z, D, lam)
     gam, R, I3 = top.gamma, top.R, top.I3
     c1 = top.alpha * (lam * beta + R * D)
     c2 = lam * beta * (1.0 - gam) + R * D
@@ -199,7 +234,7 @@ def dV_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarr
     ∂V/∂z = −m g R α + 2C N [N'(1 − z²) + z N]/(1 − z²)², C = I3/(2 I1² R²).
     Infinite at a pole unless N vanishes there.
     """
-    z, D, lam = _inputs(z, D, lam)
+    z, D, lam = _inputs(top, z, D, lam)
     sqd = np.sqrt(d(top, z))
     n, scale = _N_terms(top, sqd, z, D, lam)
     dn = lam * dd_dz(top, z) / (2.0 * sqd) - top.R * D
@@ -228,7 +263,7 @@ def d2V_dz2(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.nda
     With w = 1 − z² and K = C N²/w:  K'' = C[2(N'² + N N'')/w + 8 z N N'/w² + 2N²/w² + 8 z² N²/w³],
     N'' = λ(d''/(2√d) − d'²/(4 d^{3/2})), d'' = 2σ(1 − γ).
     """
-    z, D, lam = _inputs(z, D, lam)
+    z, D, lam = _inputs(top, z, D, lam)
     if np.any(np.abs(z) == 1.0):
         raise ValueError("d2V_dz2 needs z in the open interval (-1, 1); got a pole")
     dz = d(top, z)

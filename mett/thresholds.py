@@ -45,6 +45,7 @@ def lambda_thres(top: TippeTop) -> float:
     The inverted spin (θ = π) of the gliding top is asymptotically stable iff λ > λ_thres. For
     γ >= 1 + α (group III) it is never stable and ``inf`` is returned.
     """
+    _validate.instance("top", top, "TippeTop")
     den = 1.0 + top.alpha - top.gamma
     if den <= 0.0:
         return math.inf
@@ -57,6 +58,7 @@ def lambda_0(top: TippeTop) -> float:
     The non-inverted spin (θ = 0) is unstable iff λ > λ_0. For γ <= 1 − α (group I) it is stable for
     every λ and ``inf`` is returned (theory.md §7).
     """
+    _validate.instance("top", top, "TippeTop")
     den = top.alpha + top.gamma - 1.0
     if den <= 0.0:
         return math.inf
@@ -65,6 +67,7 @@ def lambda_0(top: TippeTop) -> float:
 
 def lambda_E(top: TippeTop) -> float:
     """λ_E = √(m g R³ I3) (1 − α²): the inverted spin has less energy (E1 < E0) iff λ > λ_E (§6)."""
+    _validate.instance("top", top, "TippeTop")
     return math.sqrt(top.m * top.g * top.R**3 * top.I3) * (1.0 - top.alpha**2)
 
 
@@ -73,6 +76,7 @@ def lambda_roll(top: TippeTop) -> float:
 
     λ_roll = 2√(m g R³ I3 α)(1 + α)√(γ + σ(1+α)²)/(1 + σ(1 + α)); λ_roll <= λ_thres always.
     """
+    _validate.instance("top", top, "TippeTop")
     a, gam, sig = top.alpha, top.gamma, top.sigma
     return (
         2.0 * _scale(top) * (1.0 + a) * math.sqrt(gam + sig * (1 + a) ** 2) / (1.0 + sig * (1 + a))
@@ -101,8 +105,9 @@ def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
 
     ω3 = λ/(R I3 (1 − α)) upright (θ = 0) and ω3 = −λ/(R I3 (1 + α)) inverted (θ = π): Jellett's
     λ = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (theory.md §1) at sin θ = 0. The one place of these
-    formulas; plain arithmetic, so ``lam`` may be a float or an array (no checks).
+    formulas; plain arithmetic, so ``lam`` may be a float or an array (only ``top`` is checked).
     """
+    _validate.instance("top", top, "TippeTop")
     R, I3, a = top.R, top.I3, top.alpha
     return lam / (R * I3 * (1.0 - a)), -lam / (R * I3 * (1.0 + a))
 
@@ -113,16 +118,34 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     ``D0 = λ√d(1)/(R(1 − α))``, ``E0 = λ²/(2 I3 R²(1 − α)²) + m g R(1 − α)``,
     ``D1 = −λ√d(−1)/(R(1 + α))``, ``E1 = λ²/(2 I3 R²(1 + α)²) + m g R(1 + α)``.
     """
+    _validate.instance("top", top, "TippeTop")
     from .potential import d
 
     lam = _validate.as_finite_array("lam", lam)
     R, a, I3 = top.R, top.alpha, top.I3
     mgR = top.m * top.g * R
-    D0 = lam * math.sqrt(float(d(top, 1.0))) / (R * (1.0 - a))
-    D1 = -lam * math.sqrt(float(d(top, -1.0))) / (R * (1.0 + a))
-    E0 = lam**2 / (2.0 * I3 * R**2 * (1.0 - a) ** 2) + mgR * (1.0 - a)
-    E1 = lam**2 / (2.0 * I3 * R**2 * (1.0 + a) ** 2) + mgR * (1.0 + a)
-    return BoundaryValues(D0, E0, D1, E1, *pole_spins(top, lam))
+    with np.errstate(over="ignore", invalid="ignore"):  # checked below
+        D0 = lam * math.sqrt(float(d(top, 1.0))) / (R * (1.0 - a))
+        D1 = -lam * math.sqrt(float(d(top, -1.0))) / (R * (1.0 + a))
+        E0 = lam**2 / (2.0 * I3 * R**2 * (1.0 - a) ** 2) + mgR * (1.0 - a)
+        E1 = lam**2 / (2.0 * I3 * R**2 * (1.0 + a) ** 2) + mgR * (1.0 + a)
+        out = BoundaryValues(D0, E0, D1, E1, *pole_spins(top, lam))
+    if not all(np.all(np.isfinite(v)) for v in out):
+        # the largest |λ| for which E0 (∝ λ²) and D0, D1 (∝ λ) stay finite, in logarithms
+        big = math.log(0.25 * float(np.finfo(float).max))
+        log_lam = min(
+            0.5 * (big + math.log(2.0 * I3) + 2.0 * math.log(R * (1.0 - a))),
+            big + math.log(R * (1.0 - a)) - 0.5 * math.log(float(d(top, 1.0))),
+            big + math.log(R * (1.0 + a)) - 0.5 * math.log(float(d(top, -1.0))),
+            big,
+        )
+        lam_max = math.exp(log_lam)
+        bad = lam[~np.isfinite(E0) | ~np.isfinite(D0) | ~np.isfinite(D1)].ravel()
+        raise ValueError(
+            f"|lam| must be at most {lam_max:.3g} kg m^3/s for this top (beyond it the spinning "
+            f"states' energy overflows); got {(bad[0] if bad.size else lam.ravel()[0]).item()!r}"
+        )
+    return out
 
 
 # --- tumbling family and end states ----------------------------------------------------------
@@ -144,6 +167,7 @@ def tumbling_lambda(top: TippeTop, theta: ArrayLike) -> np.ndarray:
 
     NaN where the family does not exist (α − (1 − γ) cos θ_t <= 0: beyond θ_f for groups I, III).
     """
+    _validate.instance("top", top, "TippeTop")
     th = _validate.theta(theta)
     c, s = np.cos(th), np.sin(th)
     den = top.alpha - (1.0 - top.gamma) * c
@@ -177,6 +201,7 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
     ValueError
         If ``lam`` is not a positive finite number.
     """
+    _validate.instance("top", top, "TippeTop")
     from scipy import optimize
 
     lam = _validate.positive_jellett(lam)
@@ -187,7 +212,8 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
     resid = tumbling_lambda(top, grid) - lam
     for i in range(len(grid) - 1):
         r0, r1 = resid[i], resid[i + 1]
-        if np.isfinite(r0) and np.isfinite(r1) and r0 * r1 <= 0.0:
+        # a sign test, not r0 * r1 (which overflows for λ ~ 1e155)
+        if np.isfinite(r0) and np.isfinite(r1) and min(r0, r1) <= 0.0 <= max(r0, r1):
             if r0 == 0.0:
                 th = grid[i]
             else:
@@ -240,12 +266,21 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
     Raises
     ------
     ValueError
-        If ``lam`` is not a positive finite number.
+        If ``lam`` is not a positive finite number, or so large that the end state's spin ω3
+        overflows.
     """
+    _validate.instance("top", top, "TippeTop")
     lam = _validate.positive_jellett(lam)
     from .classification import stable_states
 
-    found = stable_states(top, lam)
+    with np.errstate(over="ignore"):  # a spin ω3 ∝ λ beyond the float range: checked here
+        found = stable_states(top, lam)
+    if not all(math.isfinite(st.omega3) for st in found):
+        lam_max = float(np.finfo(float).max) * top.R * top.I3 * (1.0 - top.alpha)
+        raise ValueError(
+            f"lam must be at most {lam_max:.3g} kg m^3/s for this top (beyond it the end state's "
+            f"spin omega3 overflows); got {lam!r}"
+        )
     if len(found) == 1:
         st = found[0]
         return st._replace(candidates=(st,))
@@ -266,6 +301,7 @@ def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -
         If θ0 is outside [0, arccos α) (there the spin must point the other way, or λ does not
         depend on it), or on bad input.
     """
+    _validate.instance("top", top, "TippeTop")
     th = float(_validate.theta(theta0, "theta0"))
     phidot0 = _validate.finite_scalar("phidot0", phidot0)
     c = math.cos(th)

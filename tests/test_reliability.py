@@ -372,3 +372,230 @@ def test_sweep_accepts_numpy_option_values():
     atol = np.full(10, 1e-12)
     table = sweep(TOP, {"mu": [0.3]}, t_end=0.05, progress=False, atol=atol, rtol=np.float64(1e-9))
     assert list(table["status"]) == ["completed"]
+
+
+# --- fuzz findings fixed at the source (tests/test_fuzz.py's known-failure list) -----------------
+def _thesis_run() -> mett.Trajectory:
+    return mett.simulate(TOP, mett.State(theta=0.1, omega3=155.0), 0.3)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda t: mett.boundary_values(t, 1e-5),
+        lambda t: mett.tumbling_state(t, 1e-5),
+        lambda t: mett.asymptotic_state(t, 1e-5),
+        lambda t: mett.min_spin_for_inversion(t, 0.1),
+        lambda t: mett.period_estimates(t, 1e-5),
+        lambda t: mett.potential_minimum(t, 1e-5, 1e-5),
+        lambda t: mett.subgroup(t),
+        lambda t: mett.tumbling_eigenvalues(t, 1.0),
+        lambda t: mett.thresholds.pole_spins(t, 1e-5),
+    ],
+)
+@pytest.mark.parametrize("not_a_top", [None, "rutstam2013", 1.0])
+def test_a_top_that_is_not_a_tippe_top_is_a_type_error(call, not_a_top):
+    with pytest.raises(TypeError, match="top must be a TippeTop"):
+        call(not_a_top)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        analysis.mett_residual,
+        lambda tr: analysis.deforming_potential(tr, [0.1]),
+        analysis.minimum_track,
+        analysis.theta_extrema,
+        analysis.period_comparison,
+    ],
+)
+def test_a_traj_that_is_not_a_trajectory_is_a_type_error(call):
+    with pytest.raises(TypeError, match="traj must be a"):
+        call(None)
+
+
+def test_boundary_values_refuse_a_lambda_whose_energy_overflows():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # and no numpy RuntimeWarning on the way
+        with pytest.raises(ValueError, match=r"\|lam\| must be at most 2.37e\+149 .* got 1e\+155"):
+            mett.boundary_values(TOP, 1e155)
+        with pytest.raises(ValueError, match="got -1e\\+300"):
+            mett.boundary_values(TOP, [1e-5, -1e300])
+        # just inside the stated bound every value is finite, and E0 = λ²/(2 I3 R² (1 − α)²) + …
+        lam = 2.3e149
+        bv = mett.boundary_values(TOP, lam)
+    assert all(np.isfinite(v) for v in bv)
+    a = TOP.alpha
+    expected = lam**2 / (2 * TOP.I3 * TOP.R**2 * (1 - a) ** 2) + TOP.m * TOP.g * TOP.R * (1 - a)
+    assert float(bv.E0) == pytest.approx(expected, rel=1e-14)
+
+
+def test_tumbling_state_and_asymptotic_state_at_huge_lambda():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        # above λ_thres the thesis top has no tumbling state, however large λ is
+        assert mett.tumbling_state(TOP, 1e155) is None
+        assert mett.tumbling_state(TOP, 1e300) is None
+        # ω3 = −λ/(R I3 (1 + α)) is finite at 1e300 for the thesis top: a correct answer ...
+        st = mett.asymptotic_state(TOP, 1e300)
+        assert st.kind == "inverted"
+        assert st.omega3 == pytest.approx(-1e300 / (TOP.R * TOP.I3 * (1 + TOP.alpha)), rel=1e-15)
+        # ... and refused where it would overflow (a small top)
+        small = mett.TippeTop(0.015625, 0.005859375, 0.5, 5.364418029785156e-07, 5.36e-07)
+        with pytest.raises(ValueError, match=r"lam must be at most .* omega3 overflows"):
+            mett.asymptotic_state(small, 1e300)
+
+
+def test_period_estimates_are_one_over_lambda_down_to_the_float_range():
+    ref = mett.period_estimates(TOP, 6.8944e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for lam in (1e-300, 1e300):
+            est = mett.period_estimates(TOP, lam)
+            assert est.T_D0 == pytest.approx(ref.T_D0 * 6.8944e-6 / lam, rel=1e-13)
+            assert est.T_D1 == pytest.approx(ref.T_D1 * 6.8944e-6 / lam, rel=1e-13)
+        with pytest.raises(ValueError, match=r"lam must be at least .* got 5e-324"):
+            mett.period_estimates(TOP, 5e-324)
+
+
+@pytest.mark.parametrize("sub", [0, -1, 10_001, 10**9])
+def test_theta_extrema_subdivision_is_bounded(sub):
+    tr = _thesis_run()
+    with pytest.raises(ValueError, match=r"subdivision must be an integer (in \[1, 10000\]|>= 1)"):
+        analysis.theta_extrema(tr, subdivision=sub)
+    with pytest.raises(TypeError, match="subdivision must be an integer"):
+        analysis.theta_extrema(tr, subdivision=1e300)
+
+
+def test_theta_extrema_in_blocks_equals_one_evaluation(monkeypatch):
+    """Blocks of the dense output (the memory bound) find the same extrema as one grid."""
+    tr = _thesis_run()
+    whole = analysis.theta_extrema(tr, subdivision=16)
+    monkeypatch.setattr(analysis, "_BLOCK_POINTS", 37)  # many blocks, boundaries everywhere
+    blocked = analysis.theta_extrema(tr, subdivision=16)
+    assert whole.t.size > 4
+    np.testing.assert_array_equal(blocked.kind, whole.kind)
+    np.testing.assert_allclose(blocked.t, whole.t, rtol=0, atol=1e-12)
+    # θ̇ vanishes at each one (independent check on the dense output)
+    assert np.max(np.abs(tr.at(blocked.t).thetadot)) < 1e-8
+
+
+def test_deforming_potential_accepts_a_scalar_z():
+    tr = _thesis_run()
+    z, V, theta = analysis.deforming_potential(tr, 0.1, 0.5)
+    assert z.shape == (1,) and V.shape == (1, 1) and theta.shape == (1,)
+    z2, V2, _ = analysis.deforming_potential(tr, [0.1], [0.5, 0.5])
+    assert V[0, 0] == V2[0, 0] == V2[0, 1]
+    with pytest.raises(ValueError, match=r"z = cos\(theta\) must lie in \[-1, 1\]"):
+        analysis.deforming_potential(tr, 0.1, 2.0)
+    with pytest.raises(ValueError, match="z must be a scalar or 1-D array"):
+        analysis.deforming_potential(tr, 0.1, np.zeros((2, 2)))
+
+
+@pytest.mark.parametrize("field", ["omega3", "thetadot", "phidot", "nu_x", "nu_y"])
+@pytest.mark.parametrize("value", [1e155, -1e300])
+def test_simulate_refuses_absurd_state_rates_naming_the_field(field, value):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=f"state.{field} must lie in"):
+            mett.simulate(TOP, mett.State(theta=0.1, **{field: value}), 0.01)
+
+
+def test_simulate_rate_bound_is_relative_to_the_tops_natural_rate():
+    rate = math.sqrt(TOP.g / TOP.R)
+    bound = mett.dynamics.simulation.RATE_MAX * rate
+    with pytest.raises(ValueError, match=r"state\.omega3"):
+        mett.simulate(TOP, mett.State(theta=0.1, omega3=1.01 * bound), 1e-6)
+    # just inside: a clean run (the normal force at this spin is negative: contact lost at once)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tr = mett.simulate(TOP, mett.State(theta=0.1, omega3=0.99 * bound), 1e-6)
+    assert tr.status in ("completed", "contact_lost", "failed") and tr.message
+
+
+def test_simulate_refuses_a_max_step_beyond_the_step_budget_before_any_work():
+    s = mett.State(theta=0.1, omega3=155.0)
+    t_end = 0.01
+    limit = t_end / mett.dynamics.simulation.MAX_STEPS
+    for backend in ("compiled", "scipy"):
+        with pytest.raises(ValueError, match="max_step must be at least t_end / MAX_STEPS"):
+            mett.simulate(TOP, s, t_end, max_step=0.5 * limit, backend=backend)
+    with pytest.raises(TypeError, match="max_step must be a real number"):
+        mett.simulate(TOP, s, t_end, max_step="1e-3")
+    tr = mett.simulate(TOP, s, t_end, max_step=1e-4)  # ordinary values still run
+    assert tr.status == "completed" and np.max(np.diff(tr.t)) <= 1e-4 * (1 + 1e-12)
+
+
+_POTENTIAL_CALLS = {
+    "d": lambda t: mett.d(t, 0.3),
+    "g": lambda t: mett.g(t, 0.3),
+    "V": lambda t: mett.V(t, 0.3, 1e-4, 1e-5),
+    "V_rational": lambda t: mett.V_rational(t, 0.3, 1e-4, 1e-5),
+    "dV_dz": lambda t: mett.dV_dz(t, 0.3, 1e-4, 1e-5),
+    "d2V_dz2": lambda t: mett.d2V_dz2(t, 0.3, 1e-4, 1e-5),
+    "f": lambda t: mett.f(t, 0.3, 0.01, 1e-4, 1e-5),
+    "band": lambda t: mett.band(t, 0.01, 1e-4, 1e-5),
+    "turning_points": lambda t: mett.turning_points(t, 0.01, 1e-4, 1e-5),
+    "nutation_period": lambda t: mett.nutation_period(t, 0.01, 1e-4, 1e-5),
+    "mean_precession": lambda t: mett.mean_precession(t, 0.01, 1e-4, 1e-5),
+    "classify_motion": lambda t: mett.classify_motion(t, 0.01, 1e-4, 1e-5),
+}
+
+
+@pytest.mark.parametrize("name", list(_POTENTIAL_CALLS))
+def test_potential_and_separation_refuse_a_top_that_is_not_a_tippe_top(name):
+    with pytest.raises(TypeError, match="top must be a TippeTop; got NoneType"):
+        _POTENTIAL_CALLS[name](None)
+
+
+def test_integral_bounds_are_the_top_natural_scales():
+    rate = math.sqrt(TOP.g / TOP.R)
+    big = mett.potential.INTEGRAL_MAX
+    D_max, lam_max = big * TOP.I3 * rate, big * TOP.R * TOP.I3 * rate
+    E_max = big**2 * max(TOP.m * TOP.g * TOP.R, TOP.I3 * TOP.g / TOP.R)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy RuntimeWarning either
+        for fn in (mett.V, mett.dV_dz, mett.V_rational):
+            with pytest.raises(ValueError, match=r"D must lie in \[-.*\] kg m\^2/s .* got 1e\+155"):
+                fn(TOP, 0.3, 1e155, 1e-5)
+            with pytest.raises(ValueError, match=r"lam must lie in .* kg m\^3/s .* got -1e\+300"):
+                fn(TOP, 0.3, 1e-4, [1e-5, -1e300])
+        for fn in (mett.band, mett.nutation_period, mett.turning_points, mett.classify_motion):
+            with pytest.raises(ValueError, match=r"E must lie in .* J .* got 1e\+300"):
+                fn(TOP, 1e300, 1e-4, 1e-5)
+        with pytest.raises(ValueError, match="E must lie in"):
+            mett.f(TOP, 0.3, -1e300, 1e-4, 1e-5)
+        with pytest.raises(ValueError, match="lam must lie in"):
+            mett.potential_minimum(TOP, 1e-4, 1e155)
+        # at the bounds themselves V is finite and equals its closed form (interior z)
+        z = 0.3
+        v = float(mett.V(TOP, z, D_max, lam_max))
+        n = lam_max * math.sqrt(float(mett.d(TOP, z))) + TOP.R * D_max * (TOP.alpha - z)
+        expected = (
+            TOP.m * TOP.g * TOP.R * (1 - TOP.alpha * z)
+            + TOP.I3 / (2 * TOP.I1**2 * TOP.R**2) * n * n / (1 - z * z)
+            + D_max**2 / (2 * TOP.I1)
+            - TOP.m * lam_max**2 / (2 * TOP.I1 * TOP.I3)
+        )
+        assert math.isfinite(v) and v == pytest.approx(expected, rel=1e-12)
+        assert np.all(np.isfinite(mett.f(TOP, [0.0, 0.3], E_max, D_max, lam_max)))
+
+
+def test_tiny_integrals_give_finite_answers_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for tiny in (5e-324, -1e-300):
+            assert np.all(np.isfinite(mett.V(TOP, [-0.5, 0.0, 0.5], tiny, tiny)))
+            assert np.all(np.isfinite(mett.dV_dz(TOP, [-0.5, 0.0, 0.5], tiny, tiny)))
+            assert mett.classify_motion(TOP, 0.01, tiny, tiny) in ("nutation", "steady", "none")
+
+
+def test_dV_dz_on_a_grid_through_z_zero_has_no_warning():
+    z = np.linspace(-0.9, 0.9, 7)  # contains 0 exactly
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dv = mett.dV_dz(TOP, z, 1e-4, 1e-5)
+    # against a central difference of V
+    h = 1e-6
+    fd = (mett.V(TOP, z + h, 1e-4, 1e-5) - mett.V(TOP, z - h, 1e-4, 1e-5)) / (2 * h)
+    np.testing.assert_allclose(dv, fd, rtol=1e-6, atol=1e-9)

@@ -40,7 +40,7 @@ from ..top import TippeTop
 from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
 from .trajectory import Trajectory, _Constant  # _Constant: the saved form of a run at t0
 
-__all__ = ["MAX_STEPS", "MODELS", "simulate"]
+__all__ = ["MAX_STEPS", "MODELS", "RATE_MAX", "simulate"]
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
@@ -59,6 +59,29 @@ def _check_state(state: Any) -> State:
     if state.shape != ():
         raise ValueError(f"simulate needs a single State; got fields of shape {state.shape}")
     return state
+
+
+RATE_MAX = 1e30
+"""Largest |θ̇|, |φ̇|, |ω3| of a start state, in units of the top's natural rate √(g/R), and of
+|ν_x|, |ν_y| in units of √(g R). The runs stay clean (a status) up to 1e80 of them for the thesis
+top; beyond about 1e100 rad/s the integrator's own arithmetic overflows. No top spins within
+many decades of the bound (the thesis run starts at 8 √(g/R))."""
+
+
+def _check_magnitudes(top: TippeTop, state: State) -> None:
+    """ValueError naming the state field whose magnitude is beyond :data:`RATE_MAX`."""
+    rate = math.sqrt(top.g / top.R)  # FIELD_RANGE keeps both factors finite and nonzero
+    for name, unit, scale in (
+        ("thetadot", "rad/s", rate), ("phidot", "rad/s", rate), ("omega3", "rad/s", rate),
+        ("nu_x", "m/s", rate * top.R), ("nu_y", "m/s", rate * top.R),
+    ):  # fmt: skip
+        value = float(getattr(state, name))
+        if abs(value) > RATE_MAX * scale:
+            what = "sqrt(g/R)" if unit == "rad/s" else "sqrt(g R)"
+            raise ValueError(
+                f"state.{name} must lie in [-{RATE_MAX * scale:.3g}, {RATE_MAX * scale:.3g}] {unit} "
+                f"({RATE_MAX:g} times the top's {what}); got {value!r}"
+            )
 
 
 RTOL_MIN = 100.0 * float(np.finfo(float).eps)
@@ -272,7 +295,8 @@ def simulate(
         order, once per installation: the machine code is cached on disk); its dense output is
         each step's Taylor polynomial. DOP853 only in ``method`` (it is not used).
     max_step : float, default inf
-        Largest step (s).
+        Largest step (s); at least ``t_end / MAX_STEPS`` (a smaller one could not reach ``t_end``
+        within the compiled backend's step budget, and is refused on both backends).
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
@@ -309,7 +333,9 @@ def simulate(
     Raises
     ------
     ValueError
-        Bad input, before any work: non-finite state or θ outside [0, π], ``t_end <= 0``,
+        Bad input, before any work: non-finite state or θ outside [0, π], a state rate beyond
+        :data:`RATE_MAX` times the top's natural scale, ``t_end <= 0``, ``t_end / max_step``
+        above :data:`MAX_STEPS`,
         ``rtol`` outside [100 ε, 1) (:data:`RTOL_MIN`), ``atol`` ≤ 0 or below ε times a state
         component's typical magnitude, bad ``t_eval``, an unknown model, method or backend,
         ``backend="compiled"`` with a method other than DOP853, an option of another model or out
@@ -342,9 +368,20 @@ def simulate(
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
     state = _check_state(state)
+    _check_magnitudes(top, state)
     t_end = _validate.positive_scalar("t_end", t_end)
     rtol = _check_rtol(rtol)
     t_eval_arr = _check_t_eval(t_eval, t_end)
+    if isinstance(max_step, (bool, np.bool_, str, bytes)) or max_step is None:
+        raise TypeError(f"max_step must be a real number; got {max_step!r}")
+    max_step = float(max_step)
+    if not max_step > 0.0:
+        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
+    if t_end / max_step > MAX_STEPS:  # refused up front rather than run into the step budget
+        raise ValueError(
+            f"max_step must be at least t_end / MAX_STEPS = {t_end / MAX_STEPS:.3g} s (the run "
+            f"would need more than {MAX_STEPS} steps); got {max_step!r}"
+        )
     if method not in _METHODS:
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in _BACKENDS:
@@ -400,9 +437,6 @@ def simulate(
             raise ValueError(
                 f"model {mdl.name!r} has no compiled right-hand side; use backend='scipy'"
             )
-    max_step = float(max_step)
-    if not max_step > 0.0:
-        raise ValueError(f"max_step must lie in (0, inf]; got {max_step!r}")
     events = list(events or [])
     for k, ev in enumerate(events):
         if not callable(ev):

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import _validate
-from ..potential import d2V_dz2, dV_dz, g
+from ..potential import _check_integrals, d2V_dz2, dV_dz, g
 
 if TYPE_CHECKING:
     from ..top import TippeTop
@@ -291,7 +291,9 @@ class _Solution(NamedTuple):
 
 def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solution:
     """Bands of all elements (and ``quantity``: "period" or "precession"), array path first."""
+    _validate.instance("top", top, "TippeTop")
     E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    _check_integrals(top, E=E, D=D, lam=lam)
     shape = E.shape
     E, D, lam = (np.array(v, dtype=float).ravel() for v in (E, D, lam))
     z0 = None if z0 is None else np.array(z0, dtype=float).ravel()
@@ -459,8 +461,10 @@ def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -
     Evaluated as P(z)/g(z) with the exact energy shift (module docstring), so it is finite at the
     poles and accurate where Ẽ − V is a small difference of large numbers.
     """
+    _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     E, D, lam, _ = _broadcast(E, D, lam)
+    _check_integrals(top, E=E, D=D, lam=lam)
     Es = _shift(top, E, D, lam)
     z, E, D, lam, Es = np.broadcast_arrays(z, E, D, lam, Es)
     return _Wells(top, E, D, lam, Es).P_direct(z) / g(top, z)
