@@ -3,7 +3,7 @@
 The test problem is 12-dimensional: a ring of six pendula coupled by springs,
 q_i'' = −sin q_i + k (q_{i+1} − 2 q_i + q_{i−1}), integrated at rtol = atol = 1e-10 over a span
 chosen so that scipy needs about 35 000 right-hand-side evaluations (the size of a thesis
-tippe-top trajectory, design.md).  Both integrators call the same numba-compiled right-hand side;
+tippe-top trajectory).  Both integrators call the same numba-compiled right-hand side;
 scipy gets it through a thin Python wrapper, as a user would pass it.
 
 Run ``python benchmarks/bench_dop853.py``; it prints numbers, it asserts nothing.  ``--cold`` also

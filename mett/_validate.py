@@ -44,7 +44,7 @@ class MettWarning(UserWarning):
 
 
 class PhysicalityWarning(MettWarning):
-    """Legal but physically suspicious input (e.g. I3 > m R², as in the seed-000 table)."""
+    """Legal but physically suspicious input (e.g. I3 > m R², as in the Maple-paper table)."""
 
 
 class MettDeprecationWarning(MettWarning, DeprecationWarning):

@@ -1,10 +1,10 @@
-"""The deforming potential: the METT along a simulated (gliding) trajectory (theory.md §3–§4, §8).
+"""The deforming potential: the METT along a simulated (gliding) trajectory (docs/theory/equations.md#integrals, docs/theory/mett.md#the-main-equation, docs/theory/estimates.md#estimates).
 
 While the top glides, the METT Ẽ(t) = g(cos θ) θ̇² + V(cos θ, D(t), λ) still holds at every instant,
 but D(t) and Ẽ(t) drift: θ moves in a potential that deforms as the top inverts (RR14 §3). This
 module evaluates that picture on a :class:`~mett.Trajectory`: the residual of the METT, the potential
 V(z, D(t), λ) and its minimum z_min(t), the turning points of θ(t), and the observed θ-oscillation
-periods set against the rolling-METT periods with D and Ẽ frozen. Caveat (theory.md §8): the gliding
+periods set against the rolling-METT periods with D and Ẽ frozen. Caveat (docs/theory/estimates.md#estimates): the gliding
 top oscillates faster than the rolling estimate, because the contact point glides on the time scale
 of one nutation; :func:`period_comparison` quantifies it.
 """
@@ -38,7 +38,7 @@ def mett_residual(traj: Trajectory, *, relative: bool = True) -> np.ndarray:
     """Ẽ(t) − [g(z) θ̇² + V(z, D(t), λ(t))] at the trajectory's samples.
 
     Relative to Ẽ(t) by default. ~1e-13 for the thesis run; feeding E instead of Ẽ would give up to
-    ~1e-1 (theory.md §12, trap 3).
+    ~1e-1 (docs/theory/notes.md#energy-vs-modified-energy).
     """
     _validate.instance("traj", traj, "Trajectory")
     z = np.cos(traj.theta)
@@ -94,7 +94,7 @@ def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarra
     """z_min(t): position (cos θ) of the minimum of V(·, D(t), λ) at the given times.
 
     Default: 200 times spread over the run. Moves from near 1 to near −1 during an inversion
-    (RR14 §3; theory.md §8).
+    (RR14 §3; docs/theory/estimates.md#estimates).
     """
     _validate.instance("traj", traj, "Trajectory")
     if times is None:
@@ -232,7 +232,7 @@ def turning_points(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
 
 
 class PeriodComparison(NamedTuple):
-    """Observed θ-oscillation periods against rolling-METT periods (theory.md §8)."""
+    """Observed θ-oscillation periods against rolling-METT periods (docs/theory/estimates.md#estimates)."""
 
     t: np.ndarray
     """Mid-times of the observed periods (s)."""

@@ -1,4 +1,4 @@
-"""High-ω3 asymptotics of the rolling ball (topic of Rutstam 2013, RCD; formulas of theory.md §9).
+"""High-ω3 asymptotics of the rolling ball (topic of Rutstam 2013, RCD; formulas of docs/theory/high-spin.md#high-spin).
 
 Setting: the rolling top (ν ≡ 0) started at θ(0) = θ0 with θ̇(0) = 0, φ̇(0) = φ̇0 and a large spin
 ω3. With z0 = cos θ0, d0 = d(z0), K0 = 1 + σ(1 − α z0), G0 = γ + σ(1 + α² − 2α z0) = 2 g(z0)/I3 and
@@ -33,7 +33,7 @@ __all__ = ["HighSpin", "high_spin"]
 
 
 class HighSpin(NamedTuple):
-    """Leading-order high-spin characteristics of the rolling top's nutation (theory.md §9)."""
+    """Leading-order high-spin characteristics of the rolling top's nutation (docs/theory/high-spin.md#high-spin)."""
 
     width: float
     """Band width Δ in z = cos θ (signed: z runs between z0 and z0 + Δ)."""
@@ -51,7 +51,7 @@ class HighSpin(NamedTuple):
 
 
 def high_spin(top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0) -> HighSpin:
-    """Leading-order high-ω3 band width, well depth, nutation frequency and precession (theory.md §9).
+    """Leading-order high-ω3 band width, well depth, nutation frequency and precession (docs/theory/high-spin.md#high-spin).
 
     Parameters
     ----------

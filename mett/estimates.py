@@ -1,15 +1,15 @@
-"""Estimates of the inverting top's METT (Rauch-Wojciechowski & Rutstam 2014, §3–4; theory.md §8).
+"""Estimates of the inverting top's METT (Rauch-Wojciechowski & Rutstam 2014, §3–4; docs/theory/estimates.md#estimates).
 
-While the top inverts, D(t) travels from near D0 to near D1 (theory.md §6) and the minimum of
+While the top inverts, D(t) travels from near D0 to near D1 (docs/theory/thresholds.md#boundary-values) and the minimum of
 V(z, D, λ) travels with it from z ≈ 1 to z ≈ −1. The small-oscillation period about that minimum,
 with D and Ẽ frozen, is bounded by its values at the two ends:
 
     T(D0) = 2π d(1) / (ω3,0 (1 + σ(1 − α))),    ω3,0 = λ/(R I3 (1 − α)),
     T(D1) = 2π d(−1) / (|ω3,1| (1 + σ(1 + α))), ω3,1 = −λ/(R I3 (1 + α)),
 
-the high-spin nutation frequencies at the poles (theory.md §9). For a rational top they reduce to
+the high-spin nutation frequencies at the poles (docs/theory/high-spin.md#high-spin). For a rational top they reduce to
 RR14's T(D0) = 2π R I3 (1 − α)(α + γ − 1)/(α λ) and T(D1) = 2π R I3 (1 + α)(1 + α − γ)/(α λ).
-Caveat (theory.md §8): the *gliding* top oscillates faster than these rolling estimates.
+Caveat (docs/theory/estimates.md#estimates): the *gliding* top oscillates faster than these rolling estimates.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def potential_minimum(top: TippeTop, D: float, lam: float) -> float:
 
 
 class Convexity(NamedTuple):
-    """Shape of V(·, D, λ) on (−1, 1) (RR14's convexity theorem; theory.md §8)."""
+    """Shape of V(·, D, λ) on (−1, 1) (RR14's convexity theorem; docs/theory/estimates.md#estimates)."""
 
     convex: bool
     """V'' > 0 at every sample of (−1, 1)."""
@@ -83,7 +83,7 @@ def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Co
 
 
 def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:
-    """Period 2π/ω_θ of small θ-oscillations about the minimum of V (scalar D, λ; theory.md §8).
+    """Period 2π/ω_θ of small θ-oscillations about the minimum of V (scalar D, λ; docs/theory/estimates.md#estimates).
 
     ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)) with z_m = :func:`potential_minimum`; at a spinning pole
     (z_m = ±1) ω_θ² = 2|V'(±1)|/g(±1).
@@ -100,7 +100,7 @@ def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:
 
 
 class PeriodEstimates(NamedTuple):
-    """Rolling-METT oscillation periods at the two ends of the inversion (theory.md §8)."""
+    """Rolling-METT oscillation periods at the two ends of the inversion (docs/theory/estimates.md#estimates)."""
 
     T_D0: float
     """Period near the start (D = D0, minimum at z = 1), s."""

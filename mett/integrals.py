@@ -1,4 +1,4 @@
-"""Jellett λ, Routh D, energy E and modified energy Ẽ of a state (theory.md §1, §3).
+"""Jellett λ, Routh D, energy E and modified energy Ẽ of a state (docs/theory/model.md#conventions, docs/theory/equations.md#integrals).
 
 The ``*_of`` functions are the one implementation of each integral: plain arithmetic on floats or
 equal-shape arrays of the reduced variables (θ, θ̇, φ̇, ω3, ν_x, ν_y), for a sphere of radius R whose
@@ -7,7 +7,7 @@ l), so that the contact vector is a = l 3̂ − R ẑ. :func:`jellett`, :func:`r
 and :func:`modified_energy` evaluate them for a :class:`~mett.State` (fields may be arrays) of a
 :class:`~mett.TippeTop`; the dynamical models evaluate them on their trajectories.
 
-In the horizontal frame (x̂, ŷ, ẑ) of theory.md §1, ω × a = (θ̇(l c − R), s(R ω3 + φ̇(l − R c)),
+In the horizontal frame (x̂, ŷ, ẑ) of docs/theory/model.md#conventions, ω × a = (θ̇(l c − R), s(R ω3 + φ̇(l − R c)),
 −l s θ̇) with s = sin θ, c = cos θ, and the centre-of-mass velocity is ṙ = ν − ω × a.
 """
 
@@ -83,7 +83,7 @@ def modified_energy_of(
     I3: float,
     g: float,
 ) -> Any:
-    """Modified energy Ẽ = ½ m|ω × a|² + ½ ω·L + m g (R − l cos θ) (J) (theory.md §3).
+    """Modified energy Ẽ = ½ m|ω × a|² + ½ ω·L + m g (R − l cos θ) (J) (docs/theory/equations.md#integrals).
 
     Ẽ = E − ½ m|ν|² + m ν·(ω × a): the energy of the Main Equation Ẽ = g(z) θ̇² + V(z, D, λ) while
     the top glides, equal to E when ν = 0; evaluated in this form (no cancellation).
@@ -184,7 +184,7 @@ def _finite(what: str, value: np.ndarray, state: _Fields) -> np.ndarray:
 
 
 def jellett(top: TippeTop, state: State) -> np.ndarray:
-    """Jellett integral λ = −L·a = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (theory.md §1).
+    """Jellett integral λ = −L·a = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (docs/theory/model.md#conventions).
 
     Conserved for any contact force applied at the contact point. Positive for a top spun with
     ω3 > 0 near θ = 0.
@@ -196,7 +196,7 @@ def jellett(top: TippeTop, state: State) -> np.ndarray:
 
 
 def routh(top: TippeTop, state: State) -> np.ndarray:
-    """Routh integral D = I3 ω3 √d(cos θ) (theory.md §1); conserved only while rolling."""
+    """Routh integral D = I3 ω3 √d(cos θ) (docs/theory/model.md#conventions); conserved only while rolling."""
     s = _arrays(top, state)
     with np.errstate(over="ignore", invalid="ignore"):
         D = routh_of(s.theta, s.omega3, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
@@ -204,7 +204,7 @@ def routh(top: TippeTop, state: State) -> np.ndarray:
 
 
 def energy(top: TippeTop, state: State) -> np.ndarray:
-    """Total energy E = ½ m|ṙ|² + ½ ω·L + m g R (1 − α cos θ) (theory.md §1).
+    """Total energy E = ½ m|ṙ|² + ½ ω·L + m g R (1 − α cos θ) (docs/theory/model.md#conventions).
 
     The centre-of-mass velocity is ṙ = ν − ω × a.
     """
@@ -216,7 +216,7 @@ def energy(top: TippeTop, state: State) -> np.ndarray:
 
 
 def modified_energy(top: TippeTop, state: State) -> np.ndarray:
-    """Modified energy Ẽ = E − ½ m|ν|² + m ν·(ω × a) (theory.md §3).
+    """Modified energy Ẽ = E − ½ m|ν|² + m ν·(ω × a) (docs/theory/equations.md#integrals).
 
     This, not E, is the energy of the Main Equation Ẽ = g(z) θ̇² + V(z, D, λ) while the top glides;
     Ẽ = E when ν = 0. Algebraically Ẽ = ½ m|ω × a|² + ½ ω·L + m g R(1 − α cos θ), which is how it is

@@ -605,7 +605,7 @@ def plot_angular_velocities(traj: Trajectory, *, ax: Axes | None = None) -> Figu
 
 
 def plot_omega3(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
-    """ω₃(t) with its Jellett asymptote −λ/(R I3 (1 + α)) (thesis figure 5a; theory.md §12)."""
+    """ω₃(t) with its Jellett asymptote −λ/(R I3 (1 + α)) (thesis figure 5a; docs/theory/notes.md#notes)."""
     fig = plot_timeseries(traj, "omega3", ax=ax)
     ax = ax or fig.axes[0]
     top = traj.top
@@ -652,7 +652,7 @@ def plot_deforming_potential(
     """V(cos θ, D(t), λ) at several times, with θ(t) riding in it (dots at (θ(t), V)).
 
     The potential is drawn against θ; its well moves from θ ≈ 0 to θ ≈ π as D(t) goes from D0 to
-    D1 (RR14 §3; theory.md §8).
+    D1 (RR14 §3; docs/theory/estimates.md#estimates).
     """
     from . import analysis
 
@@ -777,7 +777,7 @@ def plot_phase_diagram(
     for runs too short to tell; contact loss and failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
     the eccentricity ``alpha`` (default: the sweep's, if it did not vary): λ = λ_thres is the line
     λ/λ_thres = 1 and λ = λ_0 the curve λ_0/λ_thres = ((1 − α)/(1 + α))² √((1 + α − γ)/(α + γ − 1))
-    (theory.md §7); between them the top ends tumbling.
+    (docs/theory/thresholds.md#thresholds); between them the top ends tumbling.
     """
     fig, ax = _axes(ax)
     for kind, (marker, color) in _KIND_STYLE.items():

@@ -1,6 +1,6 @@
 """The effective potential of the Main Equation for the Tippe Top (METT), z = cos θ.
 
-METT (Rutstam 2012 §3; Rauch-Wojciechowski & Rutstam 2014 §2; theory.md §4):
+METT (Rutstam 2012 §3; Rauch-Wojciechowski & Rutstam 2014 §2; docs/theory/mett.md#the-main-equation):
 
     Ẽ = g(z) θ̇² + V(z, D, λ),
 
@@ -9,11 +9,11 @@ METT (Rutstam 2012 §3; Rauch-Wojciechowski & Rutstam 2014 §2; theory.md §4):
     V(z, D, λ) = m g R(1 − αz) + I3 N(z)² / (2 I1² R² (1 − z²)) + D²/(2 I1) − m λ²/(2 I1 I3),
     N(z) = λ √d(z) + R D (α − z)   (= R I1 φ̇ (1 − z²) √d(z)).
 
-Under the rational condition σ = (1 − γ)/(γ + α² − 1) (theory.md §5), √d(z) = β(α − (1 − γ)z) and
+Under the rational condition σ = (1 − γ)/(γ + α² − 1) (docs/theory/mett.md#rational), √d(z) = β(α − (1 − γ)z) and
 N(z) = c1 − c2 z with c1 = α(λβ + RD), c2 = λβ(1 − γ) + RD.
 
 At the poles z = ±1 the kinetic term is N²/(1 − z²): V is +inf there unless N(±1) = 0 (the spinning
-solutions D = D0, D1 of theory.md §6), in which case V takes its finite limit. All functions broadcast
+solutions D = D0, D1 of docs/theory/thresholds.md#boundary-values), in which case V takes its finite limit. All functions broadcast
 over z, D and λ.
 """
 
@@ -50,7 +50,7 @@ _POLE_RTOL = 64.0 * float(np.finfo(float).eps)
 
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
-    """d(z) = γ + σ(α − z)² + σγ(1 − z²) (theory.md §1); D = I3 ω3 √d(z)."""
+    """d(z) = γ + σ(α − z)² + σγ(1 − z²) (docs/theory/model.md#conventions); D = I3 ω3 √d(z)."""
     _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     return d_of(z, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
@@ -80,7 +80,7 @@ def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:
 
 
 def g(top: TippeTop, z: ArrayLike) -> np.ndarray:
-    """g(z) = ½ I3 [γ + σ(1 + α² − 2αz)], the coefficient of θ̇² in the METT (theory.md §4)."""
+    """g(z) = ½ I3 [γ + σ(1 + α² − 2αz)], the coefficient of θ̇² in the METT (docs/theory/mett.md#the-main-equation)."""
     _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     return 0.5 * top.I3 * (top.gamma + top.sigma * (1.0 + top.alpha**2 - 2.0 * top.alpha * z))
@@ -142,7 +142,7 @@ def _N(top: TippeTop, sqd, z, D, lam):
 
 
 def N(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
-    """N(z) = λ√d(z) + R D(α − z) = R I1 φ̇ (1 − z²) √d(z) (theory.md §4)."""
+    """N(z) = λ√d(z) + R D(α − z) = R I1 φ̇ (1 − z²) √d(z) (docs/theory/mett.md#the-main-equation)."""
     z, D, lam = _inputs(top, z, D, lam)
     return _N(top, np.sqrt(d(top, z)), z, D, lam)
 
@@ -178,7 +178,7 @@ def _pole_safe_ratio(
 
 
 def V(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
-    """Effective potential V(z, D, λ) of the METT, algebraic form (theory.md §4; RR14 §2).
+    """Effective potential V(z, D, λ) of the METT, algebraic form (docs/theory/mett.md#the-main-equation; RR14 §2).
 
     Parameters
     ----------
@@ -206,7 +206,7 @@ def V(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
 
 
 def V_rational(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
-    """Rational form of V for a top with σ = (1 − γ)/(γ + α² − 1) (theory.md §5; R13, RR14).
+    """Rational form of V for a top with σ = (1 − γ)/(γ + α² − 1) (docs/theory/mett.md#rational; R13, RR14).
 
     V = m g R(1 − αz) + (c1 − c2 z)²/(2 I3 γ² R² (1 − z²)) + D²/(2 I3 γ) − m λ²/(2 I3² γ),
     c1 = α(λβ + R D), c2 = λβ(1 − γ) + R D, β = √(σ/(1 − γ)).

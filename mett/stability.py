@@ -1,13 +1,13 @@
 """Linear stability of the spinning states of the gliding top, and the escape time it predicts.
 
-The spinning solutions (theory.md §6) are equilibria of the vector form of the gliding model
-(theory.md §2.1; :mod:`mett.dynamics.gliding`): 3̂ = ±ẑ, L = I3 ω3 3̂, CM at rest, with
+The spinning solutions (docs/theory/thresholds.md#boundary-values) are equilibria of the vector form of the gliding model
+(docs/theory/equations.md#vector-form; :mod:`mett.dynamics.gliding`): 3̂ = ±ẑ, L = I3 ω3 3̂, CM at rest, with
 ω3 = λ/(R I3 (1 − α)) upright and ω3 = −λ/(R I3 (1 + α)) inverted. They are linearised in the
 10-dimensional state [x, y, ẋ, ẏ, L, 3̂] with a complex-step Jacobian, J e_k = Im f(y + i h e_k)/h,
 which is exact to rounding because the right-hand side is plain arithmetic (no differences of
 nearby numbers). By the symmetry about ẑ the horizontal perturbations (ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y)
 decouple from the rest (x, y, L_z, 3̂_z: neutral directions along the family of spins), so the six
-eigenvalues of that block decide stability (theory.md §7: the inverted spin is asymptotically stable
+eigenvalues of that block decide stability (docs/theory/thresholds.md#thresholds: the inverted spin is asymptotically stable
 iff λ > λ_thres, the upright spin is unstable iff λ > λ_0).
 """
 

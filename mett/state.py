@@ -2,7 +2,7 @@
 
 θ is the angle between the vertical ẑ and the symmetry axis 3̂ (θ = 0: peg up, not inverted); φ̇ the
 precession rate; ω3 = ψ̇ + φ̇ cos θ the spin about 3̂; (ν_x, ν_y) the gliding velocity of the contact
-point in the horizontal frame x̂ = ŷ × ẑ, ŷ = ẑ × 3̂ / sin θ (theory.md §1). The horizontal position and
+point in the horizontal frame x̂ = ŷ × ẑ, ŷ = ẑ × 3̂ / sin θ (docs/theory/model.md#conventions). The horizontal position and
 the angles φ, ψ are cyclic and not part of the state.
 """
 
@@ -107,7 +107,7 @@ class State:
         """A state whose centre of mass has zero horizontal velocity.
 
         Then the contact point glides with ``v_A = ω × a`` (horizontal part), i.e.
-        ``ν_x = −R θ̇ (1 − α cos θ)`` and ``ν_y = R sin θ (ω3 + φ̇ (α − cos θ))`` (theory.md §1).
+        ``ν_x = −R θ̇ (1 − α cos θ)`` and ``ν_y = R sin θ (ω3 + φ̇ (α − cos θ))`` (docs/theory/model.md#conventions).
         With ``thetadot = 0`` the centre of mass is at rest.
         """
         _validate.instance("top", top, "TippeTop")

@@ -1,8 +1,8 @@
-"""Thresholds of the Jellett integral and the spinning (boundary) states (theory.md §6–§7).
+"""Thresholds of the Jellett integral and the spinning (boundary) states (docs/theory/thresholds.md#boundary-values, docs/theory/thresholds.md#thresholds).
 
 References: Rauch-Wojciechowski & Rutstam (2014, SIGMA 10, 017) for λ_thres and the boundary values
 (D0, E0), (D1, E1); the λ_0 end of the tumbling family and the rolling-stability bound λ_roll are
-derived in theory.md §7.
+derived in docs/theory/thresholds.md#thresholds.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def _scale(top: TippeTop) -> float:
 
 
 def lambda_thres(top: TippeTop) -> float:
-    """λ_thres = √(m g R³ I3 α) (1 + α)² / √(1 + α − γ) (RR14 abstract; theory.md §7).
+    """λ_thres = √(m g R³ I3 α) (1 + α)² / √(1 + α − γ) (RR14 abstract; docs/theory/thresholds.md#thresholds).
 
     The inverted spin (θ = π) of the gliding top is asymptotically stable iff λ > λ_thres. For
     γ >= 1 + α (group III) it is never stable and ``inf`` is returned.
@@ -56,7 +56,7 @@ def lambda_0(top: TippeTop) -> float:
     """λ_0 = √(m g R³ I3 α) (1 − α)² / √(α + γ − 1), the θ_t → 0 end of the tumbling family.
 
     The non-inverted spin (θ = 0) is unstable iff λ > λ_0. For γ <= 1 − α (group I) it is stable for
-    every λ and ``inf`` is returned (theory.md §7).
+    every λ and ``inf`` is returned (docs/theory/thresholds.md#thresholds).
     """
     _validate.instance("top", top, "TippeTop")
     den = top.alpha + top.gamma - 1.0
@@ -72,7 +72,7 @@ def lambda_E(top: TippeTop) -> float:
 
 
 def lambda_roll(top: TippeTop) -> float:
-    """Rolling (frictionless) stability bound of the inverted spin (theory.md §7).
+    """Rolling (frictionless) stability bound of the inverted spin (docs/theory/thresholds.md#thresholds).
 
     λ_roll = 2√(m g R³ I3 α)(1 + α)√(γ + σ(1+α)²)/(1 + σ(1 + α)); λ_roll <= λ_thres always.
     """
@@ -84,7 +84,7 @@ def lambda_roll(top: TippeTop) -> float:
 
 
 class BoundaryValues(NamedTuple):
-    """Integrals of the two spinning solutions with Jellett integral λ (theory.md §6)."""
+    """Integrals of the two spinning solutions with Jellett integral λ (docs/theory/thresholds.md#boundary-values)."""
 
     D0: np.ndarray
     """Routh integral of the spin at θ = 0."""
@@ -104,7 +104,7 @@ def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
     """Spins ω3 (rad/s) of the steady spinning solutions at the poles with Jellett integral λ.
 
     ω3 = λ/(R I3 (1 − α)) upright (θ = 0) and ω3 = −λ/(R I3 (1 + α)) inverted (θ = π): Jellett's
-    λ = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (theory.md §1) at sin θ = 0. The one place of these
+    λ = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (docs/theory/model.md#conventions) at sin θ = 0. The one place of these
     formulas; plain arithmetic, so ``lam`` may be a float or an array (only ``top`` is checked).
     """
     _validate.instance("top", top, "TippeTop")
@@ -113,7 +113,7 @@ def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
 
 
 def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
-    """Spinning solutions at θ = 0 and θ = π for the Jellett integral ``lam`` (RR14 §3; theory.md §6).
+    """Spinning solutions at θ = 0 and θ = π for the Jellett integral ``lam`` (RR14 §3; docs/theory/thresholds.md#boundary-values).
 
     ``D0 = λ√d(1)/(R(1 − α))``, ``E0 = λ²/(2 I3 R²(1 − α)²) + m g R(1 − α)``,
     ``D1 = −λ√d(−1)/(R(1 + α))``, ``E1 = λ²/(2 I3 R²(1 + α)²) + m g R(1 + α)``.
@@ -152,7 +152,7 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
 
 
 class TumblingState(NamedTuple):
-    """A tumbling solution of the gliding model: ν = 0, θ̇ = 0, θ = θ_t (theory.md §7)."""
+    """A tumbling solution of the gliding model: ν = 0, θ̇ = 0, θ = θ_t (docs/theory/thresholds.md#thresholds)."""
 
     theta: float
     """Tumbling angle θ_t (rad)."""
@@ -163,7 +163,7 @@ class TumblingState(NamedTuple):
 
 
 def tumbling_lambda(top: TippeTop, theta: ArrayLike) -> np.ndarray:
-    """λ along the tumbling family, λ(θ_t) = R φ̇ [I1 sin²θ_t + I3 (cos θ_t − α)²] (theory.md §7).
+    """λ along the tumbling family, λ(θ_t) = R φ̇ [I1 sin²θ_t + I3 (cos θ_t − α)²] (docs/theory/thresholds.md#thresholds).
 
     NaN where the family does not exist (α − (1 − γ) cos θ_t <= 0: beyond θ_f for groups I, III).
     """
@@ -187,7 +187,7 @@ def _tumbling_domain(top: TippeTop) -> tuple[float, float]:
 
 
 def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
-    """The tumbling solution with Jellett integral ``lam`` (theory.md §7), or ``None`` if none exists.
+    """The tumbling solution with Jellett integral ``lam`` (docs/theory/thresholds.md#thresholds), or ``None`` if none exists.
 
     Solves λ(θ_t) = lam on the family's domain. For an admissible top (1 − α < γ < 1 + α) the
     family joins λ_0 (θ_t → 0) to λ_thres (θ_t → π); for group III it runs from λ_0 to ∞ as θ_t
@@ -232,7 +232,7 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
 
 
 class AsymptoticState(NamedTuple):
-    """Predicted end state of a gliding top with a given Jellett integral (theory.md §7).
+    """Predicted end state of a gliding top with a given Jellett integral (docs/theory/thresholds.md#thresholds).
 
     When two steady states are stable for that λ (the classes Ia, Ib, IIb, IIc of
     :mod:`mett.classification`), ``kind`` is "bistable", ``theta`` and ``omega3`` are NaN (no single
@@ -259,7 +259,7 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
     (:func:`mett.classification.stable_states`): the upright spin for λ <= λ_0, the inverted spin
     for λ >= λ_thres, and the tumbling states θ_t(λ) on a rising part of the tumbling family. For
     the classic tops (class IIa, e.g. the thesis body) exactly one exists: upright up to λ_0,
-    tumbling between λ_0 and λ_thres, inverted above (theory.md §7; Ueda–Sasaki–Watanabe's groups).
+    tumbling between λ_0 and λ_thres, inverted above (docs/theory/thresholds.md#thresholds; Ueda–Sasaki–Watanabe's groups).
     Where two exist the answer is kind "bistable" with both in ``candidates`` instead of a guess:
     the end state then depends on the initial state, not on λ alone.
 
@@ -290,9 +290,9 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
 def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -> float:
     """Smallest initial spin ω3 (rad/s) for complete inversion from θ0 with θ̇ = 0, precession φ̇0.
 
-    Complete inversion needs λ > max(λ_0, λ_thres) (theory.md §7); with λ = R I1 φ̇0 sin²θ0 +
+    Complete inversion needs λ > max(λ_0, λ_thres) (docs/theory/thresholds.md#thresholds); with λ = R I1 φ̇0 sin²θ0 +
     R I3 ω3 (cos θ0 − α) this is ω3 > (max(λ_0, λ_thres) − R I1 φ̇0 sin²θ0)/(R I3 (cos θ0 − α)),
-    about 77.3 rad/s for the thesis body at θ0 = 0.1 (USW05's critical spin n_c, theory.md §11).
+    about 77.3 rad/s for the thesis body at θ0 = 0.1 (USW05's critical spin n_c, docs/theory/references.md#other-sources).
     Returns ``inf`` for tops that never invert (groups I and III).
 
     Raises

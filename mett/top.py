@@ -3,7 +3,7 @@
 Model and notation of Rutstam (2012, SIGMA 8, 019, §2) and the thesis (Rutstam 2013): a sphere of
 radius ``R`` whose centre of mass lies ``alpha * R`` below the geometric centre on the symmetry axis,
 principal moments ``I1 = I2`` and ``I3`` about the centre of mass, viscous-type gliding friction
-``F = g_n z - mu g_n v_A`` (``mu`` in s/m). See theory.md §1.
+``F = g_n z - mu g_n v_A`` (``mu`` in s/m). See docs/theory/model.md#conventions.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ class TippeTop:
 
     Notes
     -----
-    Derived dimensionless parameters (theory.md §1): ``gamma = I1/I3`` and ``sigma = m R²/I3``.
+    Derived dimensionless parameters (docs/theory/model.md#conventions): ``gamma = I1/I3`` and ``sigma = m R²/I3``.
 
     Examples
     --------
@@ -139,7 +139,7 @@ class TippeTop:
 
     @property
     def is_rational(self) -> bool:
-        """True if σ = (1 − γ)/(γ + α² − 1), so that √d(z) is linear and V rational in z (theory.md §5)."""
+        """True if σ = (1 − γ)/(γ + α² − 1), so that √d(z) is linear and V rational in z (docs/theory/mett.md#rational)."""
         gam, a = self.gamma, self.alpha
         if not 1.0 - a * a < gam < 1.0:
             return False
@@ -164,14 +164,14 @@ class TippeTop:
 
     @property
     def lambda_thres(self) -> float:
-        """Jellett threshold above which the inverted spin is asymptotically stable (theory.md §7)."""
+        """Jellett threshold above which the inverted spin is asymptotically stable (docs/theory/thresholds.md#thresholds)."""
         from .thresholds import lambda_thres
 
         return lambda_thres(self)
 
     @property
     def lambda_0(self) -> float:
-        """Jellett value above which the non-inverted spin is unstable (theory.md §7)."""
+        """Jellett value above which the non-inverted spin is unstable (docs/theory/thresholds.md#thresholds)."""
         from .thresholds import lambda_0
 
         return lambda_0(self)
@@ -214,7 +214,7 @@ class TippeTop:
     def rational(
         cls, m: float, R: float, alpha: float, I3: float, mu: float = 0.3, g: float = 9.82
     ) -> TippeTop:
-        """A top whose I1 makes V rational: γ = 1 − σα²/(1 + σ), σ = m R²/I3 (theory.md §5).
+        """A top whose I1 makes V rational: γ = 1 − σα²/(1 + σ), σ = m R²/I3 (docs/theory/mett.md#rational).
 
         Raises
         ------

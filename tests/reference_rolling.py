@@ -12,7 +12,7 @@ Written in lab-frame vector form from Newton–Euler alone, without any of mett'
       (J + m(|a|² 𝟙 − a aᵀ)) ω̇ = m a × (g ẑ − ω × ȧ) − (I3 − I1)(ω·3̂)(ω × 3̂).
 
 The state is ``(3̂, ω)`` in lab coordinates, optionally with the precession angle φ of 3̂'s
-horizontal projection (``3̂ = (sinθ sinφ, −sinθ cosφ, cosθ)``, Goldstein z-x-z, theory.md §1)
+horizontal projection (``3̂ = (sinθ sinφ, −sinθ cosφ, cosθ)``, Goldstein z-x-z, docs/theory/model.md#conventions)
 integrated alongside; φ is singular at the poles, so tops that pass through θ = 0 must run without it.
 
 The right-hand side uses plain Python floats (3-vectors are too small for numpy to pay off) and
@@ -84,7 +84,7 @@ def _make_rhs(top, track_phi: bool):
 
 
 def initial_state(theta: float, thetadot: float, phidot: float, omega3: float) -> np.ndarray:
-    """Lab-frame ``(3̂, ω)`` for Euler-angle data with φ = 0 (theory.md §1, Goldstein z-x-z).
+    """Lab-frame ``(3̂, ω)`` for Euler-angle data with φ = 0 (docs/theory/model.md#conventions, Goldstein z-x-z).
 
     ``3̂ = (0, −sinθ, cosθ)``, ``2̂ = (1, 0, 0)`` (line of nodes), ``1̂ = 2̂ × 3̂ = (0, −cosθ, −sinθ)``,
     ``ω = −φ̇ sinθ 1̂ + θ̇ 2̂ + ω3 3̂``. At θ = 0 this is still well defined (2̂ = x̂ by continuity).
@@ -101,7 +101,7 @@ def integrals(top, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E, λ, D) of lab-frame states ``y`` (shape (6,) or (≥6, n)), from their definitions.
 
     E = ½ ω·L + ½ m|ω × a|² + m g R(1 − α 3̂·ẑ),  λ = −L·a,  D = I3 ω3 √d(3̂·ẑ)
-    with d(z) = γ + σ(α − z)² + σγ(1 − z²) (theory.md §1).
+    with d(z) = γ + σ(α − z)² + σγ(1 − z²) (docs/theory/model.md#conventions).
     """
     y = np.asarray(y, dtype=float)
     n, w = y[0:3], y[3:6]

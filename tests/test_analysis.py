@@ -1,4 +1,4 @@
-"""The deforming potential along the thesis run (theory.md §8) and the METT residual."""
+"""The deforming potential along the thesis run (docs/theory/estimates.md#estimates) and the METT residual."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from mett import analysis
 def test_mett_residual_is_tiny_with_modified_energy(thesis_trajectory):
     res = analysis.mett_residual(thesis_trajectory)
     assert np.abs(res).max() < 1e-10
-    # the same identity with E instead of Ẽ fails by percents (theory.md §12, trap 3)
+    # the same identity with E instead of Ẽ fails by percents (docs/theory/notes.md#energy-vs-modified-energy)
     traj = thesis_trajectory
     z = np.cos(traj.theta)
     with_E = traj.E - (
@@ -70,7 +70,7 @@ def test_old_turning_points_name_warns_and_kind_constants_name_the_extrema(thesi
 
 
 def test_observed_periods_against_the_rolling_estimates(thesis_trajectory):
-    # What the numbers say (thesis run; theory.md §8 measured 0.0372 s and ≈ 0.077 s):
+    # What the numbers say (thesis run; docs/theory/estimates.md#estimates measured 0.0372 s and ≈ 0.077 s):
     # * start: observed 0.0372 s > T(D0) = 0.0321 s and > the frozen rolling period 0.0316 s
     #   (the gliding top is *slower* than the rolling estimate here), close to the gliding
     #   fast-top value 2π I1/(I3 ω3) = 0.0379 s;

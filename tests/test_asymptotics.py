@@ -1,4 +1,4 @@
-"""High-spin asymptotics of the rolling ball against direct rolling integrations (theory.md §9).
+"""High-spin asymptotics of the rolling ball against direct rolling integrations (docs/theory/high-spin.md#high-spin).
 
 Order-of-convergence tests in the style of diffrax: the relative error of each leading-order formula
 is measured at ω3 ∈ {300, 600, 1200, 3000} rad/s and the slope of log(error) against log(ω3) is fitted.
@@ -19,7 +19,7 @@ SPINS = np.array([300.0, 600.0, 1200.0, 3000.0])
 
 
 def _generic_top():
-    # σ = 1.2, γ = 0.8, α = 0.4 (theory.md §9's second body)
+    # σ = 1.2, γ = 0.8, α = 0.4 (docs/theory/high-spin.md#high-spin second body)
     m, R = 0.02, 0.02
     I3 = m * R**2 / 1.2
     return mett.TippeTop(m=m, R=R, alpha=0.4, I1=0.8 * I3, I3=I3)
@@ -90,7 +90,7 @@ def test_precession_formula_is_leading_order_in_initial_precession():
 
 
 def test_axis_rises_and_precession_opposes_spin():
-    # theory.md §9: with φ̇0 = 0, z increases (θ decreases) and ⟨φ̇⟩ has the opposite sign to ω3.
+    # docs/theory/high-spin.md#high-spin: with φ̇0 = 0, z increases (θ decreases) and ⟨φ̇⟩ has the opposite sign to ω3.
     top = mett.presets.get("rutstam2013")
     for w3 in (500.0, -500.0):
         hs = mett.high_spin(top, 1.0, w3)
@@ -102,7 +102,7 @@ def test_axis_rises_and_precession_opposes_spin():
 
 
 def test_pole_frequencies_match_the_period_estimates():
-    # theory.md §9: ω_n(z0 → ±1) are RR14's T(D0), T(D1) frequencies.
+    # docs/theory/high-spin.md#high-spin: ω_n(z0 → ±1) are RR14's T(D0), T(D1) frequencies.
     top = mett.presets.get("rutstam2013")
     a, gam = top.alpha, top.gamma
     w3 = 1000.0

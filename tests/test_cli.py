@@ -72,7 +72,7 @@ def test_info_with_explicit_parameters():
         (["info", "--preset", "nope"], "unknown preset 'nope'"),
         (["info", "--preset", "rutstam2013", "--alpha", "1.5"], "alpha must lie in (0, 1)"),
         (["info", "--preset", "rutstam2013", "--m", "abc"], "invalid float value"),
-        (["info", "--preset", "seed000"], "pass alpha"),
+        (["info", "--preset", "maple-tippe-top"], "pass alpha"),
         (["info", "--m", "0.02"], "without --preset"),
         (["frobnicate"], "invalid choice"),
         ([], "required"),
@@ -397,7 +397,7 @@ def test_no_carriage_returns_in_a_log(tmp_path, capsys):
 
 
 def test_warnings_are_one_line_each(capsys):
-    code, out, err = call(["info", "--preset", "seed000", "--alpha", "0.3"], capsys)
+    code, out, err = call(["info", "--preset", "maple-tippe-top", "--alpha", "0.3"], capsys)
     assert code == 0
     lines = err.strip().splitlines()
     assert lines and all(ln.startswith("mett: warning: ") for ln in lines), err

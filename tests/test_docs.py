@@ -170,7 +170,6 @@ def test_docs_readme_and_notebooks_cite_only_what_ships():
     assert not _hits(files), "\n".join(_hits(files))
 
 
-@pytest.mark.xfail(strict=False, reason="passes once the reference rewrite has run over the tree")
 def test_code_and_tests_cite_only_what_ships():
     files = sorted((ROOT / "mett").rglob("*.py")) + sorted((ROOT / "tests").rglob("*.py"))
     files = [f for f in files if f.name != "test_docs.py"]

@@ -73,7 +73,7 @@ def test_thesis_run_inverts_between_4_and_6p5_s(run):
 
 
 def test_thesis_run_dips_close_to_the_pole_before_inverting(run):
-    # theory.md §11: θ first decreases, to below 0.001 rad near t ≈ 3.2 s (measured 2.1e-4 at 3.1886 s).
+    # docs/theory/references.md#other-sources: θ first decreases, to below 0.001 rad near t ≈ 3.2 s (measured 2.1e-4 at 3.1886 s).
     tt = np.linspace(3.0, 3.4, 40001)
     th = run.theta_at(tt)
     assert th.min() < 1e-3
@@ -91,7 +91,7 @@ def test_default_tolerance_is_converged_for_the_inversion_time(top, start, run):
 
 
 def test_omega3_ends_at_the_inverted_spin_value(run, top):
-    # theory.md §6, §12.2: ω3 → −λ/(R I3 (1 + α)) = −82.866 rad/s (the thesis' "about −85" is read
+    # docs/theory/thresholds.md#boundary-values, docs/theory/notes.md#omega3-end: ω3 → −λ/(R I3 (1 + α)) = −82.866 rad/s (the thesis' "about −85" is read
     # off a plot).
     lam = run.lam[0]
     target = -lam / (top.R * top.I3 * (1.0 + top.alpha))
@@ -112,14 +112,14 @@ def test_jellett_is_conserved(run):
 
 
 def test_energy_is_non_increasing(run):
-    # theory.md §2.3: Ė = −μ g_n |ν|² ≤ 0. Sampled E decreases strictly (measured max step −2.7e-10).
+    # docs/theory/equations.md#dissipation: Ė = −μ g_n |ν|² ≤ 0. Sampled E decreases strictly (measured max step −2.7e-10).
     assert np.all(np.diff(run.E) <= 1e-12 * run.E[0])
     assert run.E[-1] < run.E[0]
 
 
 def test_energy_rate_is_minus_mu_gn_nu_squared(run, top):
     # dE/dt evaluated as the derivative of E along the model's vector field at every sample
-    # (central difference, h = 1e-6 s), against the dissipation law −μ g_n |v_A|² (theory.md §2.3).
+    # (central difference, h = 1e-6 s), against the dissipation law −μ g_n |v_A|² (docs/theory/equations.md#dissipation).
     model = MODELS["gliding"]
     Y = run.states
     F = model.rhs(0.0, Y, run.params)  # the RHS is plain arithmetic: it vectorises over samples
@@ -144,17 +144,17 @@ def test_energy_lost_equals_friction_work(run, top):
 
 
 def test_modified_energy_satisfies_the_METT_at_every_sample(run, top):
-    # theory.md §4: Ẽ = g(z) θ̇² + V(z, D, λ) holds pointwise while gliding, with D(t) and λ.
+    # docs/theory/mett.md#the-main-equation: Ẽ = g(z) θ̇² + V(z, D, λ) holds pointwise while gliding, with D(t) and λ.
     z = np.cos(run.theta)
     rhs = mett.g(top, z) * run.thetadot**2 + mett.V(top, z, run.D, run.lam)
     residual = np.abs(run.E_mod - rhs) / run.E_mod
     assert residual.max() < 1e-10  # measured 1e-13
-    # ... and with E in place of Ẽ it fails by up to 6.2e-3 J over all samples (theory.md §12.3)
+    # ... and with E in place of Ẽ it fails by up to 6.2e-3 J over all samples (docs/theory/notes.md#energy-vs-modified-energy)
     assert np.max(np.abs(run.E - rhs)) > 1e-3
 
 
 def test_modified_energy_is_not_monotone_while_E_is(run):
-    # theory.md §3: Ẽ(3 s) = 4.1090e-2 < Ẽ(4 s) = 4.1170e-2, while E decreases strictly.
+    # docs/theory/equations.md#integrals: Ẽ(3 s) = 4.1090e-2 < Ẽ(4 s) = 4.1170e-2, while E decreases strictly.
     idx = [int(np.argmin(np.abs(run.t - t))) for t in (3.0, 4.0)]
     s3, s4 = run.states_at(3.0), run.states_at(4.0)
     em = MODELS["gliding"].derive(np.stack([s3, s4], axis=1), run.params)["E_mod"]
@@ -165,7 +165,7 @@ def test_modified_energy_is_not_monotone_while_E_is(run):
 
 
 def test_thesis_D0_E0_are_inconsistent_with_its_initial_data(run, top, start):
-    # theory.md §12.1: the thesis quotes D0 ≈ 9.381e-4, E0 ≈ 4.912e-2 for this run. The initial data
+    # docs/theory/notes.md#thesis-d0-e0: the thesis quotes D0 ≈ 9.381e-4, E0 ≈ 4.912e-2 for this run. The initial data
     # give D(0) = 7.3008e-4 and E(0) = 4.2153e-2 (ν(0) = 0), and the quoted pair is not even an
     # admissible METT state at this λ: min_z V(z, 9.381e-4, λ) = 0.1003 J > 0.04912 J.
     D_thesis, E_thesis = 9.381e-4, 4.912e-2

@@ -1,10 +1,10 @@
 """The models of mett.dynamics against each other and against the METT layer.
 
-* vector form vs Euler-angle form of the gliding top (theory.md §2.1 vs §2.2);
-* rolling model: E, D, λ conserved, period = mett.nutation_period (theory.md §4–§5);
+* vector form vs Euler-angle form of the gliding top (docs/theory/equations.md#vector-form, docs/theory/equations.md#euler-form);
+* rolling model: E, D, λ conserved, period = mett.nutation_period (docs/theory/mett.md#the-main-equation, docs/theory/mett.md#rational);
 * limits: R → 0 with Rα = l fixed gives the gliding heavy symmetric top, the cylinder subspace
-  φ̇ = ω3 = ν_y = 0 is invariant, μ = 0 never inverts (theory.md §10);
-* every preset runs; seed000 with α = 0.5724 and λ = 2 λ_thres loses contact.
+  φ̇ = ω3 = ν_y = 0 is invariant, μ = 0 never inverts (docs/theory/reduced.md#reduced-systems);
+* every preset runs; maple-tippe-top with α = 0.5724 and λ = 2 λ_thres loses contact.
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def test_euler_rhs_matches_the_vector_rhs_pointwise(top):
 
 @pytest.fixture(scope="module")
 def rolling_run(top):
-    # theory.md §5: thesis body rolling from θ0 = 1, ω3 = 100, φ̇0 = 5; T = 0.055014 s.
+    # docs/theory/mett.md#rational: thesis body rolling from θ0 = 1, ω3 = 100, φ̇0 = 5; T = 0.055014 s.
     return simulate(top, mett.State(theta=1.0, omega3=100.0, phidot=5.0), 2.0, model="rolling")
 
 
@@ -172,7 +172,7 @@ def test_rolling_period_equals_the_METT_nutation_period(rolling_run, top):
 
 
 def test_rolling_model_agrees_with_the_METT_equation_of_motion(rolling_run, top):
-    # θ̈ from the METT (theory.md §4) at the samples vs the derivative of θ̇ on the dense output.
+    # θ̈ from the METT (docs/theory/mett.md#the-main-equation) at the samples vs the derivative of θ̇ on the dense output.
     tr = rolling_run
     h = 1e-6
     t = tr.t[(tr.t > h) & (tr.t < tr.t[-1] - h)][::10]
@@ -195,7 +195,7 @@ def test_rolling_model_agrees_with_the_METT_equation_of_motion(rolling_run, top)
 
 
 def test_euler_rhs_tends_to_the_heavy_top_linearly_in_R(top):
-    # theory.md §10: the TT right-hand sides with R → 0, Rα = l fixed converge linearly to the GHST.
+    # docs/theory/reduced.md#reduced-systems: the TT right-hand sides with R → 0, Rα = l fixed converge linearly to the GHST.
     l = top.R * top.alpha
     p_h = (top.m, l, top.I1, top.I3, top.mu, top.g)
     rng = np.random.default_rng(11)
@@ -243,8 +243,8 @@ def test_gliding_top_tends_to_the_gliding_heavy_top_as_R_to_0(top):
 
 
 def test_gliding_hst_model(top):
-    # ω3 is an integral of the GHST and λ = −l I3 ω3 (theory.md §10); the vector form with R = 0
-    # agrees with the Euler form of theory.md §10.
+    # ω3 is an integral of the GHST and λ = −l I3 ω3 (docs/theory/reduced.md#reduced-systems); the vector form with R = 0
+    # agrees with the Euler form of docs/theory/reduced.md#reduced-systems.
     l = 0.01
     s = mett.State(theta=2.6, thetadot=0.5, phidot=2.0, omega3=250.0, nu_x=0.02, nu_y=-0.01)
     tr = simulate(top, s, 1.0, model="gliding-hst", l=l, rtol=1e-12)
@@ -297,7 +297,7 @@ def test_cylinder_subspace_is_invariant(top):
 
 
 def test_cylinder_energy_rate(top):
-    # theory.md §10: Ė = −μ g_n ν_x² on the cylinder subspace.
+    # docs/theory/reduced.md#reduced-systems: Ė = −μ g_n ν_x² on the cylinder subspace.
     s = mett.State(theta=1.0, thetadot=2.0, nu_x=-0.05)
     cyl = simulate(top, s, 1.0, model="cylinder")
     p = cyl.params
@@ -326,7 +326,7 @@ def test_frictionless_top_never_inverts(top):
 
 def _preset(name: str, **kw) -> mett.TippeTop:
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", mett.PhysicalityWarning)  # seed000: I3 > m R²
+        warnings.simplefilter("ignore", mett.PhysicalityWarning)  # maple-tippe-top: I3 > m R²
         return mett.presets.get(name, **kw)
 
 
@@ -342,7 +342,7 @@ def _spin_for(top: mett.TippeTop, lam: float, theta0: float = 0.1) -> float:
         ("ueda2005", {}),
         ("rutstam2012", {}),
         ("rutstam2013", {}),
-        ("seed000", {"alpha": 0.3}),
+        ("maple-tippe-top", {"alpha": 0.3}),
     ],
 )
 def test_presets_run(name, kw):
@@ -384,11 +384,11 @@ def test_thrown_top_loses_contact_mid_run(top):
 
 @pytest.mark.slow
 @pytest.mark.ci
-def test_seed000_with_alpha_0p5724_loses_contact():
-    # seed000 (I3 > m R², which mett flags with a PhysicalityWarning), α = 0.5724, λ = 2 λ_thres,
+def test_maple_tippe_top_with_alpha_0p5724_loses_contact():
+    # maple-tippe-top (I3 > m R², which mett flags with a PhysicalityWarning), α = 0.5724, λ = 2 λ_thres,
     # θ0 = 0.1: the nutation grows until g_n reaches 0 (measured at t = 25.44 s, θ = 0.643).
     with pytest.warns(mett.PhysicalityWarning, match="exceeds m R"):
-        top = mett.presets.get("seed000", alpha=0.5724)
+        top = mett.presets.get("maple-tippe-top", alpha=0.5724)
     s = mett.State(theta=0.1, omega3=_spin_for(top, 2.0 * top.lambda_thres))
     tr = simulate(top, s, 40.0)
     assert tr.status == "contact_lost", tr.message

@@ -44,5 +44,6 @@ def test_thesis_run_ends_inverted_with_the_jellett_spin(thesis_trajectory):
     traj = thesis_trajectory
     pred = mett.asymptotic_state(traj.top, float(traj.lam[0]))
     assert pred.kind == "inverted"
-    assert pred.omega3 == pytest.approx(-82.866, abs=1e-3)  # not "about −85" (theory.md §12)
+    # not "about −85" (docs/theory/notes.md#notes)
+    assert pred.omega3 == pytest.approx(-82.866, abs=1e-3)
     assert traj.omega3[-1] == pytest.approx(pred.omega3, rel=1e-4)

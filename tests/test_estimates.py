@@ -1,4 +1,4 @@
-"""The 2014 estimates: minimum of V, convexity, period bounds (theory.md §8)."""
+"""The 2014 estimates: minimum of V, convexity, period bounds (docs/theory/estimates.md#estimates)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from mett.estimates import (
     small_oscillation_period,
 )
 
-LAM = 6.8944e-6  # thesis run, theory.md §11
+LAM = 6.8944e-6  # thesis run, docs/theory/references.md#other-sources
 
 
 def _D_for_zstar(top, lam, zstar):
@@ -29,7 +29,7 @@ def _D_for_zstar(top, lam, zstar):
     ("zstar", "zmin"), [(0.85714, 0.85845), (0.30000, 0.30679), (-0.58065, -0.57218)]
 )
 def test_minimum_matches_theory_table(thesis_top, zstar, zmin):
-    # theory.md §8: gravity shifts the minimum from z* slightly towards z = 1.
+    # docs/theory/estimates.md#estimates: gravity shifts the minimum from z* slightly towards z = 1.
     D = _D_for_zstar(thesis_top, LAM, zstar)
     z = potential_minimum(thesis_top, D, LAM)
     assert z == pytest.approx(zmin, abs=1e-5)
@@ -59,7 +59,7 @@ def test_minimum_travels_monotonically_from_pole_to_pole(thesis_top):
 
 @pytest.mark.parametrize("ratio", [0.3, 0.6, 1.0, 2.0, 5.0])
 def test_thesis_potential_convex_with_one_minimum(thesis_top, ratio):
-    # theory.md §8: convex, one local minimum, for D in [2 D1, 2 D0] and these λ/λ_thres.
+    # docs/theory/estimates.md#estimates: convex, one local minimum, for D in [2 D1, 2 D0] and these λ/λ_thres.
     lam = ratio * thesis_top.lambda_thres
     bv = mett.boundary_values(thesis_top, lam)
     for D in np.linspace(2 * bv.D1, 2 * bv.D0, 9):

@@ -1,7 +1,6 @@
 """Integrals from a state against an independent lab-frame vector computation, and the METT identity.
 
-The reference builds 3̂, ω, L, a, v_A in the lab frame from Euler angles (Goldstein z-x-z, theory.md
-§1) at an arbitrary precession angle φ, and evaluates the definitions λ = −L·a,
+The reference builds 3̂, ω, L, a, v_A in the lab frame from Euler angles (Goldstein z-x-z, docs/theory/model.md#conventions) at an arbitrary precession angle φ, and evaluates the definitions λ = −L·a,
 E = ½ m|ṙ|² + ½ ω·L + m g (CM height), Ẽ = E − ½ m|ν|² + m ν·(ω×a) directly.
 """
 
@@ -47,7 +46,7 @@ def reference_integrals(top, s, phi):
 
 def test_rdot_keeps_contact_and_reproduces_the_slip_formulas(rng):
     # The reference itself: ṙ·ẑ equals the rate of change of the CM height, and ν_x, ν_y match the
-    # lab formulas of theory.md §1 (a check that the frame conventions agree).
+    # lab formulas of docs/theory/model.md#conventions (a check that the frame conventions agree).
     top = random_top(rng)
     for s in [random_state(rng, 1) for _ in range(10)]:
         s = mett.State(*(np.ravel(x)[0] for x in s.as_array()))
@@ -88,7 +87,7 @@ def test_integrals_match_vector_definitions(seed):
 
 
 def test_routh_integral_satisfies_the_precession_identity(rng):
-    # N(z) = λ√d + R D(α − z) = R I1 φ̇ (1 − z²) √d (theory.md §4) links D to the vector λ and to φ̇.
+    # N(z) = λ√d + R D(α − z) = R I1 φ̇ (1 − z²) √d (docs/theory/mett.md#the-main-equation) links D to the vector λ and to φ̇.
     top = random_top(rng)
     batch = random_state(rng, 200)
     z = np.cos(batch.theta)
@@ -104,13 +103,13 @@ def test_routh_integral_satisfies_the_precession_identity(rng):
 
 
 def test_jellett_sign_convention(thesis_top):
-    # theory.md §1: λ > 0 for ω3 > 0 near θ = 0, and it is −L·a.
+    # docs/theory/model.md#conventions: λ > 0 for ω3 > 0 near θ = 0, and it is −L·a.
     assert mett.jellett(thesis_top, mett.State(theta=0.1, omega3=155.0)) > 0
     assert mett.jellett(thesis_top, mett.State(theta=0.1, omega3=-155.0)) < 0
 
 
 def test_thesis_initial_integrals(thesis_top):
-    # theory.md §12: D(0) = 7.3008e-4, E(0) = 4.2153e-2 with ν(0) = 0, 4.1195e-2 with the CM at rest.
+    # docs/theory/notes.md#notes: D(0) = 7.3008e-4, E(0) = 4.2153e-2 with ν(0) = 0, 4.1195e-2 with the CM at rest.
     s = mett.State(theta=0.1, omega3=155.0)
     assert mett.routh(thesis_top, s) == pytest.approx(7.3008e-4, rel=1e-4)
     assert mett.energy(thesis_top, s) == pytest.approx(4.2153e-2, rel=1e-4)
@@ -135,7 +134,7 @@ def test_with_cm_at_rest_has_no_horizontal_cm_velocity(rng):
 
 @pytest.mark.parametrize("seed", range(5))
 def test_mett_identity_holds_with_modified_energy_at_gliding_states(seed):
-    # Ẽ = g(z) θ̇² + V(z, D, λ) at arbitrary gliding states (theory.md §4), with Ẽ, λ from the
+    # Ẽ = g(z) θ̇² + V(z, D, λ) at arbitrary gliding states (docs/theory/mett.md#the-main-equation), with Ẽ, λ from the
     # independent vector reference.
     rng = np.random.default_rng(100 + seed)
     top = random_top(rng)
@@ -148,7 +147,7 @@ def test_mett_identity_holds_with_modified_energy_at_gliding_states(seed):
     E_mod = np.array([r[2] for r in ref])
     rhs = mett.g(top, z) * batch.thetadot**2 + mett.V(top, z, D, lam)
     np.testing.assert_allclose(rhs, E_mod, rtol=1e-12)
-    # The total energy E does not satisfy it while the top glides (theory.md §12 trap 3).
+    # The total energy E does not satisfy it while the top glides (docs/theory/notes.md#energy-vs-modified-energy).
     rel_err_E = np.abs(rhs - E) / np.abs(E)
     assert np.median(rel_err_E) > 1e-4
 

@@ -13,7 +13,7 @@ from mett.potential import N
 
 
 def test_g_is_half_of_I1_plus_m_a_squared(rng):
-    # g(z) = ½ (I1 + m|a|²), |a|² = R²(1 + α² − 2αz) (theory.md §4).
+    # g(z) = ½ (I1 + m|a|²), |a|² = R²(1 + α² − 2αz) (docs/theory/mett.md#the-main-equation).
     top = random_top(rng)
     z = np.linspace(-1, 1, 21)
     a2 = top.R**2 * (1 + top.alpha**2 - 2 * top.alpha * z)
@@ -21,7 +21,7 @@ def test_g_is_half_of_I1_plus_m_a_squared(rng):
 
 
 def test_d_matches_inertia_form(rng):
-    # I3² d = I1 I3 + m R² I3 (α − z)² + m R² I1 (1 − z²) (theory.md §1).
+    # I3² d = I1 I3 + m R² I3 (α − z)² + m R² I1 (1 − z²) (docs/theory/model.md#conventions).
     top = random_top(rng)
     z = np.linspace(-1, 1, 21)
     rhs = top.I1 * top.I3 + top.m * top.R**2 * (top.I3 * (top.alpha - z) ** 2 + top.I1 * (1 - z**2))
@@ -91,7 +91,7 @@ def test_d2V_dz2_matches_finite_differences_on_a_generic_top(rng):
 
 
 def test_potential_at_the_poles(thesis_top):
-    # V(1, D0) = E0 and V(−1, D1) = E1 (theory.md §6); V = +inf at a pole where N ≠ 0.
+    # V(1, D0) = E0 and V(−1, D1) = E1 (docs/theory/thresholds.md#boundary-values); V = +inf at a pole where N ≠ 0.
     top = thesis_top
     lam, bv = _thesis_integrals(top)
     assert mett.V(top, 1.0, bv.D0, lam) == pytest.approx(bv.E0, rel=1e-12)
@@ -105,7 +105,7 @@ def test_potential_at_the_poles(thesis_top):
 
 
 def test_slope_at_a_spinning_pole(thesis_top):
-    # theory.md §7: in u = 1 − z, V(z, D0) rises with slope m g R α + I3 N'(1)²/(4 I1² R²) > 0.
+    # docs/theory/thresholds.md#thresholds: in u = 1 − z, V(z, D0) rises with slope m g R α + I3 N'(1)²/(4 I1² R²) > 0.
     top = thesis_top
     lam, bv = _thesis_integrals(top)
     dn = mett.potential.dN_dz(top, 1.0, bv.D0, lam)
@@ -129,7 +129,7 @@ def test_potential_broadcasts(thesis_top):
 
 
 def test_potential_has_a_single_minimum_that_travels_with_D(thesis_top):
-    # theory.md §8: for the thesis body V is convex with one minimum moving from z ≈ 1 (D0) to z ≈ −1 (D1).
+    # docs/theory/estimates.md#estimates: for the thesis body V is convex with one minimum moving from z ≈ 1 (D0) to z ≈ −1 (D1).
     lam, bv = _thesis_integrals(thesis_top)
     z = np.linspace(-0.999, 0.999, 4001)
     zmins = []

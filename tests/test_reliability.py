@@ -88,7 +88,7 @@ def test_preset_overrides_are_checked_before_use(kw, message):
 
 def test_preset_physicality_warning_points_at_the_caller():
     with pytest.warns(mett.PhysicalityWarning, match="exceeds m R") as record:
-        mett.presets.get("seed000", alpha=0.3)
+        mett.presets.get("maple-tippe-top", alpha=0.3)
     assert record[0].filename == __file__
 
 

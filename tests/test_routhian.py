@@ -1,4 +1,4 @@
-"""The corrected seed-000 frictionless Routhian model (issue 7) against the gliding model at μ = 0."""
+"""The corrected Maple-paper frictionless Routhian model (issue 7) against the gliding model at μ = 0."""
 
 from __future__ import annotations
 
@@ -45,9 +45,9 @@ def test_approximation_without_vertical_cm_term_differs_by_order_m_a2_over_I():
 
 
 def test_no_friction_no_inversion():
-    # seed000-errata.md: with θ̇0 = φ̇0 = 0 and no friction θ never exceeds θ0 (exact).
+    # docs/maple-tippe-top-errata.md: with θ̇0 = φ̇0 = 0 and no friction θ never exceeds θ0 (exact).
     with pytest.warns(mett.PhysicalityWarning):
-        top = mett.presets.get("seed000", alpha=0.3, mu=0.0)
+        top = mett.presets.get("maple-tippe-top", alpha=0.3, mu=0.0)
     lam = 2 * top.lambda_thres
     w3 = lam / (top.R * top.I3 * (np.cos(0.1) - top.alpha))
     traj = mett.simulate(top, mett.State(theta=0.1, omega3=w3), 3.0, model="frictionless-routhian")

@@ -3,7 +3,7 @@
 The reference (tests/reference_rolling.py) integrates the rolling top in lab-frame vector form from
 Newton–Euler alone and measures turning points, periods and the mean precession directly; it shares
 no formula with mett.potential or mett.separation. Where the reference cannot reach (ω3 = 10⁴ and
-3·10⁴ rad/s, quadrature convergence) an mpmath evaluation of theory.md §4 at 40 digits is used.
+3·10⁴ rad/s, quadrature convergence) an mpmath evaluation of docs/theory/mett.md#the-main-equation at 40 digits is used.
 
 Measured agreement with the reference (rutstam2013 / rutstam2012 / generic body, θ0 ∈ {0.5, 1, 2.2},
 φ̇0 ∈ {0, 5}, ω3 = 20 … 3000 rad/s): turning points ≤ 1.5e-11 in z, periods ≤ 1.5e-11 relative,
@@ -30,7 +30,7 @@ _M, _R = 0.02, 0.02
 BODIES = {
     "rutstam2013": mett.presets.get("rutstam2013"),  # the thesis body: rational METT
     "rutstam2012": mett.presets.get("rutstam2012"),  # algebraic (non-rational) V
-    # theory.md §9's generic body σ = 1.2, γ = 0.8, α = 0.4 (non-rational, far from it)
+    # docs/theory/high-spin.md#high-spin generic body σ = 1.2, γ = 0.8, α = 0.4 (non-rational, far from it)
     "generic": mett.TippeTop(m=_M, R=_R, alpha=0.4, I1=0.8 * _M * _R**2 / 1.2, I3=_M * _R**2 / 1.2),
 }
 SPINS = (20.0, 100.0, 300.0, 1000.0, 3000.0)
@@ -145,7 +145,7 @@ def test_mean_precession_matches_rolling_integration(body, theta, phidot, omega3
 
 
 def test_theory_example_period_and_band_from_mett_and_from_reference():
-    # theory.md §5: thesis body, θ0 = 1, ω3 = 100, φ̇0 = 5 → T = 0.055014 s, band [0.540302, 0.613785].
+    # docs/theory/mett.md#rational: thesis body, θ0 = 1, ω3 = 100, φ̇0 = 5 → T = 0.055014 s, band [0.540302, 0.613785].
     top = BODIES["rutstam2013"]
     E, D, lam = _integrals(top, 1.0, 100.0, 5.0)
     run = _run("rutstam2013", 1.0, 5.0, 100.0)
@@ -180,7 +180,7 @@ def _mp_P(top, E, D, lam):
 
 
 def _mp_band_and_period(top, E, D, lam, z_guess, dps=40):
-    """Turning points and period from theory.md §4 in mpmath (independent of mett's code).
+    """Turning points and period from docs/theory/mett.md#the-main-equation in mpmath (independent of mett's code).
 
     P(z) = (1 − z²)(E − D²/(2I1) + mλ²/(2I1I3) − mgR(1 − αz)) − I3 N²/(2 I1² R²),
     T = 2 ∫ √(g/P) dz over the band, with z = c + h sin u (tanh-sinh quadrature in u).
@@ -229,7 +229,7 @@ def _naive_band_and_period(top, E, D, lam, z_min, z_guess):
 
 
 def _mp_f(top, z, E, D, lam, dps=40):
-    """f(z) = P(z)/g(z) of theory.md §4 evaluated in mpmath, at each z of an array."""
+    """f(z) = P(z)/g(z) of docs/theory/mett.md#the-main-equation evaluated in mpmath, at each z of an array."""
     out = []
     with mpmath.workdps(dps):
         mp = mpmath.mpf
@@ -289,7 +289,7 @@ def test_period_exact_at_high_spin_against_mpmath(omega3):
 
 
 def _numpy_P(top, z, E, D, lam):
-    """P(z) = (1 − z²)(E − V(z)) from the expanded form of theory.md §4, written out here."""
+    """P(z) = (1 − z²)(E − V(z)) from the expanded form of docs/theory/mett.md#the-main-equation, written out here."""
     m, R, a, I1, I3, gr = top.m, top.R, top.alpha, top.I1, top.I3, top.g
     dz = top.gamma + top.sigma * (a - z) ** 2 + top.sigma * top.gamma * (1 - z * z)
     kin = (
@@ -338,7 +338,7 @@ def test_period_tends_to_small_oscillation_limit_at_bottom_of_well(body):
     zm = float(mett.band(top, 1.0, D, lam).z_min)  # the well's position does not depend on E
     V_min = float(mett.V(top, zm, D, lam))
     omega = math.sqrt((1 - zm**2) * float(mett.d2V_dz2(top, zm, D, lam)) / (2 * mett.g(top, zm)))
-    T_small = 2 * math.pi / omega  # theory.md §8
+    T_small = 2 * math.pi / omega  # docs/theory/estimates.md#estimates
     errors = []
     for eps in (1e-4, 1e-6, 1e-8):
         T = mett.nutation_period(top, V_min + eps * V_min, D, lam)
@@ -372,7 +372,7 @@ def test_energy_below_the_well_is_rejected(body):
 @pytest.mark.parametrize("body", list(BODIES))
 @pytest.mark.parametrize("thetadot", [0.3, 3.0])
 def test_band_reaching_the_pole_matches_top_started_upright(body, thetadot):
-    # A top started exactly at θ = 0 has D = D0(λ) (theory.md §6) and E = E0 + g(1) θ̇²; its axis
+    # A top started exactly at θ = 0 has D = D0(λ) (docs/theory/thresholds.md#boundary-values) and E = E0 + g(1) θ̇²; its axis
     # swings out to z_low and back through the vertical, so z oscillates in [z_low, 1].
     top = BODIES[body]
     omega3 = 150.0

@@ -1,4 +1,4 @@
-"""Spin stability of the gliding model (theory.md §7) and the linear escape-time prediction."""
+"""Spin stability of the gliding model (docs/theory/thresholds.md#thresholds) and the linear escape-time prediction."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def test_upright_spin_unstable_above_lambda_0(name):
 
 
 def test_outside_the_admissible_range():
-    # theory.md §7: γ = 0.6 < 1 − α keeps the upright spin stable, γ = 1.4 > 1 + α never
+    # docs/theory/thresholds.md#thresholds: γ = 0.6 < 1 − α keeps the upright spin stable, γ = 1.4 > 1 + α never
     # stabilises the inverted one, for every λ tested.
     base = dict(m=0.02, R=0.02, alpha=0.3, I3=3.2e-6, mu=0.3)
     group1 = mett.TippeTop(I1=0.6 * 3.2e-6, **base)

@@ -17,7 +17,7 @@ from mett.thresholds import (
 
 
 def _euler_rhs_residual(top, th, phidot, omega3):
-    """θ̈ and ν̇ of theory.md §2.2 at (θ, θ̇ = 0, φ̇, ω3, ν = 0): zero for a tumbling state."""
+    """θ̈ and ν̇ of docs/theory/equations.md#euler-form at (θ, θ̇ = 0, φ̇, ω3, ν = 0): zero for a tumbling state."""
     s, c = math.sin(th), math.cos(th)
     m, R, a, I1, I3, g = top.m, top.R, top.alpha, top.I1, top.I3, top.g
     gn = (m * g * I1 + m * R * a * (c * I1 * phidot**2 * s * s - I3 * phidot * omega3 * s * s)) / (

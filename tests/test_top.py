@@ -14,7 +14,7 @@ from mett.thresholds import lambda_E, lambda_roll
 
 
 def test_thesis_top_is_the_rational_case(thesis_top):
-    # theory.md §5: I3 = 2/5 m R² gives σ = 5/2 and γ = 1 − 2.5·0.09/3.5 = 131/140.
+    # docs/theory/mett.md#rational: I3 = 2/5 m R² gives σ = 5/2 and γ = 1 − 2.5·0.09/3.5 = 131/140.
     assert thesis_top.gamma == pytest.approx(131 / 140, rel=1e-14)
     assert thesis_top.sigma == pytest.approx(2.5, rel=1e-14)
     assert thesis_top.is_rational
@@ -28,7 +28,7 @@ def test_thesis_thresholds_closed_form(thesis_top):
     scale = math.sqrt(t.m * t.g * t.R**3 * t.I3 * t.alpha)
     assert t.lambda_thres == pytest.approx(scale * 1.3**2 / math.sqrt(1.3 - 131 / 140), rel=1e-14)
     assert t.lambda_0 == pytest.approx(scale * 0.7**2 / math.sqrt(0.3 + 131 / 140 - 1), rel=1e-14)
-    # theory.md §11: minimal spin for inversion from θ0 = 0.1 is 77.3 rad/s.
+    # docs/theory/references.md#other-sources: minimal spin for inversion from θ0 = 0.1 is 77.3 rad/s.
     n_c = t.lambda_thres / (t.R * t.I3 * (math.cos(0.1) - t.alpha))
     assert n_c == pytest.approx(77.3, abs=0.05)
 
@@ -39,7 +39,7 @@ def test_thesis_start_is_twice_the_threshold(thesis_top):
 
 
 def _tumbling_lambda(top, theta_t):
-    """λ on the tumbling family (theory.md §7), an independent route to the thresholds."""
+    """λ on the tumbling family (docs/theory/thresholds.md#thresholds), an independent route to the thresholds."""
     c = math.cos(theta_t)
     phidot = math.sqrt(
         top.m * top.g * top.R * top.alpha / (top.I3 * (top.alpha - (1 - top.gamma) * c))
@@ -71,7 +71,7 @@ def test_thresholds_infinite_outside_their_groups():
 
 
 def test_lambda_roll_never_exceeds_lambda_thres(rng):
-    # theory.md §7: AM–GM gives λ_roll ≤ λ_thres (friction destabilises the inverted spin).
+    # docs/theory/thresholds.md#thresholds: AM–GM gives λ_roll ≤ λ_thres (friction destabilises the inverted spin).
     for _ in range(200):
         top = random_top(rng)
         if math.isfinite(top.lambda_thres):
@@ -85,7 +85,7 @@ def test_lambda_E_separates_energies_of_the_spins(thesis_top):
 
 
 def test_boundary_values_thesis(thesis_top):
-    # theory.md §12: RR14-style boundary values for the thesis start.
+    # docs/theory/notes.md#notes: RR14-style boundary values for the thesis start.
     lam = mett.jellett(thesis_top, mett.State(theta=0.1, omega3=155.0))
     bv = mett.boundary_values(thesis_top, lam)
     assert bv.D0 == pytest.approx(7.2389e-4, rel=2e-5)
@@ -120,7 +120,7 @@ def test_rational_constructor_gives_rational_tops(rng):
         assert top.is_rational
         assert 1 - top.alpha**2 < top.gamma < 1
         z = np.linspace(-1, 1, 11)
-        # √d(z) = β(α − (1 − γ) z): d is a perfect square (theory.md §5).
+        # √d(z) = β(α − (1 − γ) z): d is a perfect square (docs/theory/mett.md#rational).
         np.testing.assert_allclose(
             np.sqrt(mett.d(top, z)), top.beta * (top.alpha - (1 - top.gamma) * z), rtol=1e-13
         )

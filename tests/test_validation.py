@@ -75,9 +75,9 @@ def test_suspicious_but_legal_input_warns_with_a_filterable_category():
     import warnings
 
     with pytest.warns(mett.PhysicalityWarning):
-        mett.presets.get("seed000", alpha=0.3)
+        mett.presets.get("maple-tippe-top", alpha=0.3)
     assert issubclass(mett.PhysicalityWarning, mett.MettWarning)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         warnings.simplefilter("ignore", mett.MettWarning)  # inserted first: takes precedence
-        mett.presets.get("seed000", alpha=0.3)  # filtered by its category: no error
+        mett.presets.get("maple-tippe-top", alpha=0.3)  # filtered by its category: no error

@@ -1,6 +1,6 @@
 """Dynamics of the tippe top: models (right-hand sides), the integrator and the Trajectory.
 
-Models (theory.md §2, §3, §10; Rutstam 2012; thesis eqs (10)–(15)):
+Models (docs/theory/equations.md#equations-of-motion, docs/theory/equations.md#integrals, docs/theory/reduced.md#reduced-systems; Rutstam 2012; thesis eqs (10)–(15)):
 
 * ``"gliding"`` — rolling-and-gliding eccentric sphere, F = g_n ẑ − μ g_n v_A, vector form
   (:mod:`.gliding`);

@@ -6,10 +6,10 @@ parameter tuple ``p``, plus the conversions between the library's reduced :class
 (θ, θ̇, φ̇, ω3, ν_x, ν_y) and the model's own state vector. The conversions and derived series are vectorised numpy, evaluated once after a
 run (never per step in Python).
 
-Frames (theory.md §1): with 3̂ = (sinθ sinφ, −sinθ cosφ, cosθ) the horizontal frame is
+Frames (docs/theory/model.md#conventions): with 3̂ = (sinθ sinφ, −sinθ cosφ, cosθ) the horizontal frame is
 x̂ = (sinφ, −cosφ, 0), ŷ = ẑ × 3̂ / sinθ = (cosφ, sinφ, 0), the Resal frame 2̂ = ŷ, 1̂ = 2̂ × 3̂, and
 ω = −φ̇ sinθ 1̂ + θ̇ 2̂ + ω3 3̂. The vector models use the contact vector a = l 3̂ − R ẑ with
-l = Rα (the tippe top), which also covers the gliding heavy symmetric top (R = 0, theory.md §10).
+l = Rα (the tippe top), which also covers the gliding heavy symmetric top (R = 0, docs/theory/reduced.md#reduced-systems).
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def euler_params(top: Any, options: dict) -> Params:
 def unit_axis(Y: np.ndarray, start: int) -> np.ndarray:
     """The normalised axis 3̂/|3̂| stored at rows ``start:start+3`` of vector states ``Y``.
 
-    No integrator keeps |3̂| = 1 exactly; derived quantities use the normalised axis (design.md).
+    No integrator keeps |3̂| = 1 exactly; derived quantities use the normalised axis.
     """
     e = np.asarray(Y[start : start + 3], dtype=float)
     return e / np.sqrt(dot3(e, e))

@@ -7,8 +7,7 @@ Equations I*, 2nd ed., §II.5 and §II.10) as implemented by ``scipy.integrate.s
 factors clipped to [0.2, 10], exponent −1/8, no growth right after a rejection), the same initial
 step selection and the same 7th-order continuous extension.  With equal tolerances it therefore
 takes the same steps as scipy, but compiled with numba, so one step costs the twelve right-hand-side
-calls and a few hundred flops instead of tens of microseconds of Python (design.md, "Numerical
-design").
+calls and a few hundred flops instead of tens of microseconds of Python (docs/theory/simulation.md#numerics).
 
 Right-hand sides and event functions are numba-jitted functions with the signature::
 

@@ -1,4 +1,4 @@
-"""The gliding tippe top in Euler angles (Rutstam 2012 §2; thesis eqs (10)–(15); theory.md §2.2).
+"""The gliding tippe top in Euler angles (Rutstam 2012 §2; thesis eqs (10)–(15); docs/theory/equations.md#euler-form).
 
 State ``(θ, θ̇, φ̇, ω3, ν_x, ν_y)``, with s = sin θ, c = cos θ::
 
@@ -39,7 +39,7 @@ POLE_GUARD = 1e-6
 
 
 def euler_normal_force(y: Any, params: tuple) -> Any:
-    """Normal force g_n of the Euler form (thesis eq. (15); theory.md §2.2).
+    """Normal force g_n of the Euler form (thesis eq. (15); docs/theory/equations.md#euler-form).
 
     ``y = [θ, θ̇, φ̇, ω3, ν_x, ν_y, ...]`` (floats or equal-shape arrays), ``params = (m, R, alpha,
     I1, I3, mu, g)``.
@@ -85,7 +85,7 @@ def _euler_core(y: Any, params: tuple) -> tuple:
 
 
 def euler_rhs(y: np.ndarray, params: tuple) -> np.ndarray:
-    """Right-hand side of the Euler-angle form (thesis eqs (10)–(15); theory.md §2.2).
+    """Right-hand side of the Euler-angle form (thesis eqs (10)–(15); docs/theory/equations.md#euler-form).
 
     Parameters
     ----------
@@ -104,7 +104,7 @@ def euler_rhs(y: np.ndarray, params: tuple) -> np.ndarray:
 
 
 def cm_velocity_horizontal(y: Any, params: tuple) -> tuple:
-    """CM velocity along x̂ and ŷ: ṙ = ν − ω × a (theory.md §1, horizontal frame)."""
+    """CM velocity along x̂ and ŷ: ṙ = ν − ω × a (docs/theory/model.md#conventions, horizontal frame)."""
     m, R, al, I1, I3, mu, g = params
     th, thd, phd, w3, nux, nuy = y[0], y[1], y[2], y[3], y[4], y[5]
     s, c = np.sin(th), np.cos(th)

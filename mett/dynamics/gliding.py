@@ -1,4 +1,4 @@
-"""The rolling-and-gliding tippe top in vector form (Rutstam 2012 §2; theory.md §2.1).
+"""The rolling-and-gliding tippe top in vector form (Rutstam 2012 §2; docs/theory/equations.md#vector-form).
 
 Equations of motion, in lab coordinates, for an eccentric sphere touching the plane at A::
 
@@ -10,16 +10,16 @@ the centre of mass, the angular momentum about the CM and the symmetry axis. The
 R − l 3̂_z and its rate are fixed by the contact constraint (r + a)·ẑ = 0, so they are not stored.
 Unlike the Euler-angle form (thesis eqs (10)–(15)), this has no singularity at θ = 0 or π.
 
-Normal force (theory.md §2.1), from m (g + d²/dt² of the CM height) = g_n::
+Normal force (docs/theory/equations.md#vector-form), from m (g + d²/dt² of the CM height) = g_n::
 
     c = 1/I3 − 1/I1,  K = a × (ẑ − μν),  W = K/I1 + c (K·3̂) 3̂,  W0 = c (L·3̂) 3̂̇,
     ω̇ = g_n W + W0,
     g_n = m [g − l ((W0 × 3̂ + ω × 3̂̇)·ẑ)] / [1 + m l (W × 3̂)·ẑ].
 
-The axis is used normalised, 3̂/|3̂|, everywhere (design.md): no integrator keeps |3̂| = 1 exactly,
+The axis is used normalised, 3̂/|3̂|, everywhere: no integrator keeps |3̂| = 1 exactly,
 and 3̂̇ = ω × 3̂/|3̂| still leaves |3̂| invariant in exact arithmetic.
 
-The same right-hand side with R = 0 is the gliding heavy symmetric top (theory.md §10), see
+The same right-hand side with R = 0 is the gliding heavy symmetric top (docs/theory/reduced.md#reduced-systems), see
 :mod:`mett.dynamics.reduced`.
 """
 
@@ -98,7 +98,7 @@ def _core(y: Any, p: tuple) -> tuple:
 
 
 def gliding_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
-    """Right-hand side of the gliding tippe top in vector form (theory.md §2.1).
+    """Right-hand side of the gliding tippe top in vector form (docs/theory/equations.md#vector-form).
 
     Parameters
     ----------
@@ -119,7 +119,7 @@ def gliding_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
 
 
 def gliding_normal_force(y: np.ndarray, p: tuple) -> Any:
-    """Normal force g_n (N) of state(s) ``y`` (shape (10,) or (10, k)), theory.md §2.1."""
+    """Normal force g_n (N) of state(s) ``y`` (shape (10,) or (10, k)), docs/theory/equations.md#vector-form."""
     return _core(y, p)[10]
 
 
@@ -179,7 +179,7 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
 MODEL = register(
     Model(
         name="gliding",
-        summary="rolling-and-gliding tippe top, vector form (theory.md §2.1; Rutstam 2012 §2)",
+        summary="rolling-and-gliding tippe top, vector form (docs/theory/equations.md#vector-form; Rutstam 2012 §2)",
         rhs=gliding_rhs,
         rhs_into=_rhs_into,
         normal_force=gliding_normal_force,

@@ -1,4 +1,4 @@
-"""Reduced systems of the tippe top (Rutstam 2012 §5–6; theory.md §10).
+"""Reduced systems of the tippe top (Rutstam 2012 §5–6; docs/theory/reduced.md#reduced-systems).
 
 **Gliding heavy symmetric top (GHST), model "gliding-hst".** The tippe-top equations in the limit
 R → 0, α → ∞ with Rα = l fixed: a symmetric top (mass m, inertias I1, I3 about its CM) whose
@@ -9,7 +9,7 @@ unless ``l=`` is passed, and R is set to 0; m, I1, I3, μ, g are the top's. The 
 tippe-top meaning (θ is the angle of 3̂ from ẑ, ν the velocity of the tip), so the top stands on its
 tip with the CM above it when cos θ < 0, i.e. near θ = π. The vector right-hand side is the
 tippe-top one (:func:`mett.dynamics.gliding.gliding_rhs`) with R = 0; the Euler-angle form of
-theory.md §10 is :func:`hst_euler_rhs`, used as a cross-check. Jellett's integral reduces to
+docs/theory/reduced.md#reduced-systems is :func:`hst_euler_rhs`, used as a cross-check. Jellett's integral reduces to
 λ = −l I3 ω3 and ω3 is itself conserved.
 
 **Gliding eccentric cylinder, model "cylinder".** The subspace φ̇ = ω3 = ν_y = 0 of the tippe top is
@@ -60,7 +60,7 @@ def hst_params(top: Any, options: dict) -> tuple:
 
 
 def hst_euler_normal_force(y: Any, params: tuple) -> Any:
-    """g_n of the gliding heavy symmetric top, Euler form (theory.md §10); params (m, l, I1, I3, mu, g)."""
+    """g_n of the gliding heavy symmetric top, Euler form (docs/theory/reduced.md#reduced-systems); params (m, l, I1, I3, mu, g)."""
     m, l, I1, I3, mu, g = params
     th, thd, phd, w3, nux = y[0], y[1], y[2], y[3], y[4]
     s, c = np.sin(th), np.cos(th)
@@ -71,7 +71,7 @@ def hst_euler_normal_force(y: Any, params: tuple) -> Any:
 
 
 def hst_euler_rhs(y: np.ndarray, params: tuple) -> np.ndarray:
-    """Euler-angle form of the gliding heavy symmetric top (theory.md §10; Rutstam 2012 §5).
+    """Euler-angle form of the gliding heavy symmetric top (docs/theory/reduced.md#reduced-systems; Rutstam 2012 §5).
 
     Parameters
     ----------
@@ -105,7 +105,7 @@ HST = register(
     dataclasses.replace(
         gliding.MODEL,
         name="gliding-hst",
-        summary="gliding heavy symmetric top: the tippe top with R → 0, Rα = l (theory.md §10)",
+        summary="gliding heavy symmetric top: the tippe top with R → 0, Rα = l (docs/theory/reduced.md#reduced-systems)",
         params=hst_params,
         options=(Option("l", positive_length, None, "tip distance (m); default R alpha"),),
         conserves=("lam", "omega3"),
@@ -117,7 +117,7 @@ HST = register(
 
 
 def cylinder_normal_force(y: Any, params: tuple) -> Any:
-    """g_n of the eccentric cylinder (theory.md §10); ``y = [θ, θ̇, ν_x, ...]``."""
+    """g_n of the eccentric cylinder (docs/theory/reduced.md#reduced-systems); ``y = [θ, θ̇, ν_x, ...]``."""
     m, R, al, I1, I3, mu, g = params
     th, thd, nux = y[0], y[1], y[2]
     s, c = np.sin(th), np.cos(th)
@@ -126,7 +126,7 @@ def cylinder_normal_force(y: Any, params: tuple) -> Any:
 
 
 def cylinder_rhs(t: float, y: np.ndarray, params: tuple) -> np.ndarray:
-    """Right-hand side of the gliding eccentric cylinder (theory.md §10).
+    """Right-hand side of the gliding eccentric cylinder (docs/theory/reduced.md#reduced-systems).
 
     Parameters
     ----------
@@ -220,7 +220,7 @@ CYLINDER = register(
     Model(
         name="cylinder",
         summary="gliding eccentric cylinder: the invariant subspace phidot = omega3 = nu_y = 0 "
-        "(theory.md §10)",
+        "(docs/theory/reduced.md#reduced-systems)",
         rhs=cylinder_rhs,
         rhs_into=_cylinder_rhs_into,
         normal_force=cylinder_normal_force,

@@ -1,10 +1,10 @@
 """The rolling tippe top: the eccentric sphere with its contact point at rest (v_A ≡ 0).
 
-This is the integrable case of the METT (theory.md §3–§4; Glad, Petersson & Rauch-Wojciechowski
+This is the integrable case of the METT (docs/theory/equations.md#integrals, docs/theory/mett.md#the-main-equation; Glad, Petersson & Rauch-Wojciechowski
 2007): E, the Routh integral D and the Jellett integral λ are all conserved, and θ oscillates with the
 period given by the separation equation (:func:`mett.nutation_period`).
 
-Vector form, lab coordinates, a = l 3̂ − R ẑ, l = Rα, ȧ = l 3̂̇ (derivation as in theory.md §2.1
+Vector form, lab coordinates, a = l 3̂ − R ẑ, l = Rα, ȧ = l 3̂̇ (derivation as in docs/theory/equations.md#vector-form
 with the rolling constraint replacing friction):
 
 * ν = ṙ + ω × a = 0, so ṙ = −ω × a and the contact force is F = m(g ẑ + r̈) = m(g ẑ − ω̇ × a − ω × ȧ);
@@ -156,7 +156,7 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
 MODEL = register(
     Model(
         name="rolling",
-        summary="rolling tippe top (v_A = 0; E, D, λ conserved), vector form (theory.md §3–§4)",
+        summary="rolling tippe top (v_A = 0; E, D, λ conserved), vector form (docs/theory/equations.md#integrals, docs/theory/mett.md#the-main-equation)",
         rhs=rolling_rhs,
         rhs_into=_rhs_into,
         normal_force=rolling_normal_force,

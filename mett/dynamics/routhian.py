@@ -1,8 +1,8 @@
-"""The frictionless flat-plane top from the Routhian of the Maple/Poincaré paper (seed 000), corrected.
+"""The frictionless flat-plane top from the Routhian of the Maple/Poincaré paper, corrected.
 
 With no friction the contact force is vertical, the horizontal motion of the centre of mass
 decouples (ẍ = ÿ = 0) and the spin β₁ = I3 ω3 is an integral. Eliminating ψ with the Routhian
-ℛ = L − β₁ψ̇ leaves θ and φ (seed 000 eqs (13)–(16); seed000-errata.md). With a = αR the CM offset,
+ℛ = L − β₁ψ̇ leaves θ and φ (the Maple paper's eqs (13)–(16); docs/maple-tippe-top-errata.md). With a = αR the CM offset,
 I = I1 and the CM height R − a cos θ, the corrected equations are
 
     (a)  (I + m a² sin²θ) θ̈ = sin θ (I φ̇² cos θ − β₁ φ̇ − m g a − m a² θ̇² cos θ),
@@ -13,9 +13,9 @@ the vertical kinetic energy ½ m a² sin²θ θ̇² of the CM included; they are
 
     (b)  I θ̈ = sin θ (I φ̇² cos θ − β₁ φ̇ − m g a),
 
-off by a relative O(m a²/I) in θ̈ (4.4 % for the seed-000 table at α = 0.3). The paper's printed
+off by a relative O(m a²/I) in θ̈ (4.4 % for the Maple-paper table at α = 0.3). The paper's printed
 (14)–(15) are wrong further (signs, a factor 2, a spurious 1 − csc θ): they are kept only as erratum
-fixtures in :mod:`mett.symbolic.seed000`. Like the Euler form, φ̈ is singular at sin θ = 0: the run
+fixtures in :mod:`mett.symbolic.maple_tippe_top`. Like the Euler form, φ̈ is singular at sin θ = 0: the run
 stops with status "failed" there.
 
 State ``y = [θ, θ̇, φ̇, ω3, φ, x, y, ẋ, ẏ]`` (x, y the CM position); parameters
@@ -105,7 +105,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     th, thd, phd, w3, phi, x, y, xd, yd = Y
     s, c = np.sin(th), np.cos(th)
     psd = w3 - phd * c
-    # slip velocity ν = ṙ + ω × a on x̂ = (sin φ, −cos φ, 0), ŷ = (cos φ, sin φ, 0) (theory.md §1)
+    # slip velocity ν = ṙ + ω × a on x̂ = (sin φ, −cos φ, 0), ŷ = (cos φ, sin φ, 0) (docs/theory/model.md#conventions)
     nux = -R * thd * (1.0 - al * c) + xd * np.sin(phi) - yd * np.cos(phi)
     nuy = R * (psd + al * phd) * s + xd * np.cos(phi) + yd * np.sin(phi)
     out = {
@@ -143,7 +143,7 @@ def _pole(t: float, y: Any, p: Any) -> Any:
 MODEL = register(
     Model(
         name="frictionless-routhian",
-        summary="frictionless top from the corrected seed-000 Routhian (vertical CM term optional)",
+        summary="frictionless top from the corrected Maple-paper Routhian (vertical CM term optional)",
         rhs=routhian_rhs,
         rhs_into=_rhs_into,
         normal_force=routhian_normal_force,

@@ -1,6 +1,6 @@
 """``simulate``: integrate a model of the tippe top from a :class:`~mett.State`.
 
-Two backends run the same models (design.md, "Numerical design"):
+Two backends run the same models (docs/theory/simulation.md#numerics):
 
 * ``backend="compiled"`` (default): the compiled DOP853 of :mod:`.dop853` with the model's compiled
   right-hand side (:mod:`._kernels`, compiled from the same source as ``Model.rhs``). The contact
@@ -246,15 +246,15 @@ def simulate(
         One of :data:`MODELS` (or an unregistered :class:`~mett.dynamics.registry.Model`):
 
         * ``"gliding"``: the rolling-and-gliding eccentric sphere, F = g_n ẑ − μ g_n v_A, in vector
-          form (theory.md §2.1); regular at θ = 0 and π.
+          form (docs/theory/equations.md#vector-form); regular at θ = 0 and π.
         * ``"rolling"``: the rolling ball, v_A ≡ 0 (E, D, λ conserved); needs ν = 0.
         * ``"gliding-hst"``: the gliding heavy symmetric top, the limit R → 0 with Rα = l
-          (theory.md §10); ``l = top.R * top.alpha`` unless ``l`` is given.
+          (docs/theory/reduced.md#reduced-systems); ``l = top.R * top.alpha`` unless ``l`` is given.
         * ``"cylinder"``: the gliding eccentric cylinder, the invariant subspace φ̇ = ω3 = ν_y = 0
-          (theory.md §10); needs such a state.
+          (docs/theory/reduced.md#reduced-systems); needs such a state.
         * ``"gliding-euler"``: the gliding top in Euler angles (thesis eqs (10)–(15)), a cross-check
           of "gliding"; stops with status "failed" near sin θ = 0 where it is singular.
-        * ``"frictionless-routhian"``: the corrected seed-000 Routhian equations (no friction;
+        * ``"frictionless-routhian"``: the corrected Maple-paper Routhian equations (no friction;
           ``vertical_cm=False`` for the printed approximation); equals "gliding" at μ = 0.
         * ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"``: dry friction, chosen
           by ``friction=`` (below).
@@ -317,7 +317,7 @@ def simulate(
 
         * ``l`` (float, m, > 0): tip distance of ``"gliding-hst"`` (default ``top.R * top.alpha``);
         * ``vertical_cm`` (bool): ``"frictionless-routhian"`` only: keep the vertical kinetic
-          energy of the centre of mass (True, the default: the corrected seed-000 equations,
+          energy of the centre of mass (True, the default: the corrected Maple-paper equations,
           equal to ``"gliding"`` at μ = 0) or drop it as the printed Routhian does (False, an
           approximation).
 

@@ -2,7 +2,7 @@
 
 A :class:`Trajectory` never raises for numerical trouble: a run that loses contact (g_n reaches 0)
 ends with ``status == "contact_lost"``, an integrator failure with ``status == "failed"``, and the
-``message`` says when and why (design.md: results as objects with a status, as in diffrax/scipy).
+``message`` says when and why (results as objects with a status, as in diffrax/scipy).
 All series are computed once, vectorised, from the model's state after the run.
 
 :meth:`Trajectory.save` / :meth:`Trajectory.load` keep a run in a versioned ``.npz`` file (numpy's
@@ -122,8 +122,8 @@ class Trajectory:
     phi : ndarray
         Precession angle of the axis, in (−π, π] (rad).
     E, E_mod, D, lam : ndarray
-        Energy E, modified energy Ẽ (the energy of the METT while gliding, theory.md §3), Routh D
-        and Jellett λ along the run, from the normalised axis (design.md).
+        Energy E, modified energy Ẽ (the energy of the METT while gliding, docs/theory/equations.md#integrals), Routh D
+        and Jellett λ along the run, from the normalised axis.
     status : str
         ``"completed"``, ``"contact_lost"`` or ``"failed"``.
     message : str

@@ -456,7 +456,7 @@ def classify_motion(top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -
 
 
 def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
-    """Right-hand side of ż² = f(z) = (1 − z²)(Ẽ − V(z, D, λ))/g(z) (theory.md §4).
+    """Right-hand side of ż² = f(z) = (1 − z²)(Ẽ − V(z, D, λ))/g(z) (docs/theory/mett.md#the-main-equation).
 
     Evaluated as P(z)/g(z) with the exact energy shift (module docstring), so it is finite at the
     poles and accurate where Ẽ − V is a small difference of large numbers.
@@ -507,7 +507,7 @@ def nutation_period(
     """Exact period (s) of the θ-oscillation of the rolling top, T = 2∫ √(g/P) dz over the band.
 
     For steady precession (Ẽ at the bottom of the well) the small-oscillation limit
-    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (theory.md §8).
+    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (docs/theory/estimates.md#estimates).
 
     Raises
     ------
@@ -516,7 +516,7 @@ def nutation_period(
 
     Examples
     --------
-    The thesis body rolling from θ0 = 1 rad, ω3 = 100 rad/s, φ̇0 = 5 rad/s (theory.md §5):
+    The thesis body rolling from θ0 = 1 rad, ω3 = 100 rad/s, φ̇0 = 5 rad/s (docs/theory/mett.md#rational):
 
     >>> import mett
     >>> top = mett.presets.get("rutstam2013")

@@ -191,7 +191,7 @@ def _small_oscillation_omega(top: TippeTop, b: Band, w: _Well) -> float:
 
 
 def _phidot(top: TippeTop, w: _Well, z):
-    """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (theory.md §4)."""
+    """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (docs/theory/mett.md#the-main-equation)."""
     return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(_d(top, z)))
 
 
