@@ -12,13 +12,11 @@ fix them instead). Any preset accepts ``a`` (the CM offset αR, in metres) in pl
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from . import _validate
-from ._validate import MettDeprecationWarning
 from .top import FIELD_RANGE, TippeTop
 
 __all__ = ["Preset", "describe", "get", "names"]
@@ -108,18 +106,7 @@ def names() -> tuple[str, ...]:
     return tuple(sorted(_PRESETS))
 
 
-_DEPRECATED = {"seed000": "maple-tippe-top"}  # refmap: keep (old name -> new name)
-
-
 def _lookup(name: str) -> Preset:
-    if isinstance(name, str) and name in _DEPRECATED:
-        new = _DEPRECATED[name]
-        warnings.warn(
-            f"preset {name!r} is deprecated; use {new!r}",  # refmap: keep
-            MettDeprecationWarning,
-            stacklevel=3,
-        )
-        name = new
     try:
         return _PRESETS[name]
     except (KeyError, TypeError):

@@ -158,8 +158,6 @@ def _hits(files: list[Path]) -> list[str]:
     out = []
     for f in files:
         for n, line in enumerate(f.read_text(encoding="utf-8").splitlines(), 1):
-            if "refmap: keep" in line:  # the deprecated alias of the Maple paper's preset
-                continue
             low = line.lower()
             out += [f"{f.relative_to(ROOT)}:{n}: {w}" for w in _PRIVATE if w in low]
     return out

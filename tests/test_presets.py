@@ -73,14 +73,6 @@ def test_maple_tippe_top_rational_eccentricity():
     )  # 0.5724 is rounded
 
 
-def test_old_preset_name_still_works_and_warns_that_it_is_deprecated():
-    with pytest.warns(mett.MettDeprecationWarning, match="use 'maple-tippe-top'"):
-        old = presets.get("seed000", alpha=0.3)  # refmap: keep
-    with pytest.warns(mett.PhysicalityWarning):
-        assert old == presets.get("maple-tippe-top", alpha=0.3)
-    assert issubclass(mett.MettDeprecationWarning, DeprecationWarning)
-
-
 def test_unknown_preset_lists_known_names():
     with pytest.raises(
         ValueError,
