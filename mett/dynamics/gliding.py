@@ -40,7 +40,7 @@ from ._model import (
 )
 from .registry import Event, Model, register
 
-__all__ = ["MODEL", "gliding_normal_force", "gliding_rhs"]
+__all__ = ["MODEL", "gliding_normal_force", "gliding_rhs", "gliding_series"]
 
 N_STATE = 10
 
@@ -151,8 +151,10 @@ def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
     return axis_theta(Y, 7)
 
 
-def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
-    """Trajectory series from vector states; integrals straight from the vectors (pole-safe)."""
+def gliding_series(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
+    """θ, φ, θ̇, φ̇, ψ̇, ω3, ν, E, Ẽ, D, λ and g_n of vector states ``Y`` (shape (10, k)) of a
+    sphere with parameters ``p`` = (m, R, l, I1, I3, mu, g); integrals straight from the vectors
+    (pole-safe). Also the series of each contact of the stemmed top."""
     m, R, l, I1, I3, mu, g = p
     Y = np.asarray(Y, dtype=float)
     d = _core(Y, p)
@@ -162,6 +164,12 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     out = euler_from_vectors(e, w, nu)
     add_integrals(out, m, R, l, I1, I3, g)
     out["gn"] = np.asarray(d[10], dtype=float)
+    return out
+
+
+def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
+    """Trajectory series from vector states (:func:`gliding_series`) and the CM position."""
+    out = gliding_series(Y, p)
     out["x"], out["y"] = Y[0], Y[1]
     return out
 

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from ._model import add_integrals, euler_from_vectors, lab_vectors, scales_from_state, unit_axis
-from .gliding import _core
+from ._model import lab_vectors, scales_from_state, unit_axis
+from .gliding import _core, gliding_series
 from .registry import Event, JumpFailed, Model, Option, Phase, positive_length, register
 
 __all__ = ["MODEL", "impact", "stem_params"]
@@ -220,22 +220,10 @@ def _normal_force(y: np.ndarray, p: tuple) -> Any:
     return np.where(y[10] > 0.5, _core(y, _stem(p))[10], _core(y, _ball(p))[10])
 
 
-def _series(Y: np.ndarray, q: tuple) -> dict[str, np.ndarray]:
-    m, R, l, I1, I3, mu, g = q
-    d = _core(Y, q)
-    e = unit_axis(Y, 7)
-    w = np.array(d[11])
-    nu = np.array([d[12][0], d[12][1], np.zeros_like(d[12][0])])
-    out = euler_from_vectors(e, w, nu)
-    add_integrals(out, m, R, l, I1, I3, g)
-    out["gn"] = np.asarray(d[10], dtype=float)
-    return out
-
-
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     """Series of each sample on its own contact: ν, g_n, E, λ of the sphere in contact."""
     Y = np.asarray(Y, dtype=float)
-    ball, stem = _series(Y, _ball(p)), _series(Y, _stem(p))
+    ball, stem = gliding_series(Y, _ball(p)), gliding_series(Y, _stem(p))
     on = Y[10] > 0.5
     out = {k: np.where(on, stem[k], np.asarray(ball[k], dtype=float)) for k in ball}
     out["x"], out["y"] = Y[0], Y[1]

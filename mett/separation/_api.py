@@ -230,23 +230,24 @@ def _turning_points_one(top: TippeTop, E, D, lam, z0) -> tuple[float, float]:
     return (b.z_low, b.z_high)
 
 
-def _period_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
+def _band_and_well(top: TippeTop, E, D, lam, z0, b: Band | None) -> tuple[Band, _Well]:
+    """The band (found, or the one given) and its well referenced to the band's bottom."""
     if b is None:
-        b, w = _admissible(top, E, D, lam, z0)
-    else:
-        w = _Well(top, E, D, lam)
-        w.set_reference(b.z_min)
+        return _admissible(top, E, D, lam, z0)
+    w = _Well(top, E, D, lam)
+    w.set_reference(b.z_min)
+    return b, w
+
+
+def _period_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
+    b, w = _band_and_well(top, E, D, lam, z0, b)
     if b.kind == "steady":
         return 2.0 * math.pi / _small_oscillation_omega(top, b, w)
     return _quadrature(top, b, w)[0]
 
 
 def _precession_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
-    if b is None:
-        b, w = _admissible(top, E, D, lam, z0)
-    else:
-        w = _Well(top, E, D, lam)
-        w.set_reference(b.z_min)
+    b, w = _band_and_well(top, E, D, lam, z0, b)
     if b.kind == "steady":
         if abs(b.z_min) == 1.0:
             return _PoleForm(w, b.z_min).phidot_limit()  # the limit of a band shrinking onto it
