@@ -500,7 +500,7 @@ class _IR:
 
     def update(self) -> str:
         """IR of ``update_<name>(X, h, y)``: y_i = Σ_k X[i, k] h^k (Horner) for every lane."""
-        T, W, width = self.T, self.W, self.order + 1
+        T, width = self.T, self.order + 1
         body: list[str] = []
         saved, self.lines = self.lines, body
         h = self.load("%h", 0)
@@ -512,7 +512,6 @@ class _IR:
             g = self.ptr("%yn", i)
             body.append(f"store {T} {acc}, {T}* {g}, align 8")
         self.lines = saved
-        del W
         return (
             f"define void @{self.name}_update(double* noalias nocapture readonly %X, "
             "double* noalias nocapture readonly %h, double* noalias nocapture %yn) nounwind {\n"
