@@ -26,9 +26,11 @@ def d_sphere(z, m: float, R: float, l: float, I1: float, I3: float):
     """d(z) of a sphere of radius R whose centre of mass sits l below its centre.
 
     I3² d = I1 I3 + m I3 (l − R z)² + m I1 R² (1 − z²) (Rutstam 2012 §3); see
-    :func:`mett.potential.d_of`.
+    :func:`mett.potential.d_of`. Squares of z-dependent terms are products, not powers: Python's
+    float power may round differently from numpy's square, and floats and arrays must agree.
     """
-    return (I1 * I3 + m * I3 * (l - R * z) ** 2 + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
+    t = l - R * z
+    return (I1 * I3 + m * I3 * (t * t) + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
 
 
 def d(top: TippeTop, z):

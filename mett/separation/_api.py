@@ -1,6 +1,6 @@
 """The public functions of :mod:`mett.separation`, the array path (:func:`_solve`) and the
 per-element path for the elements it passes on (and the ``_reference_*`` functions the tests
-compare with). Both run the same array algorithms; one element is a length-1 array.
+compare with). Both run the same array algorithms, the per-element path on one element.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from ._wells import (
     _pole_band,
     _pole_layer,
     _PoleForm,
+    _root_towards,
     _set_reference_one,
     _steady_tolerance,
     _well,
@@ -56,13 +57,12 @@ def _classify(top: TippeTop, W: _Wells, zm) -> tuple[np.ndarray, np.ndarray]:
     return kind, depth
 
 
-def _band_ends(W: _Wells, zm, pole_ref: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(z_low, z_high, ok) of nutation bands about their wells' bottoms z_m (references set on W).
+def _band_ends(W: _Wells, zm) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(z_low, z_high, ok) of nutation bands about their wells' bottoms z_m (W referenced there).
 
     ok is False where a turning point has no sign change of P between z_m and the pole: the band
     is below rounding (steady).
     """
-    W.set_reference(zm, pole_ref)
     zl, zh = np.full(zm.size, -1.0), np.full(zm.size, 1.0)
     ok = np.ones(zm.size, dtype=bool)
     for pole, zt in ((-1.0, zl), (1.0, zh)):
@@ -92,13 +92,21 @@ def _refine_layer_ends(w: _Wells, b: Band) -> Band:
     mid = 0.5 * (b.z_low + b.z_high)
     for i, layer in enumerate(_pole_layer(b)):
         z = ends[i]
-        if layer and abs(z) < 1.0:
+        # an end at a pole where N does not vanish is a wall a few ulps off it (brentq's
+        # tolerance in z is 4 ulps): re-solved as well
+        if layer and (abs(z) < 1.0 or not w.n_vanishes(z)):
             p = 1.0 if z >= 0.0 else -1.0
             form = _PoleForm(w, p, at_pole=False)
             u_in = 1.0 - p * mid
             if not float(form.P(u_in)) > 0.0:
                 continue
-            zt = p * (1.0 - form.root(1.0 - p * z, u_in))
+            if abs(z) < 1.0:
+                u_t = form.root(1.0 - p * z, u_in)
+            elif float(form.P(0.0)) < 0.0:
+                u_t = _root_towards(form.P, 0.0, u_in)
+            else:
+                continue
+            zt = p * (1.0 - u_t)
             ends[i] = zt if abs(zt) < 1.0 else math.nextafter(p, 0.0)
     return b._replace(z_low=ends[0], z_high=ends[1])
 
@@ -113,7 +121,8 @@ def _well_band(top: TippeTop, w: _Wells, zm: float) -> Band:
     if kind == _STEADY:
         return Band("steady", zm, zm, zm, max(depth, 0.0))
     # not next to a pole: an interior reference, or a pole where N vanishes
-    zl, zh, ok = _band_ends(w.row(), np.array([zm]), abs(zm) == 1.0)
+    w.set_reference(zm, abs(zm) == 1.0)
+    zl, zh, ok = _band_ends(w, np.array([zm]))
     if not ok[0]:  # no sign change between the bottom and a pole: the band is below rounding
         return Band("steady", zm, zm, zm, depth)
     return _refine_layer_ends(w, Band("nutation", float(zl[0]), float(zh[0]), zm, depth))
@@ -183,7 +192,7 @@ def _value_one(top: TippeTop, E: float, D: float, lam: float, b: Band, quantity:
     """Period or mean precession of one element's band (steady or nutation)."""
     w = _well(top, E, D, lam)
     if b.kind == "steady":
-        return float(_steady_values(top, w.row(), np.array([b.z_min]), quantity)[0])
+        return float(_steady_values(top, w, np.array([b.z_min]), quantity)[0])
     _set_reference_one(w, b.z_min)
     T, integral = _quadrature(top, b, w, quantity == "precession")
     if quantity == "period":
@@ -385,7 +394,8 @@ def _nutation_bands(W: _Wells, nut, zm, vec, sol: _Solution, quantity) -> None:
         if k.size == 0:
             continue
         Wk = W.sub(k)
-        zl, zh, good = _band_ends(Wk, zm[k], pole_ref)
+        Wk.set_reference(zm[k], pole_ref)
+        zl, zh, good = _band_ends(Wk, zm[k])
         low, high = _layer_ends(zl, zh)
         good &= ~(low | high)
         vec[k[~good]] = False

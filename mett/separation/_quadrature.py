@@ -114,7 +114,10 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
     ua0, ub0 = 1.0 - pa * za, 1.0 - pb * zb  # exact (Sterbenz) for |z| ≥ ½
     if pa == pb:
         # both ends next to one pole: the roots about a point inside, found in u (in z the ends
-        # may be a few ulps apart or even equal)
+        # may be a few ulps apart or even equal), both in one form of P (N_p = 0 if an end is at
+        # the pole: with the exact N_p the far end's root would belong to another P, and the
+        # half-band between them could hold P < 0)
+        fa = fb = _PoleForm(w, pa, abs(za) == 1.0 or abs(zb) == 1.0)
         u_in = _interior_u(fa, 1.0 - pa * b.z_min)[0]
         u_lo = _root_towards(fa.P, 0.0, u_in) if float(fa.P(0.0)) < 0.0 else 0.0
         lo, hi = u_in, 2.0 * u_in
@@ -142,14 +145,14 @@ def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: bool) -> tuple[fl
     """(T, ∮ φ̇ dt) over one period of one element's band (NaN without ``precession``).
 
     Bands in the layer of a pole: :func:`_anchored_quadrature`; with P about the bottom of the
-    well: :func:`_gauss_quadrature` as a length-1 array; without a reference (a well within a few
+    well: :func:`_gauss_quadrature`; without a reference (a well within a few
     ulps of a pole): the same Gauss rule in z.
     """
     if any(_pole_layer(b)):
         return _anchored_quadrature(top, b, w, precession)
     if w.zr is not None:
         T, integral = _gauss_quadrature(
-            w.row(), *(np.array([v]) for v in (b.z_low, b.z_high, b.z_min)), precession
+            w, *(np.array([v]) for v in (b.z_low, b.z_high, b.z_min)), precession
         )
         return float(T[0]), math.nan if integral is None else float(integral[0])
     c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
@@ -171,7 +174,7 @@ def _steady_values(top: TippeTop, W: _Wells, zm, quantity: str) -> np.ndarray:
     """
     pole = np.abs(zm) == 1.0
     out = np.empty(zm.size)
-    D, lam = W.D, W.lam
+    D, lam = np.broadcast_to(W.D, zm.shape), np.broadcast_to(W.lam, zm.shape)
     if quantity == "period":
         zi = zm[~pole]
         curv = d2V_dz2(top, zi, D[~pole], lam[~pole])

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy import optimize
 
 from ._exact import _EPS, _MAXITER
 
@@ -26,9 +27,11 @@ _OFFSET_TRIES = 40  # ... widened 4× per try
 def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter: int = _MAXITER):
     """scipy.optimize.brentq for arrays of brackets [a, b], iterate for iterate.
 
-    ``fun(x, k)`` evaluates the function of the elements with indices ``k`` (into ``a``) at ``x``.
+    ``fun(x, k)`` evaluates the function of the elements with indices ``k`` (into ``a``) at ``x``
+    (an array, or a float for a single element).
     The arithmetic and the branches are those of scipy's C implementation, so each element gets
-    the root scipy would return for it; converged elements drop out of the evaluations.
+    the root scipy would return for it; converged elements drop out of the evaluations. A single
+    element is handed to scipy's brentq itself (the same root, without the array overhead).
 
     Returns
     -------
@@ -39,6 +42,22 @@ def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter:
     n = a.size
     root, ok = np.full(n, np.nan), np.ones(n, dtype=bool)
     if n == 0:
+        return root, ok
+    if n == 1:  # one element: scipy's brentq itself, on floats, without the array bookkeeping
+        ids = np.zeros(1, dtype=np.intp)
+        try:
+            root[0] = optimize.brentq(
+                lambda x: np.ravel(fun(x, ids))[0],
+                float(a[0]),
+                float(b[0]),
+                xtol=xtol,
+                rtol=rtol,
+                maxiter=maxiter,
+                full_output=True,
+                disp=False,
+            )[0]
+        except ValueError:  # f(a) and f(b) of the same sign
+            ok[0] = False
         return root, ok
     ids = np.arange(n)
     xp, xc = a.copy(), b.copy()
@@ -158,6 +177,7 @@ def _offset_roots(W: _Wells, z_t, z_m) -> tuple[np.ndarray, np.ndarray]:
     lies next to z_t, z_t is a wall within one ulp of a pole (N ≈ 0, a vanishing spin), not a root.
     """
     x0 = z_t - W.zr
+    zr = np.broadcast_to(W.zr, x0.shape)
     out = x0.copy()
     found = (np.abs(z_t) == 1.0) | (_near_pole_root(z_t, z_m) & (not W.pole_ref))
     inward = np.where(z_m > z_t, 1.0, -1.0)
@@ -171,7 +191,7 @@ def _offset_roots(W: _Wells, z_t, z_m) -> tuple[np.ndarray, np.ndarray]:
         if k.size == 0:
             break
         a, b = x0[k] - inward[k] * step, x0[k] + inward[k] * step
-        c = (np.abs(W.zr[k] + a) < 1.0) & ((b - x0[k]) * inward[k] < room[k])
+        c = (np.abs(zr[k] + a) < 1.0) & ((b - x0[k]) * inward[k] < room[k])
         kc, a, b = k[c], a[c], b[c]
         if kc.size:
             Wk = W.sub(kc)

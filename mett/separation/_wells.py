@@ -19,6 +19,7 @@ if TYPE_CHECKING:
 from ._exact import _EPS, _MAXITER, _shift, _shift_fraction
 from ._roots import _brentq
 
+_TINY = float(np.finfo(float).tiny)  # the smallest normal double
 _N_GRID = 401  # samples of the critical-point numerator when locating the wells of V
 _Z_GRID = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
 _Z_GRID[0], _Z_GRID[-1] = -1.0, 1.0
@@ -28,10 +29,12 @@ class _Wells:
     """P(z) and friends for n elements (E, D, λ), all in double after the exact energy shift.
 
     Per-element quantities are 1-d arrays, or floats for one element on its own (the per-element
-    path: :func:`_wells`, :func:`_pole_band`, :class:`_PoleForm`); every method is elementwise
-    arithmetic, the same operations for both. :meth:`sub` selects elements, :meth:`col` turns the
-    per-element arrays into columns that broadcast against (n, k) arrays of z (grid, nodes), and
-    :meth:`row` makes one element a length-1 array so that it runs the array algorithms.
+    path); every method is elementwise arithmetic, the same operations for both, and the array
+    algorithms (turning points, quadrature, classification) run on either: :meth:`sub` selects
+    elements and :meth:`col` turns the per-element arrays into columns that broadcast against
+    (n, k) arrays of z (grid, nodes), while one element on its own broadcasts as it is. Squares are
+    written as products (a float power may round differently from numpy's square), so an element
+    gets the same bits on its own as in an array.
 
     Once a band is known, :meth:`set_reference` switches P to the form P(z) = w(z)(depth − ΔV(z))
     around the bottom z_r of the well, where depth = Ẽ − V(z_r) is computed once and
@@ -62,18 +65,20 @@ class _Wells:
         return new
 
     def sub(self, idx) -> _Wells:
-        return self._derive(lambda v: v[idx])
+        """The elements ``idx`` (one element on its own broadcasts: any selection is itself)."""
+        return self if self.single else self._derive(lambda v: v[idx])
 
     def col(self) -> _Wells:
-        return self._derive(lambda v: v[:, None])
-
-    def row(self) -> _Wells:
-        """One element (float attributes) as a length-1 array, for the array algorithms."""
-        return self._derive(lambda v: np.array([v], dtype=float))
+        return self if self.single else self._derive(lambda v: v[:, None])
 
     def element(self, i: int) -> _Wells:
         """Element ``i`` on its own, with float attributes."""
-        return self._derive(lambda v: float(v[i]))
+        return self if self.single else self._derive(lambda v: float(v[i]))
+
+    @property
+    def single(self) -> bool:
+        """One element on its own (float attributes)."""
+        return np.ndim(self.E) == 0
 
     def N(self, z):
         return fm.N(self.top, np.sqrt(fm.d(self.top, z)), z, self.D, self.lam)
@@ -127,10 +132,12 @@ class _Wells:
         self.dd_r = fm.dd_dz(top, zr)
         if pole_ref:
             self.A_r = _shift(top, self.E, self.D, self.lam, zr)
+            if self.single:
+                self.A_r = float(self.A_r)
             return
         self.w_r = 1.0 - zr * zr
         self.N_r = self.N(zr)
-        self.depth_r = self.Es - self.gravity(zr) - self.C * self.N_r**2 / self.w_r
+        self.depth_r = self.Es - self.gravity(zr) - self.C * (self.N_r * self.N_r) / self.w_r
 
     def delta_N(self, delta):
         """N(z_r + δ) − N(z_r) without cancellation (needs a reference)."""
@@ -151,9 +158,9 @@ class _Wells:
         n = self.N_r + dn
         w = self.w_r - (2.0 * self.zr + delta) * delta
         # N²/w − N_r²/w_r = [ΔN (N + N_r) w_r + N_r² (w_r − w)] / (w w_r), w_r − w = 2 z_r δ + δ².
-        kin = (dn * (n + self.N_r) * self.w_r + self.N_r**2 * (2.0 * self.zr + delta) * delta) / (
-            w * self.w_r
-        )
+        kin = (
+            dn * (n + self.N_r) * self.w_r + (self.N_r * self.N_r) * (2.0 * self.zr + delta) * delta
+        ) / (w * self.w_r)
         return -self.mgR * top.alpha * delta + self.C * kin
 
     def delta_V_divided(self, a, x):
@@ -506,8 +513,11 @@ class _PoleForm:
         self.w, self.p = w, pole
         self.A, n_p, self.sqd_p, self.dd_p = _pole_constants(top, w.E, w.D, w.lam, pole)
         # N_p is 0 for a band ending at the pole (it vanishes there to rounding); a turning point
-        # a hair off the pole needs its exact small value
-        self.N_p = 0.0 if at_pole and w.n_vanishes(pole) else n_p
+        # a hair off the pole needs its exact small value, unless C N_p² is within 52 bits of
+        # underflow (|N_p| below ~1e-150): P next to the wall is then not resolved in double
+        self.N_p = n_p
+        if (at_pole and w.n_vanishes(pole)) or w.C * n_p * n_p < _TINY / _EPS:
+            self.N_p = 0.0
 
     def z(self, u):
         return self.p * (1.0 - u)
