@@ -590,6 +590,19 @@ def mean_precession(
 
     ⟨φ̇⟩ = (2/T) ∫ φ̇(z) √(g/P) dz with φ̇(z) = N(z)/(R I1 (1 − z²)√d(z)); for steady precession
     the rate φ̇(z_min) itself.
+
+    Notes
+    -----
+    A band that reaches a pole where N(±1) is zero to rounding (within 64 ulps of its terms λ√d
+    and R D(α ∓ 1): D = D0 or D1 rounded to a double, a state on the axis) passes through the
+    vertical, where the precession angle jumps by ±π with the sign of N(±1), which the rounding
+    of the inputs does not fix. The value returned leaves the jump out: it is the mean of the two
+    one-sided values, and continuous with the steady spin at the pole (the limit of the bands
+    shrinking onto it, returned for that steady spin). Taking the doubles (E, D, λ) as exact, with
+    N(±1) ≠ 0, the mean precession is this value plus sign(N(±1)) π/T for each pole the band
+    reaches (checked against a 60-digit quadrature to 1e-12 of π/T), or ± π/T of the
+    small-oscillation period for the steady spin; where the band is itself only a few ulps wide
+    (a start within ~1e-7 rad of a pole at high spin) the exact inputs also reshape it.
     """
     sol = _solve(top, E, D, lam, z0, "precession")
     _raise_first(sol)

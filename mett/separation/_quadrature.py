@@ -105,6 +105,11 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
     turning point by :func:`_anchored_half`. On the separatrix (an end at an unstable pole with
     Ẽ = V there) the period is infinite and ⟨φ̇⟩ is the pole's limit of φ̇ (the motion spends all
     but a vanishing fraction of its time there): (inf, that limit) is returned.
+
+    An end at a pole where N is zero to rounding is integrated with N(±1) = 0: the ±π jump of the
+    precession angle there, whose sign is that of N(±1), is left out (see
+    :func:`mean_precession`); an end at a wall off the pole is integrated with the exact N(±1)
+    and carries its part of the angle itself.
     """
     za, zb = b.z_low, b.z_high
     pa = 1.0 if za >= 0.0 else -1.0
