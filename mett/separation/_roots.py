@@ -47,7 +47,7 @@ def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter:
         ids = np.zeros(1, dtype=np.intp)
         try:
             root[0] = optimize.brentq(
-                lambda x: np.ravel(fun(x, ids))[0],
+                lambda x: fun(x, ids).item(),
                 float(a[0]),
                 float(b[0]),
                 xtol=xtol,

@@ -47,8 +47,9 @@ class _Wells:
 
     def __init__(self, top: TippeTop, E, D, lam, Es=None) -> None:
         self.top, self.E, self.D, self.lam = top, E, D, lam
+        self.single = np.ndim(E) == 0  # one element on its own (float attributes)
         self.Es = _shift(top, E, D, lam) if Es is None else Es
-        if np.ndim(self.Es) == 0:
+        if self.single:
             self.Es = float(self.Es)
         self.C = fm.kinetic_coefficient(top)
         self.mgR = top.m * top.g * top.R
@@ -73,12 +74,11 @@ class _Wells:
 
     def element(self, i: int) -> _Wells:
         """Element ``i`` on its own, with float attributes."""
-        return self if self.single else self._derive(lambda v: float(v[i]))
-
-    @property
-    def single(self) -> bool:
-        """One element on its own (float attributes)."""
-        return np.ndim(self.E) == 0
+        if self.single:
+            return self
+        new = self._derive(lambda v: float(v[i]))
+        new.single = True
+        return new
 
     def N(self, z):
         return fm.N(self.top, np.sqrt(fm.d(self.top, z)), z, self.D, self.lam)
