@@ -70,7 +70,6 @@ from ._wells import (
     _pole_N,
     _PoleForm,
     _steady_tolerance,
-    _Wells,
 )
 
 __all__ = [

@@ -335,10 +335,8 @@ def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Soluti
     """
     shape, E, D, lam, z0 = _flat_inputs(top, E, D, lam, z0)
     n = E.size
-    sol = _Solution(
-        shape, np.full(n, _NONE, dtype=np.int8), *(np.full(n, np.nan) for _ in range(5)), {},
-        np.zeros(n, dtype=bool),
-    )  # fmt: skip
+    kinds = np.full(n, _NONE, dtype=np.int8)
+    sol = _Solution(shape, kinds, *(np.full(n, np.nan) for _ in range(5)), {}, np.zeros(n, bool))
     W = _Wells(top, E, D, lam)
     zm, vec = _array_wells(W)
     v = np.flatnonzero(vec)
@@ -421,10 +419,8 @@ def _check_start(top: TippeTop, E, D, lam, z0, v, vec, sol: _Solution) -> None:
             sol.errors[i] = (msg, False)
         return
     live = v[(sol.kind[v] != _NONE) & vec[v]]
-    inside = _holds_start(
-        top, E[live], D[live], lam[live], sol.z_low[live], sol.z_high[live], sol.depth[live],
-        z0[live],
-    )  # fmt: skip
+    zl, zh, depth = sol.z_low[live], sol.z_high[live], sol.depth[live]
+    inside = _holds_start(top, E[live], D[live], lam[live], zl, zh, depth, z0[live])
     vec[none] = False
     vec[live[~inside]] = False
 
