@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from . import _validate
-from .potential import _check_integrals, d, d2V_dz2, g
-from .separation import _Well, _wells
+from .potential import V, d, d2V_dz2, g
+from .separation import minima
 from .thresholds import pole_spins
 
 if TYPE_CHECKING:
@@ -38,24 +38,14 @@ __all__ = [
 ]
 
 
-def _minima(top: TippeTop, D: float, lam: float) -> list[float]:
-    # Energy is irrelevant to where V has its minima; 0 keeps _Well's shift finite.
-    return _wells(_Well(top, 0.0, D, lam))
-
-
 def potential_minimum(top: TippeTop, D: float, lam: float) -> float:
     """z = cos θ of the global minimum of V(·, D, λ) on [−1, 1] (scalar D and λ).
 
     Found from the sign changes of the regular numerator (1 − z²)² ∂V/∂z, so a pole is returned
     when V decreases towards it (possible only when N vanishes there, D = D0 or D1).
     """
-    _validate.instance("top", top, "TippeTop")
-    D = _validate.finite_scalar("D", D)
-    lam = _validate.finite_scalar("lam", lam)
-    _check_integrals(top, D=np.asarray(D), lam=np.asarray(lam))
-    w = _Well(top, 0.0, D, lam)
-    mins = _wells(w)
-    return max(mins, key=w.excess)  # the deepest well: largest 0 − V
+    mins = minima(top, D, lam)  # validates top, D, lam
+    return min(mins, key=lambda z: float(V(top, z, D, lam)))  # the deepest well
 
 
 class Convexity(NamedTuple):
@@ -79,7 +69,7 @@ def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Co
     lam = _validate.finite_scalar("lam", lam)
     z = np.cos(np.pi * (np.arange(samples) + 0.5) / samples)
     curv = d2V_dz2(top, z, D, lam)
-    return Convexity(bool(np.all(curv > 0.0)), len(_minima(top, D, lam)), float(curv.min()))
+    return Convexity(bool(np.all(curv > 0.0)), len(minima(top, D, lam)), float(curv.min()))
 
 
 def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _formulas as fm
 from . import _validate
 
 if TYPE_CHECKING:
@@ -43,17 +44,12 @@ __all__ = [
     "g",
 ]
 
-# |N| below this fraction of its scale (|λ√d| + |R D (α − z)|) counts as zero at a pole: the
-# rounding of its two terms (a state at θ = 0 or π leaves a few ulps), not more — a vanishing spin's
-# N(±1) of 1e-12 of its terms is a real wall next to the pole.
-_POLE_RTOL = 64.0 * float(np.finfo(float).eps)
-
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d(z) = γ + σ(α − z)² + σγ(1 − z²) (docs/theory/model.md#conventions); D = I3 ω3 √d(z)."""
     _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
-    return d_of(z, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
+    return fm.d(top, z)
 
 
 def d_of(z: ArrayLike, m: float, R: float, l: float, I1: float, I3: float) -> np.ndarray:
@@ -61,59 +57,31 @@ def d_of(z: ArrayLike, m: float, R: float, l: float, I1: float, I3: float) -> np
 
     I3² d = I1 I3 + m I3 (l − R z)² + m I1 R² (1 − z²) (Rutstam 2012 §3): with l = Rα this is
     γ + σ(α − z)² + σγ(1 − z²); with R = 0 (the heavy symmetric top on its tip) γ + m l²/I3. The one
-    implementation of d: :func:`d` and the dynamics (Routh's integral D = I3 ω3 √d(z)) call it.
-    Plain arithmetic on floats or arrays.
+    implementation of d (in ``mett._formulas``): :func:`d`, the separation layer and the dynamics
+    (Routh's integral D = I3 ω3 √d(z)) use it. Plain arithmetic on floats or arrays.
     """
-    return (I1 * I3 + m * I3 * (l - R * z) ** 2 + m * I1 * R * R * (1.0 - z * z)) / (I3 * I3)
-
-
-def _d(top: TippeTop, z):
-    """:func:`d` without validation, for checked z in [−1, 1] (the separation layer's inner loops)."""
-    return d_of(z, top.m, top.R, top.R * top.alpha, top.I1, top.I3)
+    return fm.d_sphere(z, m, R, l, I1, I3)
 
 
 def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d'(z) = −2σ(α − z + γ z)."""
     _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
-    return -2.0 * top.sigma * (top.alpha - z + top.gamma * z)
+    return fm.dd_dz(top, z)
 
 
 def g(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """g(z) = ½ I3 [γ + σ(1 + α² − 2αz)], the coefficient of θ̇² in the METT (docs/theory/mett.md#the-main-equation)."""
     _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
-    return 0.5 * top.I3 * (top.gamma + top.sigma * (1.0 + top.alpha**2 - 2.0 * top.alpha * z))
+    return fm.g(top, z)
 
 
-INTEGRAL_MAX = 1e30
+INTEGRAL_MAX = fm.INTEGRAL_MAX
 """Largest |D|, |λ| the potential and the separation equation accept, in units of the top's
 natural scales I3 √(g/R) (D) and R I3 √(g/R) (λ), and |Ẽ| in units of INTEGRAL_MAX² times
 max(m g R, I3 g/R): a spin of 1e30 √(g/R), many decades above any real top, and far enough below
 the float range that the squares in V (D², λ², N²) cannot overflow."""
-
-
-def _check_integrals(top: TippeTop, **values: np.ndarray) -> None:
-    """ValueError naming the first of ``E``, ``D``, ``lam`` beyond :data:`INTEGRAL_MAX` (arrays).
-
-    Called by every public function of the potential, the separation equation and the estimates
-    after their inputs are validated as finite arrays, so no overflow reaches their arithmetic.
-    """
-    rate = np.sqrt(top.g / top.R)  # FIELD_RANGE keeps it finite and nonzero
-    scales = {
-        "E": (INTEGRAL_MAX**2 * max(top.m * top.g * top.R, top.I3 * top.g / top.R), "J"),
-        "D": (INTEGRAL_MAX * top.I3 * rate, "kg m^2/s"),
-        "lam": (INTEGRAL_MAX * top.R * top.I3 * rate, "kg m^3/s"),
-    }
-    for name, value in values.items():
-        bound, unit = scales[name]
-        big = np.abs(value) > bound
-        if np.any(big):
-            raise ValueError(
-                f"{name} must lie in [-{bound:.3g}, {bound:.3g}] {unit} for this top (the "
-                f"integrals of a spin up to {INTEGRAL_MAX:g} sqrt(g/R)); "
-                f"got {np.asarray(value)[big].ravel()[0].item()!r}"
-            )
 
 
 def _inputs(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, ...]:
@@ -121,41 +89,20 @@ def _inputs(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[
     z = _validate.cos_theta(z)
     D = _validate.as_finite_array("D", D)
     lam = _validate.as_finite_array("lam", lam)
-    _check_integrals(top, D=D, lam=lam)
+    fm.check_integrals(top, D=D, lam=lam)
     return z, D, lam
-
-
-def _N_terms(top: TippeTop, sqd, z, D, lam) -> tuple[np.ndarray, np.ndarray]:
-    """(N, |λ√d| + |R D(α − z)|): N(z) = λ√d(z) + R D(α − z) from √d(z), and the size of its terms.
-
-    The one place N is written out (the potential, its derivatives and mett.separation use it);
-    no validation: callers pass checked arrays. The second value scales its rounding error.
-    """
-    a = lam * sqd
-    b = top.R * D * (top.alpha - z)
-    return a + b, np.abs(a) + np.abs(b)
-
-
-def _N(top: TippeTop, sqd, z, D, lam):
-    """N(z) = λ√d(z) + R D(α − z) from √d(z) (see :func:`_N_terms`)."""
-    return lam * sqd + top.R * D * (top.alpha - z)
 
 
 def N(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
     """N(z) = λ√d(z) + R D(α − z) = R I1 φ̇ (1 − z²) √d(z) (docs/theory/mett.md#the-main-equation)."""
     z, D, lam = _inputs(top, z, D, lam)
-    return _N(top, np.sqrt(d(top, z)), z, D, lam)
+    return fm.N(top, np.sqrt(d(top, z)), z, D, lam)
 
 
 def dN_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
     """N'(z) = λ d'(z)/(2√d(z)) − R D."""
     z, D, lam = _inputs(top, z, D, lam)
     return lam * dd_dz(top, z) / (2.0 * np.sqrt(d(top, z))) - top.R * D
-
-
-def _kinetic_coefficient(top: TippeTop) -> float:
-    """C = I3/(2 I1² R²): the kinetic part of V is C N²/(1 − z²)."""
-    return top.I3 / (2.0 * top.I1**2 * top.R**2)
 
 
 def _constant(top: TippeTop, D: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -171,7 +118,7 @@ def _pole_safe_ratio(
     out = np.empty(num.shape)
     pole = w == 0.0
     np.divide(num, w, out=out, where=~pole)
-    vanish = np.abs(n) <= _POLE_RTOL * scale
+    vanish = np.abs(n) <= fm.POLE_RTOL * scale
     out[pole & vanish] = 0.0
     out[pole & ~vanish] = np.inf
     return out
@@ -199,8 +146,8 @@ def V(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray:
         If |z| > 1 or an input is not finite.
     """
     z, D, lam = _inputs(top, z, D, lam)
-    n, scale = _N_terms(top, np.sqrt(d(top, z)), z, D, lam)
-    kinetic = _kinetic_coefficient(top) * _pole_safe_ratio(n * n, 1.0 - z * z, n, scale)
+    n, scale = fm.N_terms(top, np.sqrt(d(top, z)), z, D, lam)
+    kinetic = fm.kinetic_coefficient(top) * _pole_safe_ratio(n * n, 1.0 - z * z, n, scale)
     gravity = top.m * top.g * top.R * (1.0 - top.alpha * z)
     return gravity + kinetic + _constant(top, D, lam)
 
@@ -236,7 +183,7 @@ def dV_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarr
     """
     z, D, lam = _inputs(top, z, D, lam)
     sqd = np.sqrt(d(top, z))
-    n, scale = _N_terms(top, sqd, z, D, lam)
+    n, scale = fm.N_terms(top, sqd, z, D, lam)
     dn = lam * dd_dz(top, z) / (2.0 * sqd) - top.R * D
     w = 1.0 - z * z
     n, dn, z, w, scale = np.broadcast_arrays(n, dn, z, w, scale)
@@ -245,13 +192,13 @@ def dV_dz(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarr
     ratio[inner] = 2.0 * n[inner] * (dn[inner] * w[inner] + z[inner] * n[inner]) / w[inner] ** 2
     pole = ~inner
     ratio[pole] = _pole_derivative(n[pole], dn[pole], z[pole], scale[pole])
-    return -top.m * top.g * top.R * top.alpha + _kinetic_coefficient(top) * ratio
+    return -top.m * top.g * top.R * top.alpha + fm.kinetic_coefficient(top) * ratio
 
 
 def _pole_derivative(n, dn, z, scale):
     # At z = ±1 only. With N(±1) = 0, N²/(1 − z²) ≈ N'² (1 ∓ z)/(1 ± z) near the pole: its
     # z-derivative tends to ∓N'(±1)²/2. Otherwise it diverges (the wall rises towards the pole).
-    vanish = np.abs(n) <= _POLE_RTOL * scale
+    vanish = np.abs(n) <= fm.POLE_RTOL * scale
     out = np.copysign(np.inf, z)
     out[vanish] = -np.sign(z[vanish]) * dn[vanish] ** 2 / 2.0
     return out
@@ -270,10 +217,10 @@ def d2V_dz2(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.nda
     sqd = np.sqrt(dz)
     dd = dd_dz(top, z)
     d2d = 2.0 * top.sigma * (1.0 - top.gamma)
-    n = _N(top, sqd, z, D, lam)
+    n = fm.N(top, sqd, z, D, lam)
     dn = lam * dd / (2.0 * sqd) - top.R * D
     d2n = lam * (d2d / (2.0 * sqd) - dd * dd / (4.0 * dz * sqd))
     w = 1.0 - z * z
     k2 = 2.0 * (dn * dn + n * d2n) / w + (8.0 * z * n * dn + 2.0 * n * n) / w**2
     k2 = k2 + 8.0 * z * z * n * n / w**3
-    return _kinetic_coefficient(top) * k2
+    return fm.kinetic_coefficient(top) * k2

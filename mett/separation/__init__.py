@@ -19,29 +19,29 @@ Precision. At high spin the band is narrow (width ~ ω3⁻²) and Ẽ − V is a
 of size ½ I3 ω3²: in double precision it keeps few digits. The constant D²/(2 I1) − mλ²/(2 I1 I3) that
 carries that size is therefore subtracted from Ẽ exactly (error-free products and sums in double,
 :func:`_shift`) before anything else is done; what remains, E' − m g R(1 − αz) and C N², are of the size of the well itself. Inside a band
-P is then written about the bottom z_r of the well (``_Well.set_reference``, also at a spinning
+P is then written about the bottom z_r of the well (``_Wells.set_reference``, also at a spinning
 pole), and the turning points and quadrature nodes are handled as offsets δ = z − z_r: the node next
 to a turning point lies only ~1e-7 band widths from it, closer than one ulp of z at high spin.
 
 Vectorisation. The public functions work on whole arrays of (Ẽ, D, λ) at once (:class:`_Wells`):
 the wells are located on one grid for all elements, and every root (minimum of V, turning point,
 offset turning point) is refined by :func:`_brentq`, a vectorised transcription of scipy's
-``brentq``. The array helpers repeat the scalar helpers of :class:`_Well` operation for operation,
-so an element gets bit for bit the numbers the scalar reference path (:func:`_band_scalar` and the
-``_reference_*`` functions) gives it; only the final quadrature sum may differ in the last bit. Rare
-elements the array path does not handle (V with several wells, a failed bracket) are passed to the
-scalar reference path.
+``brentq``. There is one implementation of each step: the per-element path (:func:`_band_scalar`,
+the ``_reference_*`` functions) runs the same array code on one element as a length-1 array, so an
+element gets bit for bit the same numbers on its own as in an array. Only what is genuinely per
+element is written for one element: the classification of several wells, a well hugging a pole
+and its band (:func:`_pole_band`), and the graded quadrature about a pole
+(:func:`_anchored_quadrature`); the array path passes such elements on to it.
 
 Layout: :mod:`._exact` (the exact energy shift), :mod:`._wells` (P, wells, classification, the pole
 form), :mod:`._roots` (vectorised root finding, turning points), :mod:`._quadrature` (periods and
 means), :mod:`._api` (the public functions and the per-element reference path).
 """
 
-# The private names below are re-exported for mett.estimates, the benchmarks and the tests.
+# The private names below are re-exported for the benchmarks and the tests.
 # ruff: noqa: F401
 
 from ._api import (
-    _admissible,
     _band_scalar,
     _reference_band,
     _reference_f,
@@ -54,6 +54,7 @@ from ._api import (
     classify_motion,
     f,
     mean_precession,
+    minima,
     nutation_period,
     turning_points,
 )
@@ -69,8 +70,6 @@ from ._wells import (
     _pole_N,
     _PoleForm,
     _steady_tolerance,
-    _Well,
-    _wells,
 )
 
 __all__ = [
@@ -79,6 +78,7 @@ __all__ = [
     "classify_motion",
     "f",
     "mean_precession",
+    "minima",
     "nutation_period",
     "turning_points",
 ]

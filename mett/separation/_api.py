@@ -1,4 +1,7 @@
-"""The public functions of :mod:`mett.separation` and the per-element (scalar reference) path."""
+"""The public functions of :mod:`mett.separation`, the array path (:func:`_solve`) and the
+per-element path for the elements it passes on (and the ``_reference_*`` functions the tests
+compare with). Both run the same array algorithms, the per-element path on one element.
+"""
 
 from __future__ import annotations
 
@@ -8,34 +11,78 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .. import _formulas as fm
 from .. import _validate
-from ..potential import _check_integrals, d2V_dz2, dV_dz, g
 
 if TYPE_CHECKING:
     from ..top import TippeTop
 from ._exact import _shift
-from ._quadrature import _phidot, _quadrature, _quadrature_vec, _small_oscillation_omega
-from ._roots import _turning_point, _turning_points_vec
+from ._quadrature import _gauss_quadrature, _quadrature, _steady_values
+from ._roots import _turning_points
 from ._wells import (
     _NEAR_POLE,
-    _POLE_ABS,
-    _POLE_LAYER,
     Band,
     _conditioning,
     _kinetic_at,
+    _layer_ends,
     _locate_wells,
     _near_pole_well,
     _pole_band,
     _pole_layer,
     _PoleForm,
+    _root_towards,
+    _set_reference_one,
     _steady_tolerance,
-    _Well,
+    _well,
     _Wells,
     _wells,
 )
 
+_NONE, _STEADY, _NUTATION = 0, 1, 2
+_KINDS = np.array(["none", "steady", "nutation"], dtype=object)
 
-def _refine_layer_ends(w: _Well, b: Band) -> Band:
+
+# --- steps shared by the array path and the per-element path --------------------------------------
+
+
+def _classify(top: TippeTop, W: _Wells, zm) -> tuple[np.ndarray, np.ndarray]:
+    """(kind, depth) of the well at z_m of each element: _NONE, _STEADY or _NUTATION, Ẽ − V(z_m).
+
+    Ẽ below the well by more than the rounding bound (:func:`_steady_tolerance`) admits no motion;
+    within the computed rounding of the depth it is steady; above it, a nutation band.
+    """
+    depth = W.excess(zm)
+    tol, tol_in = _steady_tolerance(top, W.E, W.D, W.lam, W.Es, W.gravity(zm), _kinetic_at(W, zm))
+    kind = np.where(depth < -(tol + tol_in), _NONE, np.where(depth <= tol, _STEADY, _NUTATION))
+    return kind, depth
+
+
+def _band_ends(W: _Wells, zm) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(z_low, z_high, ok) of nutation bands about their wells' bottoms z_m (W referenced there).
+
+    ok is False where a turning point has no sign change of P between z_m and the pole: the band
+    is below rounding (steady).
+    """
+    zl, zh = np.full(zm.size, -1.0), np.full(zm.size, 1.0)
+    ok = np.ones(zm.size, dtype=bool)
+    for pole, zt in ((-1.0, zl), (1.0, zh)):
+        j = np.flatnonzero(zm != pole)
+        zt[j], good = _turning_points(W.sub(j), pole, zm[j])
+        ok[j[~good]] = False
+    return zl, zh, ok
+
+
+def _holds_start(top: TippeTop, E, D, lam, z_low, z_high, depth, z0):
+    """Whether the start z0 lies in the band, up to the rounding of (E, D, λ) themselves, which
+    moves the turning points by ~ (rounding of the energy terms / depth) of the band width."""
+    slack = (z_high - z_low) * (1e-6 + _conditioning(top, E, D, lam, depth)) + 1e-12
+    return (z_low - slack <= z0) & (z0 <= z_high + slack)
+
+
+# --- the per-element path ----------------------------------------------------------------------
+
+
+def _refine_layer_ends(w: _Wells, b: Band) -> Band:
     """Turning points in the layer of a pole re-solved in the pole form (:meth:`_PoleForm.root`).
 
     The z-form P is accurate to ~ε of its largest terms, a few ulps of z next to a pole; the
@@ -45,53 +92,51 @@ def _refine_layer_ends(w: _Well, b: Band) -> Band:
     mid = 0.5 * (b.z_low + b.z_high)
     for i, layer in enumerate(_pole_layer(b)):
         z = ends[i]
-        if layer and abs(z) < 1.0:
+        # an end at a pole where N does not vanish is a wall a few ulps off it (brentq's
+        # tolerance in z is 4 ulps): re-solved as well
+        if layer and (abs(z) < 1.0 or not w.n_vanishes(z)):
             p = 1.0 if z >= 0.0 else -1.0
             form = _PoleForm(w, p, at_pole=False)
             u_in = 1.0 - p * mid
             if not float(form.P(u_in)) > 0.0:
                 continue
-            zt = p * (1.0 - form.root(1.0 - p * z, u_in))
+            if abs(z) < 1.0:
+                u_t = form.root(1.0 - p * z, u_in)
+            elif float(form.P(0.0)) < 0.0:
+                u_t = _root_towards(form.P, 0.0, u_in)
+            else:
+                continue
+            zt = p * (1.0 - u_t)
             ends[i] = zt if abs(zt) < 1.0 else math.nextafter(p, 0.0)
     return b._replace(z_low=ends[0], z_high=ends[1])
 
 
+def _well_band(top: TippeTop, w: _Wells, zm: float) -> Band:
+    """The band of one element's well at z_m (a hair off a pole: in the pole form)."""
+    if _near_pole_well(w, zm):
+        return _pole_band(w, zm)
+    kind, depth = (float(v) for v in _classify(top, w, zm))
+    if kind == _NONE:
+        return Band("none", math.nan, math.nan, zm, depth)
+    if kind == _STEADY:
+        return Band("steady", zm, zm, zm, max(depth, 0.0))
+    # not next to a pole: an interior reference, or a pole where N vanishes
+    w.set_reference(zm, abs(zm) == 1.0)
+    zl, zh, ok = _band_ends(w, np.array([zm]))
+    if not ok[0]:  # no sign change between the bottom and a pole: the band is below rounding
+        return Band("steady", zm, zm, zm, depth)
+    return _refine_layer_ends(w, Band("nutation", float(zl[0]), float(zh[0]), zm, depth))
+
+
 def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None) -> Band:
-    w = _Well(top, E, D, lam)
-    mins = _wells(w)
-    candidates = []
-    for zm in mins:
-        if _near_pole_well(w, zm):
-            candidates.append(_pole_band(w, zm))
-            continue
-        depth = w.excess(zm)
-        tol, tol_in = (
-            float(t)
-            for t in _steady_tolerance(
-                top, E, D, lam, w.Es, float(w.gravity(zm)), float(_kinetic_at(w, zm))
-            )
-        )
-        if depth < -(tol + tol_in):
-            candidates.append(Band("none", math.nan, math.nan, zm, depth))
-        elif depth <= tol:
-            candidates.append(Band("steady", zm, zm, zm, max(depth, 0.0)))
-        else:
-            w.set_reference(zm)
-            try:
-                z_low = _turning_point(w, -1.0, zm) if zm > -1.0 else -1.0
-                z_high = _turning_point(w, 1.0, zm) if zm < 1.0 else 1.0
-            except ValueError:
-                # no sign change between the bottom and a pole: the band is below rounding
-                candidates.append(Band("steady", zm, zm, zm, depth))
-                continue
-            candidates.append(_refine_layer_ends(w, Band("nutation", z_low, z_high, zm, depth)))
+    """The band of one element; with z0, the one holding z0 (ValueError if none does)."""
+    w = _well(top, E, D, lam)
+    candidates = [_well_band(top, w, zm) for zm in _wells(w)]
     live = [b for b in candidates if b.kind != "none"]
     if z0 is not None:
         for b in live:
-            # Only selects the well: allow for the rounding of (E, D, λ) themselves, which moves
-            # the turning points by ~ (rounding of the energy terms / depth) of the band width.
-            slack = (b.z_high - b.z_low) * (1e-6 + _conditioning(top, E, D, lam, b.depth)) + 1e-12
-            if b.z_low - slack <= z0 <= b.z_high + slack:
+            # Only selects the well: allow for the rounding of (E, D, λ) themselves.
+            if _holds_start(top, E, D, lam, b.z_low, b.z_high, b.depth, z0):
                 return b
         raise ValueError(_z0_message(z0, E, D, lam))
     if len(live) > 1:
@@ -100,8 +145,7 @@ def _band_scalar(top: TippeTop, E: float, D: float, lam: float, z0: float | None
         raise ValueError(f"V has several admissible bands {bands}; pass z0 to choose one")
     if live:
         return live[0]
-    best = max(candidates, key=lambda b: b.depth)
-    return best
+    return max(candidates, key=lambda b: b.depth)
 
 
 def _start_energy(top: TippeTop, E: float, D: float, lam: float, z0: float) -> float | None:
@@ -114,7 +158,7 @@ def _start_energy(top: TippeTop, E: float, D: float, lam: float, z0: float) -> f
     band holds z0) is returned, so that z0 is a turning point to one ulp of Ẽ; beyond it, None
     (inadmissible).
     """
-    w = _Well(top, E, D, lam)
+    w = _well(top, E, D, lam)
     excess = float(w.excess(z0))
     if not math.isfinite(excess) or excess >= 0.0:
         return None
@@ -132,6 +176,32 @@ def _start_energy(top: TippeTop, E: float, D: float, lam: float, z0: float) -> f
     return None
 
 
+def _band_one(top: TippeTop, E: float, D: float, lam: float, z0) -> tuple[Band, float]:
+    """(band, Ẽ used): :func:`_band_scalar`, with Ẽ raised onto V(z0) where the start lies outside
+    the band only by the inputs' rounding (:func:`_start_energy`). ValueError as _band_scalar."""
+    try:
+        return _band_scalar(top, E, D, lam, z0), E
+    except ValueError:
+        e_start = None if z0 is None else _start_energy(top, E, D, lam, z0)
+        if e_start is None:
+            raise
+        return _band_scalar(top, e_start, D, lam, z0), e_start
+
+
+def _value_one(top: TippeTop, E: float, D: float, lam: float, b: Band, quantity: str) -> float:
+    """Period or mean precession of one element's band (steady or nutation)."""
+    w = _well(top, E, D, lam)
+    if b.kind == "steady":
+        return float(_steady_values(top, w, np.array([b.z_min]), quantity)[0])
+    _set_reference_one(w, b.z_min)
+    T, integral = _quadrature(top, b, w, quantity == "precession")
+    if quantity == "period":
+        return T
+    if math.isinf(T):
+        return integral  # on the separatrix: the limit at the pole (_anchored_quadrature)
+    return integral / T
+
+
 def _broadcast(E, D, lam, z0=None):
     E = _validate.as_finite_array("E", E)
     D = _validate.as_finite_array("D", D)
@@ -143,58 +213,43 @@ def _broadcast(E, D, lam, z0=None):
 
 
 # --- the scalar reference implementation --------------------------------------------------
-# One element at a time with scipy's brentq: the public functions below use the array path and
-# come here only for elements it passes on (see _solve); the tests compare the two paths.
+# One element at a time: the public functions below use the array path and come here only for
+# elements it passes on (see _solve); the tests compare the two paths.
 
 
-def _admissible(top: TippeTop, E, D, lam, z0) -> tuple[Band, _Well]:
-    try:
-        b = _band_scalar(top, E, D, lam, z0)
-    except ValueError:
-        e_start = None if z0 is None else _start_energy(top, E, D, lam, z0)
-        if e_start is None:
-            raise
-        E = e_start
-        b = _band_scalar(top, E, D, lam, z0)
+def _elements(E, D, lam, z0):
+    """(shape, [(E, D, λ, z0 or None) as floats for each element in C order])."""
+    E, D, lam, z0 = _broadcast(E, D, lam, z0)
+    zz = [None] * E.size if z0 is None else [float(z) for z in z0.ravel()]
+    rows = zip(E.ravel().tolist(), D.ravel().tolist(), lam.ravel().tolist(), zz, strict=True)
+    return E.shape, list(rows)
+
+
+def _admissible(top: TippeTop, E, D, lam, z0) -> Band:
+    b, E = _band_one(top, E, D, lam, z0)
     if b.kind == "none":
         raise ValueError(_no_motion_message(E, D, lam, b.depth, b.z_min))
-    w = _Well(top, E, D, lam)
-    w.set_reference(b.z_min)
-    return b, w
+    return b
 
 
 def _map(fn, E, D, lam, z0):
-    E, D, lam, z0 = _broadcast(E, D, lam, z0)
-    zz = [None] * E.size if z0 is None else z0.ravel()
-    res = [
-        fn(float(e), float(dd), float(la), None if z is None else float(z))
-        for e, dd, la, z in zip(E.ravel(), D.ravel(), lam.ravel(), zz, strict=True)
-    ]
-    arr = np.array(res, dtype=float)
-    if E.ndim == 0:
+    shape, rows = _elements(E, D, lam, z0)
+    arr = np.array([fn(*row) for row in rows], dtype=float)
+    if shape == ():
         return float(arr[0]) if arr.ndim == 1 else arr[0]
-    return arr.reshape(E.shape + arr.shape[1:])
+    return arr.reshape(shape + arr.shape[1:])
 
 
 def _reference_band(top: TippeTop, E, D, lam, *, z0=None) -> Band:
     """:func:`band`, one element at a time (scalar reference implementation)."""
-    E, D, lam, z0 = _broadcast(E, D, lam, z0)
-    out = [
-        _band_scalar(top, float(e), float(dd), float(la), None if z0 is None else float(zz))
-        for e, dd, la, zz in zip(
-            E.ravel(),
-            D.ravel(),
-            lam.ravel(),
-            [None] * E.size if z0 is None else z0.ravel(),
-            strict=True,
-        )
-    ]
-    if E.ndim == 0:
+    shape, rows = _elements(E, D, lam, z0)
+    out = [_band_scalar(top, *row) for row in rows]
+    if shape == ():
         return out[0]
     fields = list(zip(*out, strict=True))
     return Band(
-        np.array(fields[0], dtype=object).reshape(E.shape),
-        *(np.array(col, dtype=float).reshape(E.shape) for col in fields[1:]),
+        np.array(fields[0], dtype=object).reshape(shape),
+        *(np.array(col, dtype=float).reshape(shape) for col in fields[1:]),
     )
 
 
@@ -205,61 +260,38 @@ def _reference_f(top: TippeTop, z, E, D, lam) -> np.ndarray:
     z, E, D, lam = np.broadcast_arrays(z, E, D, lam)
     out = np.empty(z.shape)
     for idx in np.ndindex(z.shape):
-        w = _Well(top, float(E[idx]), float(D[idx]), float(lam[idx]))
-        out[idx] = w.P(float(z[idx]))
-    return out / g(top, z)
+        out[idx] = _well(top, E[idx], D[idx], lam[idx]).P(float(z[idx]))
+    return out / fm.g(top, z)
 
 
 def _reference_turning_points(top: TippeTop, E, D, lam, *, z0=None) -> np.ndarray:
     """:func:`turning_points`, one element at a time (scalar reference implementation)."""
-    return _map(lambda *args: _turning_points_one(top, *args), E, D, lam, z0)
+
+    def one(e, dd, la, z):
+        b = _admissible(top, e, dd, la, z)
+        return (b.z_low, b.z_high)
+
+    return _map(one, E, D, lam, z0)
+
+
+def _reference_value(top: TippeTop, E, D, lam, z0, quantity: str) -> np.ndarray:
+    def one(e, dd, la, z):
+        b, e = _band_one(top, e, dd, la, z)
+        if b.kind == "none":
+            raise ValueError(_no_motion_message(e, dd, la, b.depth, b.z_min))
+        return _value_one(top, e, dd, la, b, quantity)
+
+    return _map(one, E, D, lam, z0)
 
 
 def _reference_nutation_period(top: TippeTop, E, D, lam, *, z0=None) -> np.ndarray:
     """:func:`nutation_period`, one element at a time (scalar reference implementation)."""
-    return _map(lambda *args: _period_one(top, *args), E, D, lam, z0)
+    return _reference_value(top, E, D, lam, z0, "period")
 
 
 def _reference_mean_precession(top: TippeTop, E, D, lam, *, z0=None) -> np.ndarray:
     """:func:`mean_precession`, one element at a time (scalar reference implementation)."""
-    return _map(lambda *args: _precession_one(top, *args), E, D, lam, z0)
-
-
-def _turning_points_one(top: TippeTop, E, D, lam, z0) -> tuple[float, float]:
-    b, _ = _admissible(top, E, D, lam, z0)
-    return (b.z_low, b.z_high)
-
-
-def _band_and_well(top: TippeTop, E, D, lam, z0, b: Band | None) -> tuple[Band, _Well]:
-    """The band (found, or the one given) and its well referenced to the band's bottom."""
-    if b is None:
-        return _admissible(top, E, D, lam, z0)
-    w = _Well(top, E, D, lam)
-    w.set_reference(b.z_min)
-    return b, w
-
-
-def _period_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
-    b, w = _band_and_well(top, E, D, lam, z0, b)
-    if b.kind == "steady":
-        return 2.0 * math.pi / _small_oscillation_omega(top, b, w)
-    return _quadrature(top, b, w)[0]
-
-
-def _precession_one(top: TippeTop, E, D, lam, z0, b: Band | None = None) -> float:
-    b, w = _band_and_well(top, E, D, lam, z0, b)
-    if b.kind == "steady":
-        if abs(b.z_min) == 1.0:
-            return _PoleForm(w, b.z_min).phidot_limit()  # the limit of a band shrinking onto it
-        return float(_phidot(top, w, b.z_min))
-    T, integral = _quadrature(top, b, w, lambda z: _phidot(top, w, z))
-    if math.isinf(T):
-        return integral  # on the separatrix: the limit at the pole (_anchored_quadrature)
-    return integral / T
-
-
-_NONE, _STEADY, _NUTATION = 0, 1, 2
-_KINDS = np.array(["none", "steady", "nutation"], dtype=object)
+    return _reference_value(top, E, D, lam, z0, "precession")
 
 
 def _z0_message(z0, E, D, lam) -> str:
@@ -276,6 +308,9 @@ def _no_motion_message(E, D, lam, depth, z_min) -> str:
     )
 
 
+# --- the array path ---------------------------------------------------------------------------
+
+
 class _Solution(NamedTuple):
     """Flat results of :func:`_solve` (broadcast shape ``shape``)."""
 
@@ -287,127 +322,124 @@ class _Solution(NamedTuple):
     depth: np.ndarray
     value: np.ndarray  # period or mean precession (NaN if not asked for)
     errors: dict  # flat index -> (message, raised by band() too)
-    scalar: np.ndarray  # elements computed by the scalar reference path
+    scalar: np.ndarray  # elements computed by the per-element path
 
 
 def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solution:
-    """Bands of all elements (and ``quantity``: "period" or "precession"), array path first."""
+    """Bands of all elements (and ``quantity``: "period" or "precession"), array path first.
+
+    The steps: validate and flatten; locate the wells; classify them; turning points (and the
+    quadrature) of the nutation bands; the steady values; check the start; and every element the
+    array path passes on (several wells, a well next to a pole, a band in a pole's layer, a start
+    outside its band) element by element.
+    """
+    shape, E, D, lam, z0 = _flat_inputs(top, E, D, lam, z0)
+    n = E.size
+    kinds = np.full(n, _NONE, dtype=np.int8)
+    sol = _Solution(shape, kinds, *(np.full(n, np.nan) for _ in range(5)), {}, np.zeros(n, bool))
+    W = _Wells(top, E, D, lam)
+    zm, vec = _array_wells(W)
+    v = np.flatnonzero(vec)
+    kind, depth = _classify(top, W.sub(v), zm[v])
+    sol.kind[v], sol.z_min[v], sol.depth[v] = kind, zm[v], depth
+    steady = v[kind == _STEADY]
+    sol.z_low[steady] = sol.z_high[steady] = zm[steady]
+    sol.depth[steady] = np.maximum(sol.depth[steady], 0.0)
+    _nutation_bands(W, v[kind == _NUTATION], zm, vec, sol, quantity)
+    if quantity is not None:
+        s = steady[vec[steady]]
+        sol.value[s] = _steady_values(top, W.sub(s), zm[s], quantity)
+    _check_start(top, E, D, lam, z0, v, vec, sol)
+    sol.scalar[:] = ~vec
+    for i in np.flatnonzero(~vec):
+        _solve_one(top, E, D, lam, z0, i, sol, quantity)
+    return sol
+
+
+def _flat_inputs(top: TippeTop, E, D, lam, z0):
+    """(shape, E, D, λ, z0): validated, bounded (:func:`mett._formulas.check_integrals`), flat."""
     _validate.instance("top", top, "TippeTop")
     E, D, lam, z0 = _broadcast(E, D, lam, z0)
-    _check_integrals(top, E=E, D=D, lam=lam)
+    fm.check_integrals(top, E=E, D=D, lam=lam)
     shape = E.shape
     E, D, lam = (np.array(v, dtype=float).ravel() for v in (E, D, lam))
-    z0 = None if z0 is None else np.array(z0, dtype=float).ravel()
-    n = E.size
-    kind = np.full(n, _NONE, dtype=np.int8)
-    z_low, z_high, z_min, depth, value = (np.full(n, np.nan) for _ in range(5))
-    errors: dict[int, tuple[str, bool]] = {}
+    return shape, E, D, lam, None if z0 is None else np.array(z0, dtype=float).ravel()
 
-    W = _Wells(top, E, D, lam)
+
+def _array_wells(W: _Wells) -> tuple[np.ndarray, np.ndarray]:
+    """(z_min, vec): the single well of each element; vec False for the per-element path (several
+    wells or none, or a well hugging a pole where N does not vanish: classified in the pole form,
+    :func:`_pole_band`)."""
     zm, vec = _locate_wells(W)
-    near = vec & (1.0 - np.abs(zm) < _NEAR_POLE)
-    k = np.flatnonzero(near)
-    if k.size:  # wells hugging a pole: classified in the pole form (scalar path, _pole_band)
+    k = np.flatnonzero(vec & (1.0 - np.abs(zm) < _NEAR_POLE))
+    if k.size:
         vec[k] = (np.abs(zm[k]) == 1.0) & W.sub(k).n_vanishes(zm[k])
-    v = np.flatnonzero(vec)
-    Wv = W.sub(v)
-    zmv = zm[v]
-    dep = Wv.excess(zmv)
-    tol, tol_in = _steady_tolerance(
-        top, E[v], D[v], lam[v], Wv.Es, Wv.gravity(zmv), _kinetic_at(Wv, zmv)
-    )
-    kv = np.where(dep < -(tol + tol_in), _NONE, np.where(dep <= tol, _STEADY, _NUTATION))
-    kind[v], z_min[v], depth[v] = kv, zmv, dep
-    steady = v[kv == _STEADY]
-    z_low[steady] = z_high[steady] = zm[steady]
-    depth[steady] = np.maximum(depth[steady], 0.0)
+    return zm, vec
 
-    # Nutation: turning points (and the quadrature) for interior and pole references apart.
-    nut = v[kv == _NUTATION]
-    at_pole = np.abs(zm[nut]) == 1.0
-    at_pole[at_pole] = W.sub(nut[at_pole]).n_vanishes(zm[nut[at_pole]])
-    vec[nut[(np.abs(zm[nut]) == 1.0) & ~at_pole]] = False  # no reference: scalar path
-    for k, pole_ref in ((nut[np.abs(zm[nut]) < 1.0], False), (nut[at_pole], True)):
+
+def _nutation_bands(W: _Wells, nut, zm, vec, sol: _Solution, quantity) -> None:
+    """Turning points (and the quadrature) of the nutation bands ``nut``, in place.
+
+    Interior and pole references apart; a well at a pole where N does not vanish has no reference,
+    and bands ending in the layer of a pole go to the graded quadrature about it: both to the
+    per-element path (vec False).
+    """
+    zn = zm[nut]
+    at_pole = np.abs(zn) == 1.0
+    at_pole[at_pole] = W.sub(nut[at_pole]).n_vanishes(zn[at_pole])
+    vec[nut[(np.abs(zn) == 1.0) & ~at_pole]] = False
+    for k, pole_ref in ((nut[np.abs(zn) < 1.0], False), (nut[at_pole], True)):
         if k.size == 0:
             continue
         Wk = W.sub(k)
         Wk.set_reference(zm[k], pole_ref)
-        zl, zh = np.full(k.size, -1.0), np.full(k.size, 1.0)
-        good = np.ones(k.size, dtype=bool)
-        for pole, zt in ((-1.0, zl), (1.0, zh)):
-            j = np.flatnonzero(zm[k] != pole)
-            zt[j], ok = _turning_points_vec(Wk.sub(j), pole, zm[k][j])
-            good[j[~ok]] = False
-        # bands ending in a boundary layer next to a pole go to the graded quadrature (scalar)
-        half = 0.5 * (zh - zl)
-        gap = np.maximum(_POLE_LAYER * half, _POLE_ABS)
-        layer = (half >= 0.0) & ((1.0 - np.abs(zl) < gap) | (1.0 - np.abs(zh) < gap))
-        good &= ~layer
+        zl, zh, good = _band_ends(Wk, zm[k])
+        low, high = _layer_ends(zl, zh)
+        good &= ~(low | high)
         vec[k[~good]] = False
-        z_low[k], z_high[k] = zl, zh
-        if quantity is not None and np.any(good):
-            j = np.flatnonzero(good)
-            T, integral = _quadrature_vec(
-                Wk.sub(j), zl[j], zh[j], zm[k[j]], precession=quantity == "precession"
+        sol.z_low[k], sol.z_high[k] = zl, zh
+        j = np.flatnonzero(good)
+        if quantity is not None and j.size:
+            T, integral = _gauss_quadrature(
+                Wk.sub(j), zl[j], zh[j], zm[k[j]], quantity == "precession"
             )
-            value[k[j]] = T if integral is None else integral / T
-    if quantity is not None:
-        s = steady[vec[steady]]
-        zs, Ds, lams = zm[s], D[s], lam[s]
-        pole = np.abs(zs) == 1.0
-        if quantity == "period":
-            omega = np.empty(s.size)
-            zi = zs[~pole]
-            curv = d2V_dz2(top, zi, Ds[~pole], lams[~pole])
-            omega[~pole] = np.sqrt((1.0 - zi * zi) * curv / (2.0 * g(top, zi)))
-            slope = np.abs(dV_dz(top, zs[pole], Ds[pole], lams[pole]))
-            omega[pole] = np.sqrt(2.0 * slope / g(top, zs[pole]))
-            value[s] = 2.0 * math.pi / omega
-        else:
-            value[s[~pole]] = W.sub(s[~pole]).phidot(zs[~pole])
-            # at a spinning pole: the limit of ⟨φ̇⟩ for a band shrinking onto it
-            for i in s[pole]:
-                w1 = _Well(top, float(E[i]), float(D[i]), float(lam[i]))
-                value[i] = _PoleForm(w1, float(zm[i])).phidot_limit()
+            sol.value[k[j]] = T if integral is None else integral / T
 
-    # The start z0 must lie in the band (up to the conditioning of the band).
-    if z0 is not None:
-        live = v[(kind[v] != _NONE) & vec[v]]
-        width = z_high[live] - z_low[live]
-        slack = width * (1e-6 + _conditioning(top, E[live], D[live], lam[live], depth[live]))
-        slack = slack + 1e-12
-        inside = (z_low[live] - slack <= z0[live]) & (z0[live] <= z_high[live] + slack)
-        bad = np.concatenate([v[(kind[v] == _NONE) & vec[v]], live[~inside]])
-        for i in bad:
-            vec[i] = False  # to the scalar path, which takes z0 as a turning point if it can
-    else:
-        for i in v[(kind[v] == _NONE) & vec[v]]:
-            msg = _no_motion_message(float(E[i]), float(D[i]), float(lam[i]), depth[i], z_min[i])
-            errors[i] = (msg, False)
 
-    # Everything else: the scalar reference path, element by element.
-    scalar = np.flatnonzero(~vec)
-    for i in scalar:
-        e, dd, la = float(E[i]), float(D[i]), float(lam[i])
-        zz = None if z0 is None else float(z0[i])
-        try:
-            b = _band_scalar(top, e, dd, la, zz)
-        except ValueError as exc:
-            e_start = None if zz is None else _start_energy(top, e, dd, la, zz)
-            if e_start is None:
-                errors[i] = (str(exc), True)
-                continue
-            e = e_start
-            b = _band_scalar(top, e, dd, la, zz)
-        kind[i] = _KINDS.tolist().index(b.kind)
-        z_low[i], z_high[i], z_min[i], depth[i] = b.z_low, b.z_high, b.z_min, b.depth
-        if b.kind == "none":
-            errors[i] = (_no_motion_message(e, dd, la, b.depth, b.z_min), False)
-        elif quantity == "period":
-            value[i] = _period_one(top, e, dd, la, zz, b)
-        elif quantity == "precession":
-            value[i] = _precession_one(top, e, dd, la, zz, b)
-    return _Solution(shape, kind, z_low, z_high, z_min, depth, value, errors, ~vec)
+def _check_start(top: TippeTop, E, D, lam, z0, v, vec, sol: _Solution) -> None:
+    """With z0: elements whose start lies outside their band (up to its conditioning) or that
+    admit no motion go to the per-element path, which takes z0 as a turning point if it can.
+    Without: "no motion" errors for the elements that admit none."""
+    none = v[(sol.kind[v] == _NONE) & vec[v]]
+    if z0 is None:
+        for i in none:
+            msg = _no_motion_message(
+                E[i].item(), D[i].item(), lam[i].item(), sol.depth[i], sol.z_min[i]
+            )
+            sol.errors[i] = (msg, False)
+        return
+    live = v[(sol.kind[v] != _NONE) & vec[v]]
+    zl, zh, depth = sol.z_low[live], sol.z_high[live], sol.depth[live]
+    inside = _holds_start(top, E[live], D[live], lam[live], zl, zh, depth, z0[live])
+    vec[none] = False
+    vec[live[~inside]] = False
+
+
+def _solve_one(top: TippeTop, E, D, lam, z0, i: int, sol: _Solution, quantity) -> None:
+    """Element i by the per-element path, in place (its error recorded, not raised)."""
+    e, dd, la = E[i].item(), D[i].item(), lam[i].item()
+    zz = None if z0 is None else z0[i].item()
+    try:
+        b, e = _band_one(top, e, dd, la, zz)
+    except ValueError as exc:
+        sol.errors[i] = (str(exc), True)
+        return
+    sol.kind[i] = _KINDS.tolist().index(b.kind)
+    sol.z_low[i], sol.z_high[i], sol.z_min[i], sol.depth[i] = b.z_low, b.z_high, b.z_min, b.depth
+    if b.kind == "none":
+        sol.errors[i] = (_no_motion_message(e, dd, la, b.depth, b.z_min), False)
+    elif quantity is not None:
+        sol.value[i] = _value_one(top, e, dd, la, b, quantity)
 
 
 def _raise_first(sol: _Solution, *, band_only: bool = False) -> None:
@@ -451,6 +483,22 @@ def band(
     return Band(kinds.reshape(sol.shape), *(a.reshape(sol.shape) for a in sol[2:6]))
 
 
+def minima(top: TippeTop, D: float, lam: float) -> list[float]:
+    """Positions z = cos θ of the local minima of V(·, D, λ) on [−1, 1], ascending (scalar D, λ).
+
+    Found from the sign changes of the regular numerator (1 − z²)² ∂V/∂z on a grid denser towards
+    the poles, each refined to full precision; a pole is a minimum when V decreases towards it
+    (possible only where N vanishes there, D = D0 or D1), and a minimum at a pole where N does not
+    vanish is returned as the float next to it (V is +inf at the pole itself).
+    """
+    _validate.instance("top", top, "TippeTop")
+    D = _validate.finite_scalar("D", D)
+    lam = _validate.finite_scalar("lam", lam)
+    fm.check_integrals(top, D=np.asarray(D), lam=np.asarray(lam))
+    # The energy does not move the minima; 0 keeps the shift finite.
+    return _wells(_well(top, 0.0, D, lam))
+
+
 def classify_motion(top: TippeTop, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -> np.ndarray | str:
     """ "nutation", "steady" (bottom of the well) or "none" (no admissible motion); see :func:`band`."""
     return band(top, E, D, lam).kind
@@ -465,10 +513,10 @@ def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -
     _validate.instance("top", top, "TippeTop")
     z = _validate.cos_theta(z)
     E, D, lam, _ = _broadcast(E, D, lam)
-    _check_integrals(top, E=E, D=D, lam=lam)
+    fm.check_integrals(top, E=E, D=D, lam=lam)
     Es = _shift(top, E, D, lam)
     z, E, D, lam, Es = np.broadcast_arrays(z, E, D, lam, Es)
-    return _Wells(top, E, D, lam, Es).P_direct(z) / g(top, z)
+    return _Wells(top, E, D, lam, Es).P_direct(z) / fm.g(top, z)
 
 
 def turning_points(
@@ -538,6 +586,19 @@ def mean_precession(
 
     ⟨φ̇⟩ = (2/T) ∫ φ̇(z) √(g/P) dz with φ̇(z) = N(z)/(R I1 (1 − z²)√d(z)); for steady precession
     the rate φ̇(z_min) itself.
+
+    Notes
+    -----
+    A band that reaches a pole where N(±1) is zero to rounding (within 64 ulps of its terms λ√d
+    and R D(α ∓ 1): D = D0 or D1 rounded to a double, a state on the axis) passes through the
+    vertical, where the precession angle jumps by ±π with the sign of N(±1), which the rounding
+    of the inputs does not fix. The value returned leaves the jump out: it is the mean of the two
+    one-sided values, and continuous with the steady spin at the pole (the limit of the bands
+    shrinking onto it, returned for that steady spin). Taking the doubles (E, D, λ) as exact, with
+    N(±1) ≠ 0, the mean precession is this value plus sign(N(±1)) π/T for each pole the band
+    reaches (checked against a 60-digit quadrature to 1e-12 of π/T), or ± π/T of the
+    small-oscillation period for the steady spin; where the band is itself only a few ulps wide
+    (a start within ~1e-7 rad of a pole at high spin) the exact inputs also reshape it.
     """
     sol = _solve(top, E, D, lam, z0, "precession")
     _raise_first(sol)

@@ -16,25 +16,28 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import optimize
 
-from ..potential import _d, d2V_dz2, dV_dz, g
+from .._formulas import g
+from ..potential import d2V_dz2, dV_dz
 
 if TYPE_CHECKING:
     from ..top import TippeTop
 from ._exact import _EPS, _MAXITER
-from ._roots import _offset_root, _offset_roots
-from ._wells import Band, _interior_u, _pole_layer, _PoleForm, _root_towards, _Well, _Wells
+from ._roots import _offset_roots
+from ._wells import Band, _interior_u, _pole_layer, _PoleForm, _root_towards, _Wells
 
 _N_QUAD = 96  # Gauss–Legendre nodes in u for periods and means
 _U_NODES, _U_WEIGHTS = np.polynomial.legendre.leggauss(_N_QUAD)
 _U_NODES = 0.5 * np.pi * _U_NODES
 _U_WEIGHTS = 0.5 * np.pi * _U_WEIGHTS
+_SIN_U, _COS_U = np.sin(_U_NODES), np.cos(_U_NODES)
+_HALF = _N_QUAD // 2  # nodes u <= 0 (lower half of the band) come first
 
 
 def _gauss_sum(values):
     """Σ weights · values over the last axis (the u nodes).
 
     Summed the same way for one element and for a row of many (numpy's pairwise sum along a
-    contiguous row), so the array path and the scalar path agree to the last bit.
+    contiguous row), so an element gets the same sum on its own as in an array.
     """
     return np.sum(values * _U_WEIGHTS, axis=-1)
 
@@ -94,7 +97,7 @@ def _separatrix(form: _PoleForm, tol: float) -> bool:
     return form.N_p == 0.0 and abs(form.A) <= tol
 
 
-def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tuple[float, float]:
+def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tuple[float, float]:
     """(T, ∮ φ̇ dt) for a band with an end in the layer of a pole (:func:`_pole_layer`).
 
     Each end is written as its distance u_t from its nearer pole and re-solved there
@@ -102,6 +105,11 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tupl
     turning point by :func:`_anchored_half`. On the separatrix (an end at an unstable pole with
     Ẽ = V there) the period is infinite and ⟨φ̇⟩ is the pole's limit of φ̇ (the motion spends all
     but a vanishing fraction of its time there): (inf, that limit) is returned.
+
+    An end at a pole where N is zero to rounding is integrated with N(±1) = 0: the ±π jump of the
+    precession angle there, whose sign is that of N(±1), is left out (see
+    :func:`mean_precession`); an end at a wall off the pole is integrated with the exact N(±1)
+    and carries its part of the angle itself.
     """
     za, zb = b.z_low, b.z_high
     pa = 1.0 if za >= 0.0 else -1.0
@@ -111,7 +119,10 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tupl
     ua0, ub0 = 1.0 - pa * za, 1.0 - pb * zb  # exact (Sterbenz) for |z| ≥ ½
     if pa == pb:
         # both ends next to one pole: the roots about a point inside, found in u (in z the ends
-        # may be a few ulps apart or even equal)
+        # may be a few ulps apart or even equal), both in one form of P (N_p = 0 if an end is at
+        # the pole: with the exact N_p the far end's root would belong to another P, and the
+        # half-band between them could hold P < 0)
+        fa = fb = _PoleForm(w, pa, abs(za) == 1.0 or abs(zb) == 1.0)
         u_in = _interior_u(fa, 1.0 - pa * b.z_min)[0]
         u_lo = _root_towards(fa.P, 0.0, u_in) if float(fa.P(0.0)) < 0.0 else 0.0
         lo, hi = u_in, 2.0 * u_in
@@ -135,72 +146,67 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Well, weight: bool) -> tupl
     return T, integral
 
 
-def _quadrature(top: TippeTop, b: Band, w: _Well, weight_fn=None) -> tuple[float, float]:
-    """(T, ∮ weight dt) over one period, by Gauss–Legendre in u after z = c + h sin u.
+def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: bool) -> tuple[float, float]:
+    """(T, ∮ φ̇ dt) over one period of one element's band (NaN without ``precession``).
 
-    T = 2∫ √(g/P) dz = 2∫ √(g/R) du with R = P/((z − z_a)(z_b − z)). With an interior reference
-    point the nodes are placed as offsets x = z − z_r (see :func:`_offset_root`) and R is formed from
-    divided differences: since Ẽ = V at both turning points, P(x) = w(x)(ΔV(x_a) − ΔV(x)), so
+    Bands in the layer of a pole: :func:`_anchored_quadrature`; with P about the bottom of the
+    well: :func:`_gauss_quadrature`; without a reference (a well within a few
+    ulps of a pole): the same Gauss rule in z.
+    """
+    if any(_pole_layer(b)):
+        return _anchored_quadrature(top, b, w, precession)
+    if w.zr is not None:
+        T, integral = _gauss_quadrature(
+            w, *(np.array([v]) for v in (b.z_low, b.z_high, b.z_min)), precession
+        )
+        return float(T[0]), math.nan if integral is None else float(integral[0])
+    c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
+    z = c + h * _SIN_U
+    integrand = h * _COS_U * np.sqrt(g(top, z) / w.P(z))
+    T = 2.0 * float(_gauss_sum(integrand))
+    if not precession:
+        return T, math.nan
+    return T, 2.0 * float(_gauss_sum(integrand * w.phidot(z)))
+
+
+def _steady_values(top: TippeTop, W: _Wells, zm, quantity: str) -> np.ndarray:
+    """Period or mean precession of steady precession at the bottoms z_m of the elements' wells.
+
+    Period: the small-oscillation limit 2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m))
+    (docs/theory/estimates.md#estimates); at a spinning pole z oscillates as ü = (ε − 2|V'| u)/g in
+    u = 1 ∓ z: ω² = 2|V'(±1)|/g. Precession: φ̇(z_m), at a spinning pole the limit of ⟨φ̇⟩ for a
+    band shrinking onto it (:meth:`_PoleForm.phidot_limit`).
+    """
+    pole = np.abs(zm) == 1.0
+    out = np.empty(zm.size)
+    D, lam = np.broadcast_to(W.D, zm.shape), np.broadcast_to(W.lam, zm.shape)
+    if quantity == "period":
+        zi = zm[~pole]
+        curv = d2V_dz2(top, zi, D[~pole], lam[~pole])
+        omega = np.sqrt((1.0 - zi * zi) * curv / (2.0 * g(top, zi)))
+        slope = np.abs(dV_dz(top, zm[pole], D[pole], lam[pole]))
+        omega_pole = np.sqrt(2.0 * slope / g(top, zm[pole]))
+        out[~pole], out[pole] = 2.0 * math.pi / omega, 2.0 * math.pi / omega_pole
+        return out
+    out[~pole] = W.sub(~pole).phidot(zm[~pole])
+    for i in np.flatnonzero(pole):
+        out[i] = _PoleForm(W.element(i), float(zm[i])).phidot_limit()
+    return out
+
+
+def _gauss_quadrature(W: _Wells, z_low, z_high, z_min, precession: bool):
+    """(T, ∮ φ̇ dt or None) for every element of W (reference set), by Gauss–Legendre in u after
+    z = c + h sin u.
+
+    T = 2∫ √(g/P) dz = 2∫ √(g/R) du with R = P/((z − z_a)(z_b − z)). The nodes are placed as
+    offsets x = z − z_r (see :func:`_offset_roots`) and R is formed from divided differences: since
+    Ẽ = V at both turning points, P(x) = w(x)(ΔV(x_a) − ΔV(x)), so
     R = −w ΔV[x_a, x]/(x_b − x) = w ΔV[x_b, x]/(x − x_a), each node using the farther turning point.
     No node then divides two tiny numbers, which otherwise costs digits next to the turning points
-    (worst at the bottom of the well, where the whole band is tiny). ``weight_fn`` gets z.
+    (worst at the bottom of the well, where the whole band is tiny). The divided differences need
+    Ẽ = V at both ends: not at a wall next to a pole, nor where they come out non-positive
+    (degenerate geometry, e.g. a wall one ulp from a pole); there h cos u √(g/P) is summed instead.
     """
-    nodes = _U_NODES
-    if any(_pole_layer(b)):
-        return _anchored_quadrature(top, b, w, weight_fn is not None)
-    if w.zr is None:
-        c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
-        z = c + h * np.sin(nodes)
-        integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P(z))
-    else:
-        (x_a, root_a), (x_b, root_b) = (_offset_root(w, zt, b.z_min) for zt in (b.z_low, b.z_high))
-        # The divided differences need Ẽ = V at both ends: not at a wall next to a pole.
-        interior = not w.pole_ref and abs(b.z_low) < 1.0 and abs(b.z_high) < 1.0
-        interior = interior and root_a and root_b
-        c, h = 0.5 * (x_a + x_b), 0.5 * (x_b - x_a)
-        x = c + h * np.sin(nodes)
-        z = np.clip(w.zr + x, -1.0, 1.0)
-        integrand = None
-        if interior:
-            wx = w.w_r - (2.0 * w.zr + x) * x
-            lower = nodes <= 0.0
-            with np.errstate(divide="ignore", invalid="ignore"):
-                R = np.where(
-                    lower,
-                    -wx * w.delta_V_divided(x_a, x) / (x_b - x),
-                    wx * w.delta_V_divided(x_b, x) / (x - x_a),
-                )
-            if np.all(np.isfinite(R) & (R > 0.0)):
-                integrand = np.sqrt(g(top, z) / R)
-        if integrand is None:  # degenerate geometry (e.g. a wall one ulp from a pole)
-            integrand = h * np.cos(nodes) * np.sqrt(g(top, z) / w.P_offset(x))
-    T = 2.0 * float(_gauss_sum(integrand))
-    if weight_fn is None:
-        return T, math.nan
-    return T, 2.0 * float(_gauss_sum(integrand * weight_fn(z)))
-
-
-def _small_oscillation_omega(top: TippeTop, b: Band, w: _Well) -> float:
-    zm = b.z_min
-    if abs(zm) == 1.0:
-        # At a spinning pole z oscillates as ü = (ε − 2|V'| u)/g in u = 1 ∓ z: ω² = 2|V'(±1)|/g.
-        slope = abs(float(dV_dz(top, zm, w.D, w.lam)))
-        return math.sqrt(2.0 * slope / float(g(top, zm)))
-    curv = float(d2V_dz2(top, zm, w.D, w.lam))
-    return math.sqrt((1.0 - zm * zm) * curv / (2.0 * float(g(top, zm))))
-
-
-def _phidot(top: TippeTop, w: _Well, z):
-    """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (docs/theory/mett.md#the-main-equation)."""
-    return w.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(_d(top, z)))
-
-
-_SIN_U, _COS_U = np.sin(_U_NODES), np.cos(_U_NODES)
-_HALF = _N_QUAD // 2  # nodes u <= 0 (lower half of the band) come first
-
-
-def _quadrature_vec(W: _Wells, z_low, z_high, z_min, precession: bool):
-    """:func:`_quadrature` for every element of W (reference set): (T, ∮ φ̇ dt or None)."""
     top = W.top
     x_a, root_a = _offset_roots(W, z_low, z_min)
     x_b, root_b = _offset_roots(W, z_high, z_min)
@@ -209,24 +215,35 @@ def _quadrature_vec(W: _Wells, z_low, z_high, z_min, precession: bool):
     divided &= not W.pole_ref
     T = np.full(z_low.shape, np.nan)
     integral = np.full(z_low.shape, np.nan) if precession else None
-    for mask, use_divided in ((divided, True), (~divided, False)):
-        k = np.flatnonzero(mask)
-        if k.size == 0:
-            continue
+    k = np.flatnonzero(divided)
+    if k.size:
         Wk = W.sub(k).col()
-        xa, xb, hk = x_a[k, None], x_b[k, None], h[k, None]
-        x = c[k, None] + hk * _SIN_U
+        xa, xb = x_a[k, None], x_b[k, None]
+        x = c[k, None] + h[k, None] * _SIN_U
         z = np.clip(Wk.zr + x, -1.0, 1.0)
-        if use_divided:
-            wx = Wk.w_r - (2.0 * Wk.zr + x) * x
-            xl, xu = x[:, :_HALF], x[:, _HALF:]
-            R = np.empty_like(x)
+        wx = Wk.w_r - (2.0 * Wk.zr + x) * x
+        xl, xu = x[:, :_HALF], x[:, _HALF:]
+        R = np.empty_like(x)
+        with np.errstate(divide="ignore", invalid="ignore"):
             R[:, :_HALF] = -wx[:, :_HALF] * Wk.delta_V_divided(xa, xl) / (xb - xl)
             R[:, _HALF:] = wx[:, _HALF:] * Wk.delta_V_divided(xb, xu) / (xu - xa)
-            integrand = np.sqrt(g(top, z) / R)
-        else:
-            integrand = hk * _COS_U * np.sqrt(g(top, z) / Wk.P_offset(x))
-        T[k] = 2.0 * _gauss_sum(integrand)
-        if precession:
-            integral[k] = 2.0 * _gauss_sum(integrand * Wk.phidot(z))
+        fine = np.all(np.isfinite(R) & (R > 0.0), axis=1)
+        if not fine.all():
+            divided[k[~fine]] = False
+            k, Wk, z, R = k[fine], Wk.sub(fine), z[fine], R[fine]
+        _gauss_sums(Wk, np.sqrt(g(top, z) / R), z, k, T, integral)
+    k = np.flatnonzero(~divided)
+    if k.size:
+        Wk = W.sub(k).col()
+        x = c[k, None] + h[k, None] * _SIN_U
+        z = np.clip(Wk.zr + x, -1.0, 1.0)
+        integrand = h[k, None] * _COS_U * np.sqrt(g(top, z) / Wk.P_offset(x))
+        _gauss_sums(Wk, integrand, z, k, T, integral)
     return T, integral
+
+
+def _gauss_sums(Wk: _Wells, integrand, z, k, T, integral) -> None:
+    """T[k] = 2 Σ integrand (and integral[k] = 2 Σ integrand · φ̇(z) unless None), in place."""
+    T[k] = 2.0 * _gauss_sum(integrand)
+    if integral is not None:
+        integral[k] = 2.0 * _gauss_sum(integrand * Wk.phidot(z))

@@ -1,9 +1,11 @@
 """Root finding: a vectorised transcription of scipy's brentq (:func:`_brentq`) and the turning
-points of P, in z and as offsets from the bottom of the well.
+points of P, in z and as offsets from the bottom of the well, for arrays of elements (one element
+is a length-1 array: :meth:`_Wells.row`).
 
-scipy ≥ 1.15 has ``scipy.optimize.elementwise.find_root``, but it is a different algorithm (Chandrupatla):
-the array path must give each element the root scipy's scalar ``brentq`` gives it, bit for bit, so
-that the vectorised and the scalar calls agree; the transcription keeps that and is as fast.
+scipy ≥ 1.15 has ``scipy.optimize.elementwise.find_root``, but it is a different algorithm
+(Chandrupatla): the roots must be the ones scipy's scalar ``brentq`` gives, which the per-element
+pole forms (:class:`_PoleForm`) still use, so that an element gets the same numbers whichever
+path it takes; :func:`_brentq` transcribes brentq for arrays instead and is as fast.
 """
 
 from __future__ import annotations
@@ -16,98 +18,20 @@ from scipy import optimize
 from ._exact import _EPS, _MAXITER
 
 if TYPE_CHECKING:
-    from ._wells import _Well, _Wells
+    from ._wells import _Wells
 
 _OFFSET_STEP = 4.0 * float(np.spacing(1.0))  # first half-width of an offset turning point's bracket
 _OFFSET_TRIES = 40  # ... widened 4× per try
 
 
-def _turning_point(w: _Well, pole: float, zm: float) -> float:
-    """The root of P between the bottom z_m of the well (P > 0) and the pole ``pole`` (±1).
-
-    P(±1) = −C N(±1)² < 0 unless N vanishes at the pole. Then P(pole) = 0 through its factor
-    1 − z², and the pole is a turning point only if Ẽ ≥ V(pole) (the axis passes through the
-    vertical); otherwise the root lies inside and is bracketed from the first float off the pole.
-    """
-    if abs(zm) == 1.0:  # a well at the other pole: P vanishes there too, step inside
-        zm = float(np.nextafter(zm, pole))
-    p_pole = w.P(pole)
-    if p_pole >= 0.0:
-        if w.excess(pole) >= 0.0:
-            return pole
-        pole = float(np.nextafter(pole, zm))
-        if pole == zm or w.P(pole) >= 0.0:
-            return pole  # the wall (N ≈ 0, a vanishing spin) is within one ulp of the pole
-    lo, hi = (pole, zm) if pole < zm else (zm, pole)
-    root = optimize.brentq(w.P, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
-    return _polish_near_pole(w, root, pole, zm)
-
-
-def _polish_near_pole(w, root: float, pole: float, zm: float) -> float:
-    """Re-solve a turning point that lies next to a pole with the direct P.
-
-    The expansion about the bottom of the well is accurate to ~ε·max P in absolute terms, while
-    next to a pole both terms of P = (1 − z²)(E' − U) − C N² are tiny, so that is not enough there
-    (e.g. an unstable inverted start θ0 = π − 1e-4 has its turning point 5e-9 from the pole). The
-    direct form is accurate to ~ε of its small terms there. Used for a root in the quarter of
-    [pole, z_m] next to the pole, when the direct form brackets it.
-    """
-    if w.zr is None or getattr(w, "pole_ref", False) or abs(root - pole) > 0.25 * abs(zm - pole):
-        return root
-    mid = pole + 0.5 * (zm - pole)
-    if not (w.P_direct(pole) < 0.0 < w.P_direct(mid)):
-        return root
-    lo, hi = (pole, mid) if pole < mid else (mid, pole)
-    return optimize.brentq(w.P_direct, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER)
-
-
-def _near_pole_root(z_t, z_m):
-    """Turning points in the quarter of [pole, z_m] next to a pole (see _polish_near_pole)."""
-    pole = np.copysign(1.0, z_t)
-    return np.abs(z_t - pole) <= 0.25 * np.abs(z_m - pole)
-
-
-def _offset_root(w: _Well, z_t: float, z_m: float) -> tuple[float, bool]:
-    """Turning point z_t as the offset z_t − z_r from the reference, refined on P_offset.
-
-    Returns the offset and whether it is a root of P (False for a wall next to a pole).
-
-    z_t is a correctly rounded root of P, but at high spin ulp(z_t) is not small against the band:
-    the Gauss–Legendre node next to a turning point is only ~1e-7 band widths from it, so an
-    endpoint off by one ulp of z puts a relative error of ulp/(1e-7 h) into P there. (Before this,
-    periods at ω3 = 3000 rad/s were off by ~1e-7 and at 3e4 rad/s by ~1e-5.)
-    """
-    x0 = z_t - w.zr
-    if abs(z_t) == 1.0:
-        return x0, True  # a pole reached by the band (N vanishes there): a turning point exactly
-    if not w.pole_ref and _near_pole_root(z_t, z_m):
-        return (
-            x0,
-            True,
-        )  # solved with the direct P (_polish_near_pole); the expansion is worse there
-    inward = 1.0 if z_m > z_t else -1.0
-    step = _OFFSET_STEP
-    for _ in range(_OFFSET_TRIES):
-        a, b = x0 - inward * step, x0 + inward * step  # a outside the band (P < 0), b inside
-        if abs(w.zr + a) < 1.0 and (b - x0) * inward < abs(z_m - z_t):
-            pa, pb = w.P_offset(a), w.P_offset(b)
-            if pa <= 0.0 <= pb:
-                lo, hi = min(a, b), max(a, b)
-                return optimize.brentq(
-                    w.P_offset, lo, hi, xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER
-                ), True
-        step *= 4.0
-    # No sign change next to z_t: a wall within one ulp of a pole (N ≈ 0, a vanishing spin; see
-    # _turning_point), not a root of P.
-    return x0, False
-
-
 def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter: int = _MAXITER):
     """scipy.optimize.brentq for arrays of brackets [a, b], iterate for iterate.
 
-    ``fun(x, k)`` evaluates the function of the elements with indices ``k`` (into ``a``) at ``x``.
+    ``fun(x, k)`` evaluates the function of the elements with indices ``k`` (into ``a``) at ``x``
+    (an array, or a float for a single element).
     The arithmetic and the branches are those of scipy's C implementation, so each element gets
-    the root scipy would return for it; converged elements drop out of the evaluations.
+    the root scipy would return for it; converged elements drop out of the evaluations. A single
+    element is handed to scipy's brentq itself (the same root, without the array overhead).
 
     Returns
     -------
@@ -118,6 +42,22 @@ def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter:
     n = a.size
     root, ok = np.full(n, np.nan), np.ones(n, dtype=bool)
     if n == 0:
+        return root, ok
+    if n == 1:  # one element: scipy's brentq itself, on floats, without the array bookkeeping
+        ids = np.zeros(1, dtype=np.intp)
+        try:
+            root[0] = optimize.brentq(
+                lambda x: fun(x, ids).item(),
+                float(a[0]),
+                float(b[0]),
+                xtol=xtol,
+                rtol=rtol,
+                maxiter=maxiter,
+                full_output=True,
+                disp=False,
+            )[0]
+        except ValueError:  # f(a) and f(b) of the same sign
+            ok[0] = False
         return root, ok
     ids = np.arange(n)
     xp, xc = a.copy(), b.copy()
@@ -167,8 +107,22 @@ def _brentq(fun, a, b, *, xtol: float = 1e-300, rtol: float = 4 * _EPS, maxiter:
     return root, ok
 
 
-def _turning_points_vec(W: _Wells, pole: float, zm) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_turning_point` for every element of W (reference set): (z, ok)."""
+def _turning_points(W: _Wells, pole: float, zm) -> tuple[np.ndarray, np.ndarray]:
+    """(z, ok): the root of P between the bottom z_m of the well (P > 0) and ``pole`` (±1).
+
+    P(±1) = −C N(±1)² < 0 unless N vanishes at the pole. Then P(pole) = 0 through its factor
+    1 − z², and the pole is a turning point only if Ẽ ≥ V(pole) (the axis passes through the
+    vertical); otherwise the root lies inside and is bracketed from the first float off the pole
+    (or is that float: a wall within one ulp of the pole, N ≈ 0, a vanishing spin). A well at the
+    other pole is stepped inside first (P vanishes there too). ok is False where P has no sign
+    change between z_m and the pole.
+
+    A root in the quarter of [pole, z_m] next to the pole is re-solved with the direct P where that
+    brackets it: the expansion about the bottom of the well is accurate to ~ε·max P in absolute
+    terms, while next to a pole both terms of P = (1 − z²)(E' − U) − C N² are tiny (e.g. an
+    unstable inverted start θ0 = π − 1e-4 has its turning point 5e-9 from the pole); the direct
+    form is accurate to ~ε of its small terms there.
+    """
     zm = np.where(np.abs(zm) == 1.0, np.nextafter(zm, pole), zm)
     n = zm.size
     out, ok = np.full(n, np.nan), np.ones(n, dtype=bool)
@@ -190,9 +144,8 @@ def _turning_points_vec(W: _Wells, pole: float, zm) -> tuple[np.ndarray, np.ndar
         lambda x, j: W.sub(k[j]).P(x), np.minimum(end[k], zm[k]), np.maximum(end[k], zm[k])
     )
     out[k], ok[k] = root, good
-    # polish roots next to the pole with the direct P (see _polish_near_pole)
-    if not W.pole_ref:
-        k = np.flatnonzero(ok & ~np.isnan(out) & (np.abs(out - pole) <= 0.25 * np.abs(zm - pole)))
+    if W.zr is not None and not W.pole_ref:
+        k = k[good & _near_pole_root(root, zm[k])]
         if k.size:
             Wk = W.sub(k)
             mid = pole + 0.5 * (zm[k] - pole)
@@ -205,9 +158,26 @@ def _turning_points_vec(W: _Wells, pole: float, zm) -> tuple[np.ndarray, np.ndar
     return out, ok
 
 
+def _near_pole_root(z_t, z_m):
+    """Turning points in the quarter of [pole, z_m] next to a pole (see :func:`_turning_points`)."""
+    pole = np.copysign(1.0, z_t)
+    return np.abs(z_t - pole) <= 0.25 * np.abs(z_m - pole)
+
+
 def _offset_roots(W: _Wells, z_t, z_m) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_offset_root` for every element of W: (offsets, is_root)."""
+    """(offsets, is_root): turning points z_t as offsets z_t − z_r from the reference, refined on
+    P_offset; is_root False for a wall next to a pole.
+
+    z_t is a correctly rounded root of P, but at high spin ulp(z_t) is not small against the band:
+    the Gauss–Legendre node next to a turning point is only ~1e-7 band widths from it, so an
+    endpoint off by one ulp of z puts a relative error of ulp/(1e-7 h) into P there. (Before this,
+    periods at ω3 = 3000 rad/s were off by ~1e-7 and at 3e4 rad/s by ~1e-5.) A pole reached by the
+    band (N vanishes there) is a turning point exactly, and a root next to a pole solved with the
+    direct P (:func:`_turning_points`) is kept: the expansion is worse there. Where no sign change
+    lies next to z_t, z_t is a wall within one ulp of a pole (N ≈ 0, a vanishing spin), not a root.
+    """
     x0 = z_t - W.zr
+    zr = np.broadcast_to(W.zr, x0.shape)
     out = x0.copy()
     found = (np.abs(z_t) == 1.0) | (_near_pole_root(z_t, z_m) & (not W.pole_ref))
     inward = np.where(z_m > z_t, 1.0, -1.0)
@@ -221,7 +191,7 @@ def _offset_roots(W: _Wells, z_t, z_m) -> tuple[np.ndarray, np.ndarray]:
         if k.size == 0:
             break
         a, b = x0[k] - inward[k] * step, x0[k] + inward[k] * step
-        c = (np.abs(W.zr[k] + a) < 1.0) & ((b - x0[k]) * inward[k] < room[k])
+        c = (np.abs(zr[k] + a) < 1.0) & ((b - x0[k]) * inward[k] < room[k])
         kc, a, b = k[c], a[c], b[c]
         if kc.size:
             Wk = W.sub(kc)

@@ -1,5 +1,5 @@
-"""P(z) and the wells of V for one element (:class:`_Well`) or many (:class:`_Wells`), the pole
-form of P (:class:`_PoleForm`) and the classification of a well as nutation, steady or none.
+"""P(z) and the wells of V for one element or many (:class:`_Wells`), the pole form of P
+(:class:`_PoleForm`) and the classification of a well as nutation, steady or none.
 """
 
 from __future__ import annotations
@@ -12,36 +12,76 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from scipy import optimize
 
-from ..potential import _N, _POLE_RTOL, _d, _kinetic_coefficient, dd_dz
+from .. import _formulas as fm
 
 if TYPE_CHECKING:
     from ..top import TippeTop
-from ._exact import _EPS, _MAXITER, _shift, _shift_fraction, _shifted_energy
+from ._exact import _EPS, _MAXITER, _shift, _shift_fraction
 from ._roots import _brentq
 
+_TINY = float(np.finfo(float).tiny)  # the smallest normal double
 _N_GRID = 401  # samples of the critical-point numerator when locating the wells of V
 _Z_GRID = np.cos(np.linspace(np.pi, 0.0, _N_GRID))  # denser near the poles
 _Z_GRID[0], _Z_GRID[-1] = -1.0, 1.0
 
 
-class _Well:
-    """P(z) and friends for one (E, D, λ), all in double after the exact energy shift.
+class _Wells:
+    """P(z) and friends for n elements (E, D, λ), all in double after the exact energy shift.
+
+    Per-element quantities are 1-d arrays, or floats for one element on its own (the per-element
+    path); every method is elementwise arithmetic, the same operations for both, and the array
+    algorithms (turning points, quadrature, classification) run on either: :meth:`sub` selects
+    elements and :meth:`col` turns the per-element arrays into columns that broadcast against
+    (n, k) arrays of z (grid, nodes), while one element on its own broadcasts as it is. Squares are
+    written as products (a float power may round differently from numpy's square), so an element
+    gets the same bits on its own as in an array.
 
     Once a band is known, :meth:`set_reference` switches P to the form P(z) = w(z)(depth − ΔV(z))
     around the bottom z_r of the well, where depth = Ẽ − V(z_r) is computed once and
     ΔV(z) = V(z) − V(z_r) is assembled from exact differences (U is linear, d quadratic): near the
-    bottom of the well, where Ẽ − V is tiny, no large terms cancel any more.
+    bottom of the well, where Ẽ − V is tiny, no large terms cancel any more. A reference is interior
+    for all elements of an instance or at a pole for all.
     """
 
-    def __init__(self, top: TippeTop, E: float, D: float, lam: float) -> None:
+    _PER_ELEMENT = ("E", "D", "lam", "Es", "zr", "sqd_r", "dd_r", "w_r", "N_r", "depth_r", "A_r")
+
+    def __init__(self, top: TippeTop, E, D, lam, Es=None) -> None:
         self.top, self.E, self.D, self.lam = top, E, D, lam
-        self.Es = _shifted_energy(top, E, D, lam)
-        self.C = _kinetic_coefficient(top)
+        self.single = np.ndim(E) == 0  # one element on its own (float attributes)
+        self.Es = _shift(top, E, D, lam) if Es is None else Es
+        if self.single:
+            self.Es = float(self.Es)
+        self.C = fm.kinetic_coefficient(top)
         self.mgR = top.m * top.g * top.R
-        self.zr: float | None = None
+        self.pole_ref = False
+        self.zr = self.sqd_r = self.dd_r = self.w_r = self.N_r = self.depth_r = self.A_r = None
+
+    def _derive(self, fn) -> _Wells:
+        new = object.__new__(_Wells)
+        new.__dict__.update(self.__dict__)
+        for name in self._PER_ELEMENT:
+            v = getattr(self, name)
+            if v is not None:
+                setattr(new, name, fn(v))
+        return new
+
+    def sub(self, idx) -> _Wells:
+        """The elements ``idx`` (one element on its own broadcasts: any selection is itself)."""
+        return self if self.single else self._derive(lambda v: v[idx])
+
+    def col(self) -> _Wells:
+        return self if self.single else self._derive(lambda v: v[:, None])
+
+    def element(self, i: int) -> _Wells:
+        """Element ``i`` on its own, with float attributes."""
+        if self.single:
+            return self
+        new = self._derive(lambda v: float(v[i]))
+        new.single = True
+        return new
 
     def N(self, z):
-        return _N(self.top, np.sqrt(_d(self.top, z)), z, self.D, self.lam)
+        return fm.N(self.top, np.sqrt(fm.d(self.top, z)), z, self.D, self.lam)
 
     def gravity(self, z):
         return self.mgR * (1.0 - self.top.alpha * z)
@@ -50,38 +90,62 @@ class _Well:
         n = self.N(z)
         return (1.0 - z * z) * (self.Es - self.gravity(z)) - self.C * n * n
 
-    def set_reference(self, zr: float) -> None:
-        """Expand P about an interior point z_r (the bottom of the band's well).
+    def critical(self, z):
+        """(1 − z²)² ∂V/∂z: regular on [−1, 1]; its sign changes − → + are the minima of V."""
+        top = self.top
+        sqd = np.sqrt(fm.d(top, z))
+        n = fm.N(top, sqd, z, self.D, self.lam)
+        dn = self.lam * fm.dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
+        w = 1.0 - z * z
+        return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
 
-        A pole z_r = ±1 where N vanishes (a well at a spinning pole, D = D0 or D1) is allowed too:
-        there P(z_r + δ) = w(δ)(A + m g R α δ) − C ΔN(δ)² with A = Ẽ − V(z_r) = E' − m g R(1 ∓ α)
+    def scale(self, z):
+        """Size of the terms of P at z, for rounding-error tolerances."""
+        n = self.N(z)
+        return (1.0 - z * z) * (np.abs(self.Es) + self.gravity(z)) + self.C * n * n
+
+    def n_vanishes(self, z):
+        """Whether N(z) is zero to rounding (at a pole: the spinning solutions D = D0, D1)."""
+        top = self.top
+        scale = np.abs(self.lam) * np.sqrt(fm.d(top, z)) + np.abs(top.R * self.D * (top.alpha - z))
+        return np.abs(self.N(z)) <= fm.POLE_RTOL * scale
+
+    def excess(self, z):
+        """Ẽ − V(z) (finite limit at a pole where N vanishes, −inf at one where it does not)."""
+        w = 1.0 - z * z
+        n = self.N(z)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside = self.Es - self.gravity(z) - self.C * n * n / w
+        at_pole = np.where(self.n_vanishes(z), self.Es - self.gravity(z), -np.inf)
+        return np.where(w == 0.0, at_pole, inside)[()]
+
+    def set_reference(self, zr, pole_ref: bool) -> None:
+        """Expand P about the bottom z_r of the band's well (interior, or ``pole_ref``).
+
+        ``pole_ref``: z_r = ±1 where N vanishes (a well at a spinning pole, D = D0 or D1). There
+        P(z_r + δ) = w(δ)(A + m g R α δ) − C ΔN(δ)² with A = Ẽ − V(z_r) = E' − m g R(1 ∓ α)
         computed exactly (:func:`_shift`), so a narrow band next to the pole keeps its digits.
         """
-        self.pole_ref = abs(zr) == 1.0
-        if abs(zr) >= 1.0 and not (self.pole_ref and self.n_vanishes(zr)):
-            self.zr = None
-            return
-        self.zr = zr
-        if self.pole_ref:
-            top = self.top
-            self.sqd_r = float(np.sqrt(_d(top, zr)))
-            self.dd_r = float(dd_dz(top, zr))
-            self.A_r = float(_shift(top, self.E, self.D, self.lam, zr))
+        top = self.top
+        self.zr, self.pole_ref = zr, pole_ref
+        self.sqd_r = np.sqrt(fm.d(top, zr))
+        self.dd_r = fm.dd_dz(top, zr)
+        if pole_ref:
+            self.A_r = _shift(top, self.E, self.D, self.lam, zr)
+            if self.single:
+                self.A_r = float(self.A_r)
             return
         self.w_r = 1.0 - zr * zr
-        if self.w_r <= 64.0 * _EPS:
-            # A well within a few ulps of a pole (a vanishing spin's wall): an expansion about it
-            # is meaningless, and P needs none (nothing large cancels when N is that small).
-            self.zr = None
-            return
-        self.sqd_r = float(np.sqrt(_d(self.top, zr)))
-        self.dd_r = float(dd_dz(self.top, zr))
-        self.N_r = float(self.N(zr))
-        self.depth_r = self.Es - float(self.gravity(zr)) - self.C * self.N_r**2 / self.w_r
+        self.N_r = self.N(zr)
+        self.depth_r = self.Es - self.gravity(zr) - self.C * (self.N_r * self.N_r) / self.w_r
 
-    def delta_V(self, z):
-        """V(z) − V(z_r) without cancellation of the large terms (needs set_reference)."""
-        return self.delta_V_offset(z - self.zr)
+    def delta_N(self, delta):
+        """N(z_r + δ) − N(z_r) without cancellation (needs a reference)."""
+        top = self.top
+        z = np.clip(self.zr + delta, -1.0, 1.0)
+        # d is quadratic: d(z) − d(z_r) = d'(z_r) δ + σ(1 − γ) δ² exactly.
+        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
+        return self.lam * dd / (np.sqrt(fm.d(top, z)) + self.sqd_r) - top.R * self.D * delta
 
     def delta_V_offset(self, delta):
         """V(z_r + δ) − V(z_r), with the offset δ itself as the argument.
@@ -94,9 +158,9 @@ class _Well:
         n = self.N_r + dn
         w = self.w_r - (2.0 * self.zr + delta) * delta
         # N²/w − N_r²/w_r = [ΔN (N + N_r) w_r + N_r² (w_r − w)] / (w w_r), w_r − w = 2 z_r δ + δ².
-        kin = (dn * (n + self.N_r) * self.w_r + self.N_r**2 * (2.0 * self.zr + delta) * delta) / (
-            w * self.w_r
-        )
+        kin = (
+            dn * (n + self.N_r) * self.w_r + (self.N_r * self.N_r) * (2.0 * self.zr + delta) * delta
+        ) / (w * self.w_r)
         return -self.mgR * top.alpha * delta + self.C * kin
 
     def delta_V_divided(self, a, x):
@@ -111,7 +175,8 @@ class _Well:
         zsum = 2.0 * self.zr + a + x
         d_div = -2.0 * top.sigma * top.alpha + top.sigma * (1.0 - top.gamma) * zsum
         za, zx = np.clip(self.zr + a, -1.0, 1.0), np.clip(self.zr + x, -1.0, 1.0)
-        n_div = self.lam * d_div / (np.sqrt(_d(top, za)) + np.sqrt(_d(top, zx))) - top.R * self.D
+        sqd_sum = np.sqrt(fm.d(top, za)) + np.sqrt(fm.d(top, zx))
+        n_div = self.lam * d_div / sqd_sum - top.R * self.D
         n_a, n_x = self.N_r + self.delta_N(a), self.N_r + self.delta_N(x)
         w_a = self.w_r - (2.0 * self.zr + a) * a
         w_x = self.w_r - (2.0 * self.zr + x) * x
@@ -119,33 +184,24 @@ class _Well:
         return -self.mgR * top.alpha + self.C * k_div
 
     def P(self, z):
+        """P(z), about the reference if one is set."""
         if self.zr is None:
             return self.P_direct(z)
         if self.pole_ref:
             # 1 − z² from z itself: P_offset's −(2 z_r + δ)δ is only accurate near z_r.
-            z = np.asarray(z, dtype=float)
             delta = z - self.zr
             dn = self.delta_N(delta)
             A = self.A_r + self.mgR * self.top.alpha * delta
             return (1.0 - z) * (1.0 + z) * A - self.C * dn * dn
-        z = np.asarray(z, dtype=float)
-        pole = np.abs(z) == 1.0
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = (1.0 - z * z) * (self.depth_r - self.delta_V(z))
+            out = (1.0 - z * z) * (self.depth_r - self.delta_V_offset(z - self.zr))
+        pole = np.abs(z) == 1.0
         if np.any(pole):
-            out = np.where(pole, self.P_direct(z), out)
-        return out if out.ndim else float(out)
-
-    def delta_N(self, delta):
-        """N(z_r + δ) − N(z_r) without cancellation (needs set_reference)."""
-        top = self.top
-        z = np.clip(self.zr + delta, -1.0, 1.0)
-        # d is quadratic: d(z) − d(z_r) = d'(z_r) δ + σ(1 − γ) δ² exactly.
-        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
-        return self.lam * dd / (np.sqrt(_d(top, z)) + self.sqd_r) - top.R * self.D * delta
+            out = np.where(pole, self.P_direct(z), out)[()]
+        return out
 
     def P_offset(self, delta):
-        """P(z_r + δ) in terms of the offset δ (needs set_reference)."""
+        """P(z_r + δ) in terms of the offset δ (needs a reference)."""
         if self.pole_ref:
             w = -(2.0 * self.zr + delta) * delta
             dn = self.delta_N(delta)
@@ -153,33 +209,30 @@ class _Well:
         w = self.w_r - (2.0 * self.zr + delta) * delta
         return w * (self.depth_r - self.delta_V_offset(delta))
 
-    def scale(self, z):
-        """Size of the terms of P at z, for rounding-error tolerances."""
-        n = self.N(z)
-        return (1.0 - z * z) * (abs(self.Es) + self.gravity(z)) + self.C * n * n
-
-    def critical(self, z):
-        """(1 − z²)² ∂V/∂z: regular on [−1, 1]; its sign changes − → + are the minima of V."""
+    def phidot(self, z):
+        """φ̇(z) = N(z)/(R I1 (1 − z²) √d(z)) (docs/theory/mett.md#the-main-equation)."""
         top = self.top
-        sqd = np.sqrt(_d(top, z))
-        n = _N(top, sqd, z, self.D, self.lam)
-        dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
-        w = 1.0 - z * z
-        return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
+        return self.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(fm.d(top, z)))
 
-    def n_vanishes(self, z: float) -> bool:
-        """Whether N(z) is zero to rounding (at a pole: the spinning solutions D = D0, D1)."""
-        top = self.top
-        scale = abs(self.lam) * float(np.sqrt(_d(top, z))) + abs(top.R * self.D * (top.alpha - z))
-        return abs(float(self.N(z))) <= _POLE_RTOL * scale
 
-    def excess(self, z):
-        """Ẽ − V(z) (finite limit at a pole where N vanishes)."""
-        w = 1.0 - z * z
-        if w == 0.0:
-            return self.Es - self.gravity(z) if self.n_vanishes(z) else -np.inf
-        n = self.N(z)
-        return self.Es - self.gravity(z) - self.C * n * n / w
+def _well(top: TippeTop, E: float, D: float, lam: float) -> _Wells:
+    """The wells of one element (float attributes)."""
+    return _Wells(top, float(E), float(D), float(lam))
+
+
+def _set_reference_one(w: _Wells, zr: float) -> None:
+    """Reference one element's P to z_r where an expansion helps, else leave P direct.
+
+    A pole where N vanishes is a pole reference; a pole where it does not, or a well within a few
+    ulps of a pole (a vanishing spin's wall), gets none: an expansion about it is meaningless, and
+    P needs none (nothing large cancels when N is that small).
+    """
+    if abs(zr) == 1.0 and w.n_vanishes(zr):
+        w.set_reference(zr, True)
+    elif 1.0 - zr * zr > 64.0 * _EPS:
+        w.set_reference(zr, False)
+    else:
+        w.zr, w.pole_ref = None, False
 
 
 class Band(NamedTuple):
@@ -196,29 +249,63 @@ class Band(NamedTuple):
     """Ẽ − V(z_min) (J); negative for kind "none"."""
 
 
-def _wells(w: _Well) -> list[float]:
-    """Positions of the local minima of V on [−1, 1]."""
+def _grid_minima(cr):
+    """Minima of V seen in (k, grid) samples of :meth:`_Wells.critical` on ``_Z_GRID``.
+
+    Returns (change, hi, lo): ``change[:, i]`` a sign change − → + (a minimum in
+    (zs[i], zs[i + 1]]), ``hi``/``lo`` V decreasing into the pole z = 1/−1 (possible only where N
+    vanishes there: a stable spin).
+    """
+    neg = cr < 0.0
+    change = neg[:, :-1] & (cr[:, 1:] >= 0.0)
+    hi = (cr[:, -1] <= 0.0) & neg[:, -2]
+    lo = (cr[:, 0] >= 0.0) & (cr[:, 1] > 0.0)
+    return change, hi, lo
+
+
+def _refine_minima(critical, i, cr_next) -> tuple[np.ndarray, np.ndarray]:
+    """(z, ok): the minimum in (zs[i], zs[i + 1]] of each interval ``i``.
+
+    The grid point zs[i + 1] where the sampled value ``cr_next`` there is 0, else the root of
+    ``critical(x, j)`` (intervals j) by :func:`_brentq`; ok False where it has no sign change.
+    """
     zs = _Z_GRID
-    cr = w.critical(zs)
-    mins = []
-    for i in range(len(zs) - 1):
-        if cr[i] < 0.0 <= cr[i + 1] or (cr[i] < 0.0 and cr[i + 1] > 0.0):
-            if cr[i + 1] == 0.0:
-                mins.append(float(zs[i + 1]))
-            else:
-                mins.append(
-                    optimize.brentq(
-                        w.critical, zs[i], zs[i + 1], xtol=1e-300, rtol=4 * _EPS, maxiter=_MAXITER
-                    )
-                )
-    # A pole where N vanishes and V decreases towards it is a minimum too (a stable spin).
-    if cr[-1] <= 0.0 and cr[-2] < 0.0:
-        mins.append(1.0)
-    if cr[0] >= 0.0 and cr[1] > 0.0 and not mins[:1] == [-1.0]:
-        mins.insert(0, -1.0)
-    # A root found at a pole where N does not vanish is really a hair inside (V = +inf at the pole).
-    mins = [z if abs(z) < 1.0 or w.n_vanishes(z) else float(np.nextafter(z, 0.0)) for z in mins]
-    return sorted({_snap_to_pole(w, z) for z in mins})
+    z, ok = np.full(i.size, np.nan), np.ones(i.size, dtype=bool)
+    grid = cr_next == 0.0
+    z[grid] = zs[i[grid] + 1]
+    k = np.flatnonzero(~grid)
+    z[k], ok[k] = _brentq(lambda x, j: critical(x, k[j]), zs[i[k]], zs[i[k] + 1])
+    return z, ok
+
+
+def _settle_at_poles(zm, vanishes):
+    """Minima found at or next to a pole, put where they are (in place; NaN entries are skipped).
+
+    A root at a pole where N does not vanish is really a hair inside (V = +inf there); one within
+    a few ulps of a pole where N vanishes is the pole itself. ``vanishes(k, z)``: whether N of the
+    elements ``k`` vanishes at z.
+    """
+    k = np.flatnonzero(np.abs(zm) == 1.0)
+    if k.size:
+        hair = ~vanishes(k, zm[k])
+        zm[k[hair]] = np.nextafter(zm[k[hair]], 0.0)
+    k = np.flatnonzero((np.abs(zm) < 1.0) & (1.0 - np.abs(zm) <= 64.0 * _EPS))
+    if k.size:
+        poles = np.copysign(1.0, zm[k])
+        snap = vanishes(k, poles)
+        zm[k[snap]] = poles[snap]
+    return zm
+
+
+def _wells(w: _Wells) -> list[float]:
+    """Positions of the local minima of V on [−1, 1] for one element (float attributes)."""
+    cr = w.critical(_Z_GRID)[None, :]
+    change, hi, lo = _grid_minima(cr)
+    i = np.flatnonzero(change[0])
+    z, _ = _refine_minima(lambda x, j: w.critical(x), i, cr[0, i + 1])
+    mins = [*z, *([1.0] if hi[0] else []), *([-1.0] if lo[0] else [])]
+    mins = _settle_at_poles(np.array(mins), lambda k, z: w.n_vanishes(z))
+    return sorted({float(z) for z in mins})
 
 
 def _conditioning(top: TippeTop, E, D, lam, depth):
@@ -258,17 +345,10 @@ def _kinetic_at(w, zm):
         return np.where(wz > 0.0, w.C * n * n / np.where(wz > 0.0, wz, 1.0), 0.0)
 
 
-def _snap_to_pole(w, z: float) -> float:
-    """A minimum found within a few ulps of a pole where N vanishes is the pole itself."""
-    if 1.0 - abs(z) <= 64.0 * _EPS and abs(z) < 1.0 and w.n_vanishes(math.copysign(1.0, z)):
-        return math.copysign(1.0, z)
-    return z
-
-
 _NEAR_POLE = 1e-6  # wells closer than this to a pole (in z) are classified in the pole form
 
 
-def _near_pole_well(w: _Well, zm: float) -> bool:
+def _near_pole_well(w: _Wells, zm: float) -> bool:
     """A well hugging a pole where N does not vanish (a vanishing spin's wall): see _pole_band."""
     return 1.0 - abs(zm) < _NEAR_POLE and not (abs(zm) == 1.0 and w.n_vanishes(zm))
 
@@ -302,7 +382,7 @@ def _interior_u(form: _PoleForm, u_hint: float) -> tuple[float, float]:
     return float(u[k]), float(e[k])
 
 
-def _pole_band(w: _Well, zm: float) -> Band:
+def _pole_band(w: _Wells, zm: float) -> Band:
     """Classify and bound the band of a well hugging the pole p, in the distance u = 1 − p z.
 
     With a vanishing spin the bottom of the well lies at u ~ |N(p)|, far below one ulp of z, and
@@ -364,19 +444,27 @@ _POLE_ABS = 1e-8  # ... or closer than this in z (a few ulps of z would be ≳1e
 
 
 def _pole_layer(b: Band) -> tuple[bool, bool]:
-    """Whether each end of the band lies in the layer of a pole: its gap to the nearer pole is
-    below ``_POLE_LAYER`` of the band's half-width (0 included: an end at the pole).
+    """Whether each end of the band lies in the layer of a pole (see :func:`_layer_ends`)."""
+    if b.kind != "nutation":  # steady (or no) motion: no band, no layer
+        return False, False
+    low, high = _layer_ends(np.float64(b.z_low), np.float64(b.z_high))
+    return bool(low), bool(high)
+
+
+def _layer_ends(z_low, z_high):
+    """Whether each end of nutation bands [z_low, z_high] lies in the layer of a pole: its gap to
+    the nearer pole is below ``_POLE_LAYER`` of the band's half-width (0 included: an end at the
+    pole), or below ``_POLE_ABS``.
 
     Next to a pole where N does not vanish the end sits against a steep wall of V (R changes by
     O(1) over the gap, which a Gauss rule over the whole band cannot resolve); an end at or a hair
     off an unstable pole is the logarithmic layer of the separatrix; and in z the gap itself may be
     below one ulp of z. All such bands are integrated in the distance u = 1 ∓ z from that pole.
     """
-    h = 0.5 * (b.z_high - b.z_low)
-    if b.kind != "nutation" or not h >= 0.0:  # steady (or no) motion: no band, no layer
-        return False, False
-    gap = max(_POLE_LAYER * h, _POLE_ABS)
-    return (1.0 - abs(b.z_low) < gap), (1.0 - abs(b.z_high) < gap)
+    h = 0.5 * (z_high - z_low)
+    gap = np.maximum(_POLE_LAYER * h, _POLE_ABS)
+    band = h >= 0.0
+    return band & (1.0 - np.abs(z_low) < gap), band & (1.0 - np.abs(z_high) < gap)
 
 
 def _pole_N(top: TippeTop, D: float, lam: float, pole: float) -> float:
@@ -399,7 +487,12 @@ def _pole_constants(top: TippeTop, E: float, D: float, lam: float, pole: float):
     """(A_p, N(p), √d(p), d'(p)) for one element, A_p and N(p) correctly rounded (exact rationals;
     cached: the pole form of one element is built several times on the per-element path)."""
     A = _shift_fraction(top, E, D, lam, pole)
-    return A, _pole_N(top, D, lam, pole), math.sqrt(float(_d(top, pole))), float(dd_dz(top, pole))
+    return (
+        A,
+        _pole_N(top, D, lam, pole),
+        math.sqrt(float(fm.d(top, pole))),
+        float(fm.dd_dz(top, pole)),
+    )
 
 
 class _PoleForm:
@@ -415,13 +508,16 @@ class _PoleForm:
     vanishes at the pole to rounding.
     """
 
-    def __init__(self, w: _Well, pole: float, at_pole: bool = True) -> None:
+    def __init__(self, w: _Wells, pole: float, at_pole: bool = True) -> None:
         top = w.top
         self.w, self.p = w, pole
         self.A, n_p, self.sqd_p, self.dd_p = _pole_constants(top, w.E, w.D, w.lam, pole)
         # N_p is 0 for a band ending at the pole (it vanishes there to rounding); a turning point
-        # a hair off the pole needs its exact small value
-        self.N_p = 0.0 if at_pole and w.n_vanishes(pole) else n_p
+        # a hair off the pole needs its exact small value, unless C N_p² is within 52 bits of
+        # underflow (|N_p| below ~1e-150): P next to the wall is then not resolved in double
+        self.N_p = n_p
+        if (at_pole and w.n_vanishes(pole)) or w.C * n_p * n_p < _TINY / _EPS:
+            self.N_p = 0.0
 
     def z(self, u):
         return self.p * (1.0 - u)
@@ -430,7 +526,7 @@ class _PoleForm:
         """N[p, z] (see the class docstring)."""
         top, w = self.w.top, self.w
         zp = -self.p * u
-        sqd = np.sqrt(_d(top, np.clip(self.z(u), -1.0, 1.0)))
+        sqd = np.sqrt(fm.d(top, np.clip(self.z(u), -1.0, 1.0)))
         num = self.dd_p + top.sigma * (1.0 - top.gamma) * zp
         return w.lam * num / (sqd + self.sqd_p) - top.R * w.D
 
@@ -442,7 +538,7 @@ class _PoleForm:
     def phidot(self, u):
         """φ̇ = N/(R I1 (1 − z²)√d(z)) = N_p/(R I1 u(2 − u)√d) − p N[p, z]/(R I1 (2 − u)√d)."""
         top = self.w.top
-        sqd = np.sqrt(_d(top, np.clip(self.z(u), -1.0, 1.0)))
+        sqd = np.sqrt(fm.d(top, np.clip(self.z(u), -1.0, 1.0)))
         k = top.R * top.I1 * (2.0 - u) * sqd
         return self.N_p / (k * u) - self.p * self.n_div(u) / k
 
@@ -483,191 +579,37 @@ class _PoleForm:
         return u_guess
 
 
-# --- the array path ---------------------------------------------------------------------------
-
 _CHUNK = 512  # elements per block of the well search: keeps the (block × 401) grid in cache
-
-
-class _Wells:
-    """:class:`_Well` for n elements at once: the same arithmetic, operation for operation.
-
-    Per-element quantities are 1-d arrays. :meth:`sub` selects elements, :meth:`col` turns the
-    per-element arrays into columns that broadcast against (n, k) arrays of z (grid, nodes). A
-    reference (:meth:`set_reference`) is interior for all elements of an instance or at a pole
-    for all.
-    """
-
-    _PER_ELEMENT = ("E", "D", "lam", "Es", "zr", "sqd_r", "dd_r", "w_r", "N_r", "depth_r", "A_r")
-
-    def __init__(self, top: TippeTop, E, D, lam, Es=None) -> None:
-        self.top, self.E, self.D, self.lam = top, E, D, lam
-        self.Es = _shift(top, E, D, lam) if Es is None else Es
-        self.C = _kinetic_coefficient(top)
-        self.mgR = top.m * top.g * top.R
-        self.pole_ref = False
-        self.zr = self.sqd_r = self.dd_r = self.w_r = self.N_r = self.depth_r = self.A_r = None
-
-    def _derive(self, fn) -> _Wells:
-        new = object.__new__(_Wells)
-        new.__dict__.update(self.__dict__)
-        for name in self._PER_ELEMENT:
-            v = getattr(self, name)
-            if v is not None:
-                setattr(new, name, fn(v))
-        return new
-
-    def sub(self, idx) -> _Wells:
-        return self._derive(lambda v: v[idx])
-
-    def col(self) -> _Wells:
-        return self._derive(lambda v: v[:, None])
-
-    def N(self, z):
-        return _N(self.top, np.sqrt(_d(self.top, z)), z, self.D, self.lam)
-
-    def gravity(self, z):
-        return self.mgR * (1.0 - self.top.alpha * z)
-
-    def P_direct(self, z):
-        n = self.N(z)
-        return (1.0 - z * z) * (self.Es - self.gravity(z)) - self.C * n * n
-
-    def critical(self, z):
-        top = self.top
-        sqd = np.sqrt(_d(top, z))
-        n = _N(top, sqd, z, self.D, self.lam)
-        dn = self.lam * dd_dz(top, z) / (2.0 * sqd) - top.R * self.D
-        w = 1.0 - z * z
-        return -self.mgR * top.alpha * w * w + 2.0 * self.C * n * (dn * w + z * n)
-
-    def scale(self, z):
-        n = self.N(z)
-        return (1.0 - z * z) * (np.abs(self.Es) + self.gravity(z)) + self.C * n * n
-
-    def n_vanishes(self, z):
-        top = self.top
-        scale = np.abs(self.lam) * np.sqrt(_d(top, z)) + np.abs(top.R * self.D * (top.alpha - z))
-        return np.abs(self.N(z)) <= _POLE_RTOL * scale
-
-    def excess(self, z):
-        w = 1.0 - z * z
-        n = self.N(z)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inside = self.Es - self.gravity(z) - self.C * n * n / w
-        at_pole = np.where(self.n_vanishes(z), self.Es - self.gravity(z), -np.inf)
-        return np.where(w == 0.0, at_pole, inside)
-
-    def set_reference(self, zr, pole_ref: bool) -> None:
-        """As :meth:`_Well.set_reference`; ``pole_ref`` for zr = ±1 where N vanishes."""
-        top = self.top
-        self.zr, self.pole_ref = zr, pole_ref
-        self.sqd_r = np.sqrt(_d(top, zr))
-        self.dd_r = dd_dz(top, zr)
-        if pole_ref:
-            self.A_r = _shift(top, self.E, self.D, self.lam, zr)
-            return
-        self.w_r = 1.0 - zr * zr
-        self.N_r = self.N(zr)
-        self.depth_r = self.Es - self.gravity(zr) - self.C * self.N_r**2 / self.w_r
-
-    def delta_N(self, delta):
-        top = self.top
-        z = np.clip(self.zr + delta, -1.0, 1.0)
-        dd = self.dd_r * delta + top.sigma * (1.0 - top.gamma) * delta * delta
-        return self.lam * dd / (np.sqrt(_d(top, z)) + self.sqd_r) - top.R * self.D * delta
-
-    def delta_V_offset(self, delta):
-        top = self.top
-        dn = self.delta_N(delta)
-        n = self.N_r + dn
-        w = self.w_r - (2.0 * self.zr + delta) * delta
-        kin = (dn * (n + self.N_r) * self.w_r + self.N_r**2 * (2.0 * self.zr + delta) * delta) / (
-            w * self.w_r
-        )
-        return -self.mgR * top.alpha * delta + self.C * kin
-
-    def delta_V_divided(self, a, x):
-        top = self.top
-        zsum = 2.0 * self.zr + a + x
-        d_div = -2.0 * top.sigma * top.alpha + top.sigma * (1.0 - top.gamma) * zsum
-        za, zx = np.clip(self.zr + a, -1.0, 1.0), np.clip(self.zr + x, -1.0, 1.0)
-        n_div = self.lam * d_div / (np.sqrt(_d(top, za)) + np.sqrt(_d(top, zx))) - top.R * self.D
-        n_a, n_x = self.N_r + self.delta_N(a), self.N_r + self.delta_N(x)
-        w_a = self.w_r - (2.0 * self.zr + a) * a
-        w_x = self.w_r - (2.0 * self.zr + x) * x
-        k_div = (n_div * (n_x + n_a) * w_a + n_a * n_a * zsum) / (w_a * w_x)
-        return -self.mgR * top.alpha + self.C * k_div
-
-    def P(self, z):
-        if self.pole_ref:
-            delta = z - self.zr
-            dn = self.delta_N(delta)
-            A = self.A_r + self.mgR * self.top.alpha * delta
-            return (1.0 - z) * (1.0 + z) * A - self.C * dn * dn
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = (1.0 - z * z) * (self.depth_r - self.delta_V_offset(z - self.zr))
-        pole = np.abs(z) == 1.0
-        if np.any(pole):
-            out = np.where(pole, self.P_direct(z), out)
-        return out
-
-    def P_offset(self, delta):
-        if self.pole_ref:
-            w = -(2.0 * self.zr + delta) * delta
-            dn = self.delta_N(delta)
-            return w * (self.A_r + self.mgR * self.top.alpha * delta) - self.C * dn * dn
-        w = self.w_r - (2.0 * self.zr + delta) * delta
-        return w * (self.depth_r - self.delta_V_offset(delta))
-
-    def phidot(self, z):
-        top = self.top
-        return self.N(z) / (top.R * top.I1 * (1.0 - z * z) * np.sqrt(_d(top, z)))
 
 
 def _locate_wells(W: _Wells) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_wells` for every element: (z_min, single), single False where V has not one well.
 
-    Elements with several minima (or none) are left to the scalar path.
+    Elements with several minima (or none) are left to the per-element path.
     """
     n = W.E.size
-    zs = _Z_GRID
     first = np.zeros(n, dtype=np.intp)
     count = np.zeros(n, dtype=np.intp)
-    on_grid, pole_hi, pole_lo = (np.zeros(n, dtype=bool) for _ in range(3))
+    cr_next = np.zeros(n)
+    pole_hi, pole_lo = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
     for start in range(0, n, _CHUNK):
         blk = slice(start, min(start + _CHUNK, n))
-        cr = W.sub(blk).col().critical(zs)
-        neg = cr < 0.0
-        change = neg[:, :-1] & (cr[:, 1:] >= 0.0)  # − → +: a minimum in (zs[i], zs[i + 1]]
+        cr = W.sub(blk).col().critical(_Z_GRID)
+        change, hi, lo = _grid_minima(cr)
         i = np.argmax(change, axis=1)
-        hi = (cr[:, -1] <= 0.0) & neg[:, -2]  # V decreasing into a pole where N vanishes
-        lo = (cr[:, 0] >= 0.0) & (cr[:, 1] > 0.0)
         # a root exactly at z = 1 and the pole minimum there are one minimum (the set in _wells)
         twice = hi & change[:, -1] & (cr[:, -1] == 0.0)
         count[blk] = change.sum(axis=1) + hi + lo - twice
         first[blk] = i
-        on_grid[blk] = cr[np.arange(cr.shape[0]), i + 1] == 0.0
+        cr_next[blk] = cr[np.arange(cr.shape[0]), i + 1]
         pole_hi[blk], pole_lo[blk] = hi, lo
     single = count == 1
     zm = np.full(n, np.nan)
     zm[single & pole_hi] = 1.0
     zm[single & pole_lo] = -1.0
-    inner = single & ~pole_hi & ~pole_lo
-    grid = inner & on_grid
-    zm[grid] = zs[first[grid] + 1]
-    k = np.flatnonzero(inner & ~on_grid)
-    root, ok = _brentq(lambda x, j: W.sub(k[j]).critical(x), zs[first[k]], zs[first[k] + 1])
-    zm[k] = root
+    k = np.flatnonzero(single & ~pole_hi & ~pole_lo)
+    zm[k], ok = _refine_minima(lambda x, j: W.sub(k[j]).critical(x), first[k], cr_next[k])
     single[k[~ok]] = False
-    # A root found at a pole where N does not vanish is really a hair inside (V = +inf there).
-    k = np.flatnonzero(single & (np.abs(zm) == 1.0))
-    if k.size:
-        hair = ~W.sub(k).n_vanishes(zm[k])
-        zm[k[hair]] = np.nextafter(zm[k[hair]], 0.0)
-    # ... and one found within a few ulps of a pole where N vanishes is the pole itself
-    k = np.flatnonzero(single & (np.abs(zm) < 1.0) & (1.0 - np.abs(zm) <= 64.0 * _EPS))
-    if k.size:
-        poles = np.copysign(1.0, zm[k])
-        snap = W.sub(k).n_vanishes(poles)
-        zm[k[snap]] = poles[snap]
+    zm[k[~ok]] = np.nan
+    _settle_at_poles(zm, lambda j, z: W.sub(j).n_vanishes(z))
     return zm, single
