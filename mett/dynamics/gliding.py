@@ -184,6 +184,9 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([sc["length"]] * 2 + [sc["velocity"]] * 2 + [sc["momentum"]] * 3 + [0.1] * 3)
 
 
+VECTORS = ((0, 1), (2, 3), (4, 5, 6), (7, 8, 9))
+"""The state's vectors: horizontal position and velocity of the centre of mass, L, 3̂."""
+
 MODEL = register(
     Model(
         name="gliding",
@@ -198,5 +201,6 @@ MODEL = register(
         scales=_scales,
         events=(Event(_contact, -1.0, "contact_lost"),),
         conserves=("lam",),
+        vectors=VECTORS,
     )
 )

@@ -217,6 +217,10 @@ class Model:
         ``variant(options) -> Model or None``: the model that actually runs for these validated
         options (None: this one). E.g. "gliding" with ``friction=Coulomb(...)`` can hand over to a
         hybrid stick–slip model; the variant must accept the same options.
+    vectors : tuple of tuple of int
+        Index tuples of state components that form one physical vector (a position, velocity,
+        angular momentum, unit axis): the Taylor backend measures a vector's truncation error
+        against its length (:func:`mett.dynamics.taylor.kernel`). Default: none.
     finish : callable, optional
         ``finish(traj)``: adds series that the states alone do not fix to a finished
         :class:`~mett.Trajectory` (e.g. the contact force of each sample's phase of a stick–slip
@@ -241,6 +245,7 @@ class Model:
     start_phase: Callable[[np.ndarray, Params], str] | None = None
     variant: Callable[[dict], Model | None] | None = None
     finish: Callable[[Any], None] | None = None
+    vectors: tuple[tuple[int, ...], ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -897,8 +897,9 @@ def _solve_taylor(
 ) -> Any:
     """The Taylor-series backend (:mod:`.taylor`): ``run.phase``'s jet at the order of ``rtol``.
 
-    The per-step truncation error of component i is held at ≈ max(atol_i, rtol |y_i|) (the
-    step-size norm of Jorba & Zou scaled by σ_i = atol_i/rtol). Model events are located on the
+    The per-step truncation error of component i is held at ≈ max(atol_i, rtol |y|_g) (the
+    step-size norm of Jorba & Zou scaled by σ_i = atol_i/rtol), |y|_g the size of the model's
+    vector that holds component i (``Model.vectors``; the component itself if none). Model events are located on the
     Taylor polynomials; user events after the run on the dense output, as for DOP853.
     """
     from . import taylor
@@ -908,7 +909,7 @@ def _solve_taylor(
     ph = run.phase
     kernel = taylor.kernel(
         ph.rhs_into, [ev.fn for ev in ph.events], run.y0.size, len(params),
-        taylor.order_for(rtol), f"{mdl.name}_{ph.name}", params=params,
+        taylor.order_for(rtol), f"{mdl.name}_{ph.name}", params=params, vectors=mdl.vectors,
     )  # fmt: skip
     sol = taylor.solve(
         kernel, (run.t0, t_end), run.y0, params, scales=atol_arr / rtol,

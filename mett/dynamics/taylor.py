@@ -28,11 +28,13 @@ a tolerance ε the order is p = ⌈−½ ln ε⌉ + 1 and the step
 
     h = ρ / e² · exp(−0.7 / (p − 1)),   ρ = min(‖y_{p−1}‖^{−1/(p−1)}, ‖y_p‖^{−1/p}),
 
-where the norm is the maximum over the components scaled by σ_i = max(scale_i, |y_i|); ``scale``
-is the model's typical magnitude per component (the one that sets DOP853's absolute tolerance),
-so the truncation error of each component is ≈ ε σ_i per step. No step is ever rejected: the
-Taylor polynomial of a step is known before its size is chosen. The polynomials are kept, so the
-dense output is the solution itself, of order p. Events are located on the Taylor polynomials of
+where the norm is the maximum over the parts g of the state of |y_g,k| / max(scale_g, |y_g|):
+a part is a physical vector of the model (its ``vectors``: the velocity, L, 3̂), measured by its
+Euclidean length, or a lone component; ``scale`` is the model's typical magnitude per component
+(the one that sets DOP853's absolute tolerance). So the truncation error of a vector is ≈ ε times
+its length per step, and the steps do not depend on how the space frame is oriented. No step is
+ever rejected: the Taylor polynomial of a step is known before its size is chosen. The
+polynomials are kept, so the dense output is the solution itself, of order p. Events are located on the Taylor polynomials of
 the event functions: a sign change over a step (tested at the end and at interior points) is
 refined by safeguarded Newton iteration on that polynomial.
 """
@@ -337,6 +339,25 @@ def _hex(x: float) -> str:
     return f"0x{int(np.float64(x).view(np.uint64)):016X}"
 
 
+def _norm_groups(vectors: Sequence[Sequence[int]], n_state: int) -> tuple[tuple[int, ...], ...]:
+    """The components of the step-size norm grouped into vectors: each of ``vectors`` (index
+    tuples of a model's state that form one physical vector, e.g. L or 3̂) and every other
+    component alone. A vector's truncation error is measured against its length, not against
+    each component: the components of L or 3̂ along the axes of the space frame can be small only
+    because of how the frame happens to be oriented, and holding each of them to ε of itself
+    costs steps that no frame-independent quantity needs (Jorba & Zou 2005 and heyoka use the
+    norm of the whole state)."""
+    seen: set[int] = set()
+    groups = []
+    for v in vectors:
+        v = tuple(int(i) for i in v)
+        if not v or seen & set(v) or not all(0 <= i < n_state for i in v):
+            raise ValueError(f"vectors must be disjoint index tuples into the state; got {vectors}")
+        seen |= set(v)
+        groups.append(v)
+    return (*groups, *((i,) for i in range(n_state) if i not in seen))
+
+
 class _IR:
     """Straight-line LLVM IR of the jet of one traced model at one order, for ``lanes`` states.
 
@@ -349,8 +370,11 @@ class _IR:
 
     FLAGS = "contract"  # lets LLVM fuse a*b + c into an FMA; no reassociation
 
-    def __init__(self, tr: _Traced, order: int, name: str, lanes: int = 1) -> None:
+    def __init__(
+        self, tr: _Traced, order: int, name: str, lanes: int = 1, vectors: tuple = ()
+    ) -> None:
         self.tr, self.order, self.name, self.W = tr, order, name, lanes
+        self.vectors = _norm_groups(vectors, tr.n_state)
         self.T = "double" if lanes == 1 else f"<{lanes} x double>"
         self.suffix = "f64" if lanes == 1 else f"v{lanes}f64"
         self.lines: list[str] = []
@@ -469,34 +493,37 @@ class _IR:
 
     def norms(self) -> None:
         """The step-size norms of every lane (Jorba & Zou 2005, §3.3), with the jet:
-        ``nrm[0] = max_i |y_i,p−1| w_i``, ``nrm[1] = max_i |y_i,p| w_i``, w_i = 1/max(σ_i, ε|y_i|)
-        for ``sig = (σ_i ... , ε)`` (σ_i already scaled by the tolerance ε)."""
+        ``nrm[0] = max_g |y_g,p−1| / w_g``, ``nrm[1] = max_g |y_g,p| / w_g``, w_g = max(σ_g, ε|y_g|)
+        over the vectors g of :func:`_norm_groups` with Euclidean lengths |·| (a lone component: its
+        absolute value), for ``sig = (σ_i ... , ε)`` (σ_i already scaled by the tolerance ε;
+        σ_g the largest over g). Computed with squares and one square root per norm."""
         L, T, p = self.lines, self.T, self.order
         eps = self.load("%sig", self.tr.n_state)
+        eps2 = self.op("fmul", eps, eps)
         n1 = n2 = self.c(0.0)
-        for i in range(self.tr.n_state):
-            a = self.tmp()
-            L.append(f"{a} = {self.call('fabs', f'%y{i}_0')}")
-            ea = self.op("fmul", eps, a)
-            sg = self.load("%sig", i)
+
+        def maxnum(a: str, b: str) -> str:
             m = self.tmp()
-            L.append(f"{m} = call {T} @llvm.maxnum.{self.suffix}({T} {sg}, {T} {ea})")
-            w = self.tmp()
-            L.append(f"{w} = fdiv {T} {self.c(1.0)}, {m}")
-            for acc_name, k in (("n1", p - 1), ("n2", p)):
-                q = self.tmp()
-                L.append(f"{q} = {self.call('fabs', f'%y{i}_{k}')}")
-                qw = self.op("fmul", q, w)
-                new = self.tmp()
-                cur = n1 if acc_name == "n1" else n2
-                L.append(f"{new} = call {T} @llvm.maxnum.{self.suffix}({T} {cur}, {T} {qw})")
-                if acc_name == "n1":
-                    n1 = new
-                else:
-                    n2 = new
+            L.append(f"{m} = call {T} @llvm.maxnum.{self.suffix}({T} {a}, {T} {b})")
+            return m
+
+        def square_length(group: tuple[int, ...], k: int) -> str:
+            return self.sum([self.op("fmul", f"%y{i}_{k}", f"%y{i}_{k}") for i in group])
+
+        for group in self.vectors:
+            sg = self.load("%sig", group[0])
+            for i in group[1:]:
+                sg = maxnum(sg, self.load("%sig", i))
+            w2 = maxnum(self.op("fmul", sg, sg), self.op("fmul", eps2, square_length(group, 0)))
+            inv = self.tmp()
+            L.append(f"{inv} = fdiv {T} {self.c(1.0)}, {w2}")
+            n1 = maxnum(n1, self.op("fmul", square_length(group, p - 1), inv))
+            n2 = maxnum(n2, self.op("fmul", square_length(group, p), inv))
         for idx, val in ((0, n1), (1, n2)):
+            r = self.tmp()
+            L.append(f"{r} = {self.call('sqrt', val)}")
             g = self.ptr("%nrm", idx)
-            L.append(f"store {T} {val}, {T}* {g}, align 8")
+            L.append(f"store {T} {r}, {T}* {g}, align 8")
 
     def update(self) -> str:
         """IR of ``update_<name>(X, h, y)``: y_i = Σ_k X[i, k] h^k (Horner) for every lane."""
@@ -676,12 +703,15 @@ def order_for(tol: float) -> int:
 class TaylorKernel:
     """The compiled jet of one model at one order, callable from the numba integration loop."""
 
-    def __init__(self, tr: _Traced, order: int, label: str, lanes: int = 1) -> None:
+    def __init__(
+        self, tr: _Traced, order: int, label: str, lanes: int = 1, vectors: tuple = ()
+    ) -> None:
         self.traced, self.order, self.lanes = tr, order, lanes
         self.n_state, self.n_events = tr.n_state, len(tr.events)
-        digest = hashlib.sha256(repr((tr, order, lanes)).encode()).hexdigest()[:16]
+        self.vectors = _norm_groups(vectors, tr.n_state)
+        digest = hashlib.sha256(repr((tr, order, lanes, self.vectors)).encode()).hexdigest()[:16]
         self.name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
-        ir = _IR(tr, order, self.name, lanes).text()
+        ir = _IR(tr, order, self.name, lanes, self.vectors).text()
         self.address = _native(ir, self.name)
         self.function = _JetAddress(self.address[0], _JET_SIG)
         self.update = _JetAddress(self.address[1], _UPDATE_SIG)
@@ -699,6 +729,7 @@ def kernel(
     label: str = "model",
     lanes: int = 1,
     params: ArrayLike | None = None,
+    vectors: Sequence[Sequence[int]] = (),
 ) -> TaylorKernel:
     """The :class:`TaylorKernel` of a model phase (``rhs_into`` and its event functions) at
     ``order`` for ``lanes`` trajectories at once; compiled once per process (and cached on disk).
@@ -706,12 +737,13 @@ def kernel(
     A right-hand side that branches on its parameters (an option of the model) is traced with
     ``params``; the kernel serves every parameter set that takes the same branches.
     """
-    key = (rhs_into, tuple(events), n_state, n_params, order, lanes)
+    vectors = _norm_groups(vectors, n_state)
+    key = (rhs_into, tuple(events), n_state, n_params, order, lanes, vectors)
     for k in _KERNELS.get(key, []):
         if params is None or k.traced.admits(params):
             return k
     tr = trace(rhs_into, events, n_state, n_params, params)
-    k = TaylorKernel(tr, order, label, lanes)
+    k = TaylorKernel(tr, order, label, lanes, vectors)
     _KERNELS.setdefault(key, []).append(k)
     return k
 
