@@ -6,7 +6,11 @@
    ``bench`` extra) on the very same equations (the model's ``rhs_into`` traced with heyoka's
    variables). Each prints the error of the first θ = π/2 time against its converged value.
 2. A sweep of 64 friction coefficients (4 s runs) on one core: mett's Taylor integrator with 4 SIMD
-   lanes against heyoka's batch mode (4 lanes), runs per second.
+   lanes (``taylor.propagate``: end states only, as heyoka's ``propagate_until``; and
+   ``taylor.solve``, which keeps the dense output) against heyoka's batch mode (4 lanes), runs per
+   second.
+3. The same grid through ``mett.sweep`` (per point: validation, the predicted end state, the
+   θ = π/2 crossing and the settled test) on the Taylor and on the compiled DOP853 backend.
 
 Times are CPU times of this thread (``time.thread_time``), best of several repeats: on a shared
 machine they are less disturbed than wall-clock times, and both codes are timed the same way.
@@ -70,7 +74,8 @@ def main() -> None:
     rhs, ev = dop853_kernels(mdl)
     print("1. thesis trajectory, 8 s (CPU ms, best of 15; error of t(θ = π/2) in s)")
     for tol in (1e-10, 1e-12):
-        k = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding")
+        k = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding",
+                          vectors=mdl.vectors)  # fmt: skip
 
         def mett_taylor(k=k, tol=tol):
             return taylor.solve(k, (0.0, 8.0), y0, p, scales=scales, direction=[-1.0])[0]
@@ -110,10 +115,14 @@ def main() -> None:
     P[:, 5] = mus
     Y = np.tile(y0, (64, 1))
     for tol in (1e-12, 2.220446049250313e-16):
-        k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding", lanes=4)
-        sec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales,
-                                                  direction=[-1.0]), 3)  # fmt: skip
-        line = f"   tol {tol:.1e}  mett taylor 4 lanes {64 / sec:7.0f} runs/s"
+        k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding", lanes=4,
+                           vectors=mdl.vectors)  # fmt: skip
+        sec = cpu_best(lambda k4=k4: taylor.propagate(k4, (0, 4.0), Y, P, scales=scales,
+                                                      direction=[-1.0]), 3)  # fmt: skip
+        dsec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales,
+                                                   direction=[-1.0]), 3)  # fmt: skip
+        line = (f"   tol {tol:.1e}  mett taylor 4 lanes: propagate {64 / sec:5.0f} runs/s, "
+                f"with dense output {64 / dsec:5.0f}")  # fmt: skip
         if hy is not None:
             import heyoka as hy
 
@@ -129,8 +138,22 @@ def main() -> None:
                     ta.propagate_until(4.0)
 
             hsec = cpu_best(hb, 3)
-            line += f" | heyoka batch {64 / hsec:7.0f} runs/s | ratio {hsec / sec:.2f}"
+            line += f" | heyoka batch {64 / hsec:5.0f} runs/s | ratio {hsec / sec:.2f}"
         print(line)
+    print("3. mett.sweep over the same grid at rtol 1e-12 (validation, prediction, end labels)")
+    row = {}
+    for backend in ("taylor", "compiled"):
+
+        def run(backend=backend):
+            return mett.sweep(top, {"mu": mus}, t_end=4.0, backend=backend, rtol=1e-12,
+                              progress=False)  # fmt: skip
+
+        run()
+        row[backend] = cpu_best(run, 3)
+    print(
+        f"   backend taylor {64 / row['taylor']:5.0f} runs/s | compiled (DOP853) "
+        f"{64 / row['compiled']:5.0f} runs/s | ratio {row['compiled'] / row['taylor']:.1f}"
+    )
 
 
 def dop853_kernels(mdl):

@@ -221,6 +221,10 @@ class Model:
         Index tuples of state components that form one physical vector (a position, velocity,
         angular momentum, unit axis): the Taylor backend measures a vector's truncation error
         against its length (:func:`mett.dynamics.taylor.kernel`). Default: none.
+    cos_theta : callable, optional
+        ``cos_theta(t, y, p)``: cos θ of one state in plain arithmetic (no branches; traceable
+        by :mod:`.taylor`), so that many runs at once (:func:`mett.dynamics.batch.run_ends`) can
+        locate the crossings of θ on the Taylor polynomials. None: those runs go one by one.
     finish : callable, optional
         ``finish(traj)``: adds series that the states alone do not fix to a finished
         :class:`~mett.Trajectory` (e.g. the contact force of each sample's phase of a stick–slip
@@ -246,6 +250,7 @@ class Model:
     variant: Callable[[dict], Model | None] | None = None
     finish: Callable[[Any], None] | None = None
     vectors: tuple[tuple[int, ...], ...] = ()
+    cos_theta: Callable[[float, Any, Any], Any] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -56,11 +56,13 @@ from numpy.typing import ArrayLike
 
 __all__ = [
     "STATUS_MESSAGES",
+    "TaylorBatch",
     "TaylorDense",
     "TaylorKernel",
     "TaylorSolution",
     "kernel",
     "order_for",
+    "propagate",
     "solve",
     "trace",
 ]
@@ -719,6 +721,9 @@ class TaylorKernel:
 
 _KERNELS: dict[tuple, list[TaylorKernel]] = {}
 
+_NO_TIMES = np.empty(0)
+_HUGE = 4 << 20  # numpy asks for transparent huge pages for arrays of this many bytes and more
+
 
 def kernel(
     rhs_into: Callable,
@@ -832,17 +837,23 @@ _INTEGRATE_SIG = types.void(
     types.int64,  # order
     types.float64,  # max_step
     types.float64[::1],  # ev_dir
+    types.float64[::1],  # ev_terminal: 1 stops the lane, 0 records the first zero
     types.int64,  # n_sub
-    types.float64[:, ::1],  # T (room + 1, W)
-    types.float64[:, :, ::1],  # Y (room + 1, n, W)
-    types.float64[:, :, :, ::1],  # C (room, rows, order + 1, W)
+    types.int64,  # room: steps this call may take
+    types.float64[:, ::1],  # T (room + 1, W), or (2, W) without dense output
+    types.float64[:, :, ::1],  # Y (room + 1, n, W), or (2, n, W)
+    types.float64[:, :, :, ::1],  # C (room, rows, order + 1, W), or (1, ...): no dense output
+    types.float64[:, ::1],  # first (W, n_ev): time of the first zero of each recording event
+    types.float64[::1],  # tt: sample times, increasing
+    types.float64[:, :, ::1],  # S (tt.size, n, W): the states at tt
     types.int64[:, ::1],  # info (W, 3): steps, event index, status
 )
 
 
 @numba.njit(_INTEGRATE_SIG, cache=True, error_model="numpy")
 def _integrate(
-    jet, update, t0, t_end, y0, p, sig, fac, order, max_step, ev_dir, n_sub, T, Y, C, info
+    jet, update, t0, t_end, y0, p, sig, fac, order, max_step, ev_dir, ev_terminal, n_sub, room,
+    T, Y, C, first, tt, S, info,
 ):  # fmt: skip
     """Taylor steps of W trajectories (lanes) at once, from ``t0`` towards ``t_end``.
 
@@ -850,13 +861,18 @@ def _integrate(
     each lane then chooses its step and looks for events, and one update call advances every lane
     (a lane that is done gets h = 0, which leaves its state exactly as it is). Active lanes have
     all taken the same number of steps, so step m of lane l starts at ``T[m, l]`` in state
-    ``Y[m, :, l]`` with coefficients ``C[m, :, :, l]`` (the jet writes them there).
+    ``Y[m, :, l]`` with coefficients ``C[m, :, :, l]`` (the jet writes them there). With a
+    one-step ``C`` (no dense output) the coefficients of every step are written to ``C[0]`` (they
+    stay in cache) and ``T[1]``, ``Y[1]`` hold the last state. A terminal event stops its lane at
+    its zero; a recording one (``ev_terminal`` 0) notes its first zero in ``first`` (NaN: none).
+    The states at the sample times ``tt`` go to ``S`` (left as they are after a lane stops).
     ``info[l]`` = (steps, index of the terminal event or −1, status), status as in
     :data:`STATUS_MESSAGES` (:data:`MAX_STEPS`: out of room, to be resumed).
     """
     n, W = y0.shape
     n_ev = ev_dir.size
-    room = C.shape[0]
+    dense = C.shape[0] >= room  # a slot per step; else one slot, reused
+    n_tt = tt.size
     y = y0.copy()
     y_new = np.empty((n, W))
     t = t0.copy()
@@ -867,6 +883,7 @@ def _integrate(
     hit_of = np.full(W, -1)
     last_of = np.zeros(W, dtype=np.bool_)
     active = np.ones(W, dtype=np.bool_)
+    next_sample = np.zeros(W, dtype=np.int64)
     for lane in range(W):
         T[0, lane] = t0[lane]
         for i in range(n):
@@ -874,6 +891,8 @@ def _integrate(
         info[lane, 0] = 0
         info[lane, 1] = -1
         info[lane, 2] = COMPLETED
+        while next_sample[lane] < n_tt and tt[next_sample[lane]] < t0[lane]:
+            next_sample[lane] += 1
     it = 0
     while True:
         for lane in range(W):
@@ -886,7 +905,7 @@ def _integrate(
                 if active[lane]:
                     info[lane, 2] = MAX_STEPS
             break
-        X = C[it]
+        X = C[it] if dense else C[0]
         jet(t.ctypes, y.ctypes, p.ctypes, X.ctypes, sig.ctypes, nrm.ctypes)
         for lane in range(W):
             h[lane] = 0.0
@@ -912,38 +931,60 @@ def _integrate(
                 active[lane] = False
                 continue
             # events: sign changes of the event polynomials over [0, h] at n_sub sample points
-            # (evaluated together: independent Horner chains overlap in the pipeline)
+            # (evaluated together: independent Horner chains overlap in the pipeline); the
+            # terminal ones first, since the first of their zeros ends the step
             hit = -1
             x_hit = hl
-            for q in range(n_sub + 1):
-                xs[q] = hl * q / n_sub
-            for e in range(n_ev):
-                r = n + e
-                for q in range(n_sub + 1):
-                    fa[q] = X[r, order, lane]
-                for k in range(order - 1, -1, -1):
-                    c = X[r, k, lane]
+            for recording in range(2):
+                for e in range(n_ev):
+                    if (ev_terminal[e] == 0.0) != (recording == 1):
+                        continue
+                    if recording == 1 and first[lane, e] == first[lane, e]:
+                        continue  # its first zero is known
+                    r = n + e
+                    # no zero in [0, h] when |c_0| > Σ_{k≥1} |c_k| h^k: most steps of most events
+                    bound = abs(X[r, order, lane])
+                    for k in range(order - 1, 0, -1):
+                        bound = bound * x_hit + abs(X[r, k, lane])
+                    if abs(X[r, 0, lane]) > bound * x_hit:
+                        continue
                     for q in range(n_sub + 1):
-                        fa[q] = fa[q] * xs[q] + c
-                for q in range(1, n_sub + 1):
-                    f0, f1 = fa[q - 1], fa[q]
-                    up = f0 < 0.0 and f1 >= 0.0
-                    down = f0 > 0.0 and f1 <= 0.0
-                    if (up and ev_dir[e] >= 0.0) or (down and ev_dir[e] <= 0.0):
-                        x = xs[q]
-                        if f1 != 0.0:
-                            x = _root(X[:, :, lane], r, order, xs[q - 1], xs[q], f0, f1)
-                        if hit < 0 or x < x_hit:
-                            x_hit = x
-                            hit = e
-                        break
+                        xs[q] = x_hit * q / n_sub
+                    for q in range(n_sub + 1):
+                        fa[q] = X[r, order, lane]
+                    for k in range(order - 1, -1, -1):
+                        c = X[r, k, lane]
+                        for q in range(n_sub + 1):
+                            fa[q] = fa[q] * xs[q] + c
+                    for q in range(1, n_sub + 1):
+                        f0, f1 = fa[q - 1], fa[q]
+                        up = f0 < 0.0 and f1 >= 0.0
+                        down = f0 > 0.0 and f1 <= 0.0
+                        if (up and ev_dir[e] >= 0.0) or (down and ev_dir[e] <= 0.0):
+                            x = xs[q]
+                            if f1 != 0.0:
+                                x = _root(X[:, :, lane], r, order, xs[q - 1], xs[q], f0, f1)
+                            if recording == 1:
+                                first[lane, e] = t[lane] + x
+                            elif hit < 0 or x < x_hit:
+                                x_hit = x
+                                hit = e
+                            break
             if hit >= 0:
                 hl = x_hit
                 last = False
             h[lane] = hl
             hit_of[lane] = hit
             last_of[lane] = last
+            # the samples in this step, from its polynomial
+            t_stop = t_end if last else t[lane] + hl
+            while next_sample[lane] < n_tt and tt[next_sample[lane]] <= t_stop:
+                x = tt[next_sample[lane]] - t[lane]
+                for i in range(n):
+                    S[next_sample[lane], i, lane] = _poly(X[:, :, lane], i, order, x)
+                next_sample[lane] += 1
         update(X.ctypes, h.ctypes, y_new.ctypes)
+        slot = it + 1 if dense else 1
         for lane in range(W):
             if not active[lane]:
                 continue
@@ -952,10 +993,10 @@ def _integrate(
                 v = y_new[i, lane]
                 finite = finite and (v - v == 0.0)
                 y[i, lane] = v
-                Y[it + 1, i, lane] = v
+                Y[slot, i, lane] = v
             info[lane, 0] = it + 1
             t[lane] = t_end if last_of[lane] else t[lane] + h[lane]
-            T[it + 1, lane] = t[lane]
+            T[slot, lane] = t[lane]
             if not finite:
                 info[lane, 2] = NON_FINITE
                 active[lane] = False
@@ -1108,7 +1149,12 @@ def solve(
     t_now, y_now = np.full(m, t0), Y0.copy()
     done = np.zeros(m, dtype=np.int64)
     result: list[tuple[int, int] | None] = [None] * m
-    pending, room = list(range(m)), 1024
+    # The coefficients are the dense output, written once and kept: the first buffer is at least
+    # _HUGE bytes, which numpy backs with transparent huge pages where the system has them (one
+    # page fault per 2 MiB instead of per 4 KiB; measured: the thesis run 5.4 → 4.6 ms). Pages
+    # are only made resident when written; a short run's coefficients are copied out (below).
+    step_bytes = rows * width * W * 8
+    pending, room = list(range(m)), max(1024, -(-_HUGE // step_bytes))
     while pending:
         resume = []
         for g in range(0, len(pending), W):
@@ -1122,7 +1168,9 @@ def solve(
                 k.function, k.update, np.ascontiguousarray(t_now[lanes]), t_end,
                 np.ascontiguousarray(y_now[lanes].T), np.ascontiguousarray(P[lanes].T),
                 np.ascontiguousarray(np.vstack([tol_scale * SC[lanes].T, np.full(W, tol_scale)])),
-                fac, k.order, float(max_step), ev_dir, n_sub, T, Yb, C, info,
+                fac, k.order, float(max_step), ev_dir, np.ones(k.n_events), n_sub, rm, T, Yb, C,
+                np.empty((W, k.n_events)), _NO_TIMES, np.empty((0, n, W)),
+                info,
             )  # fmt: skip
             for lane, j in enumerate(group):
                 steps, hit, status = (int(x) for x in info[lane])
@@ -1143,6 +1191,8 @@ def solve(
             t = np.concatenate([[t0], parts[j][0][0]])
             y = np.concatenate([Y0[j][None, :], parts[j][0][1]])
             C = parts[j][0][2]
+            if C.nbytes * W < _HUGE // 4:  # a short run does not keep a large buffer alive
+                C = C.copy()
         else:
             t = np.concatenate([[t0], *(q[0] for q in parts[j])])
             y = np.concatenate([Y0[j][None, :], *(q[1] for q in parts[j])])
@@ -1150,4 +1200,107 @@ def solve(
         out.append(
             TaylorSolution(TaylorDense(t, y, C), status, STATUS_MESSAGES[status], hit, k.order)
         )
+    return out
+
+
+@dataclass
+class TaylorBatch:
+    """Result of :func:`propagate`, one row per trajectory (m of them).
+
+    Attributes
+    ----------
+    t, y : ndarray, shapes (m,), (m, n)
+        Where each run ended: ``t_end``, a terminal event's zero, or where it failed.
+    status : ndarray of int, shape (m,)
+        As in :data:`STATUS_MESSAGES`.
+    event_index : ndarray of int, shape (m,)
+        The terminal event that stopped the run, or −1.
+    first : ndarray, shape (m, n_events)
+        Time of the first zero of each recording (non-terminal) event; NaN if none, and for the
+        terminal events.
+    samples : ndarray, shape (m, len(t_eval), n)
+        The states at ``t_eval``, from the Taylor polynomials; NaN after a run stopped.
+    n_steps : ndarray of int, shape (m,)
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    status: np.ndarray
+    event_index: np.ndarray
+    first: np.ndarray
+    samples: np.ndarray
+    n_steps: np.ndarray
+
+
+def propagate(
+    k: TaylorKernel,
+    t_span: tuple[float, float],
+    y0: ArrayLike,
+    params: ArrayLike,
+    *,
+    t_eval: ArrayLike = (),
+    terminal: ArrayLike | None = None,
+    scales: ArrayLike | None = None,
+    direction: ArrayLike | None = None,
+    max_step: float = math.inf,
+    max_steps: int = 10_000_000,
+    n_sub: int = 4,
+) -> TaylorBatch:
+    """Many trajectories, ``k.lanes`` at a time, keeping only what a sweep needs: the end states,
+    the states at ``t_eval``, the first zero of every recording event, no dense output.
+
+    The same steps as :func:`solve` (its ``tol=None`` step), but each step's coefficients are
+    written over the previous step's, so they stay in the processor's cache: for a batch of many
+    short runs this is the faster path (measured: 64 thesis-top runs of 4 s, 4 lanes, 1.35×).
+    ``terminal``: per event, True to stop the run at its zero (default: all), False to record
+    its first zero in ``first`` and go on. Other arguments as for :func:`solve`.
+    """
+    t0, t_end = float(t_span[0]), float(t_span[1])
+    Y0 = np.atleast_2d(np.asarray(y0, dtype=float))
+    m, n = Y0.shape
+    P = np.asarray(params, dtype=float)
+    P = np.broadcast_to(P, (m, P.shape[-1]))
+    SC = np.broadcast_to(np.ones(n) if scales is None else np.asarray(scales, dtype=float), (m, n))
+    ev_dir = np.zeros(k.n_events) if direction is None else np.array(direction, dtype=float)
+    ev_term = np.ones(k.n_events) if terminal is None else np.array(terminal, dtype=float)
+    if ev_dir.size != k.n_events or ev_term.size != k.n_events:
+        raise ValueError(f"direction and terminal need one entry per event ({k.n_events})")
+    tt = np.ascontiguousarray(np.asarray(t_eval, dtype=float).ravel())
+    if tt.size and (np.any(np.diff(tt) < 0) or not np.all(np.isfinite(tt))):
+        raise ValueError("t_eval must be finite and increasing")
+    bad = [j for j in range(m) if not k.traced.admits(P[j])]
+    if bad:
+        raise ValueError(
+            f"params[{bad[0]}] take other branches of the model than the kernel was traced for; "
+            "get a kernel for them with kernel(..., params=...)"
+        )
+    fac = math.exp(-0.7 / (k.order - 1)) / math.e**2
+    W, width, rows = k.lanes, k.order + 1, n + k.n_events
+    T, Yb = np.empty((2, W)), np.empty((2, n, W))
+    C = np.empty((1, rows, width, W))
+    first = np.full((W, k.n_events), np.nan)
+    S = np.full((tt.size, n, W), np.nan)
+    info = np.zeros((W, 3), dtype=np.int64)
+    out = TaylorBatch(
+        np.empty(m), np.empty((m, n)), np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
+        np.full((m, k.n_events), np.nan), np.empty((m, tt.size, n)), np.empty(m, dtype=np.int64),
+    )  # fmt: skip
+    for g in range(0, m, W):
+        group = list(range(g, min(g + W, m)))
+        lanes = group + [group[0]] * (W - len(group))
+        first.fill(np.nan)
+        S.fill(np.nan)
+        _integrate(
+            k.function, k.update, np.full(W, t0), t_end, np.ascontiguousarray(Y0[lanes].T),
+            np.ascontiguousarray(P[lanes].T),
+            np.ascontiguousarray(np.vstack([SC[lanes].T, np.ones(W)])), fac, k.order,
+            float(max_step), ev_dir, ev_term, n_sub, int(max_steps), T, Yb, C, first, tt, S, info,
+        )  # fmt: skip
+        for lane, j in enumerate(group):
+            steps, hit, status = (int(x) for x in info[lane])
+            out.t[j] = T[1 if steps else 0, lane]
+            out.y[j] = Yb[1 if steps else 0, :, lane]
+            out.status[j], out.event_index[j], out.n_steps[j] = status, hit, steps
+            out.first[j] = first[lane]
+            out.samples[j] = S[:, :, lane]
     return out
