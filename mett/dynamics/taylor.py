@@ -884,6 +884,7 @@ def _integrate(
     last_of = np.zeros(W, dtype=np.bool_)
     active = np.ones(W, dtype=np.bool_)
     next_sample = np.zeros(W, dtype=np.int64)
+    bound = np.empty((n_ev, W))
     for lane in range(W):
         T[0, lane] = t0[lane]
         for i in range(n):
@@ -907,7 +908,7 @@ def _integrate(
             break
         X = C[it] if dense else C[0]
         jet(t.ctypes, y.ctypes, p.ctypes, X.ctypes, sig.ctypes, nrm.ctypes)
-        for lane in range(W):
+        for lane in range(W):  # the steps
             h[lane] = 0.0
             if not active[lane]:
                 continue
@@ -922,14 +923,31 @@ def _integrate(
             if n2 > 0.0:
                 rho = min(rho, n2 ** (-1.0 / order))
             hl = min(rho * fac, max_step)
-            last = False
+            last_of[lane] = False
             if t[lane] + hl >= t_end:
                 hl = t_end - t[lane]
-                last = True
+                last_of[lane] = True
             elif not (t[lane] + hl > t[lane]):
                 info[lane, 2] = STEP_TOO_SMALL
                 active[lane] = False
                 continue
+            h[lane] = hl
+        # events that cannot have a zero in [0, h]: |c_0| > Σ_{k≥1} |c_k| h^k, most steps of most
+        # events; screened for all lanes at once (the loop over lanes vectorises)
+        for e in range(n_ev):
+            r = n + e
+            for lane in range(W):
+                bound[e, lane] = abs(X[r, order, lane])
+            for k in range(order - 1, 0, -1):
+                for lane in range(W):
+                    bound[e, lane] = bound[e, lane] * h[lane] + abs(X[r, k, lane])
+            for lane in range(W):
+                bound[e, lane] = bound[e, lane] * h[lane] - abs(X[r, 0, lane])
+        for lane in range(W):
+            if not active[lane]:
+                continue
+            hl = h[lane]
+            last = last_of[lane]
             # events: sign changes of the event polynomials over [0, h] at n_sub sample points
             # (evaluated together: independent Horner chains overlap in the pipeline); the
             # terminal ones first, since the first of their zeros ends the step
@@ -941,13 +959,9 @@ def _integrate(
                         continue
                     if recording == 1 and first[lane, e] == first[lane, e]:
                         continue  # its first zero is known
+                    if bound[e, lane] < 0.0:
+                        continue  # screened out above
                     r = n + e
-                    # no zero in [0, h] when |c_0| > Σ_{k≥1} |c_k| h^k: most steps of most events
-                    bound = abs(X[r, order, lane])
-                    for k in range(order - 1, 0, -1):
-                        bound = bound * x_hit + abs(X[r, k, lane])
-                    if abs(X[r, 0, lane]) > bound * x_hit:
-                        continue
                     for q in range(n_sub + 1):
                         xs[q] = x_hit * q / n_sub
                     for q in range(n_sub + 1):
