@@ -226,7 +226,8 @@ def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dic
     kw = {k: v for k, v in base["simulate_kw"].items() if k != "contensou_radius"}
     started = [(i, p, *_start(base, p)) for i, p in chunk]
     todo = [(i, p, row, job) for i, p, row, job in started if job is not None]
-    ends = run_ends([(job[0], job[1], job[2]) for *_, job in todo], base["t_end"], **kw)
+    jobs = [(job[0], job[1], job[2]) for *_, job in todo]
+    ends = run_ends(jobs, base["t_end"], window=_SETTLE_WINDOW, **kw)
     rows = {i: row for i, _, row, job in started if job is None}
     cache: dict = {}
     for (i, p, row, job), end in zip(todo, ends, strict=True):
