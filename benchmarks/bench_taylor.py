@@ -6,7 +6,13 @@
    ``bench`` extra) on the very same equations (the model's ``rhs_into`` traced with heyoka's
    variables). Each prints the error of the first θ = π/2 time against its converged value.
 2. A sweep of 64 friction coefficients (4 s runs) on one core: mett's Taylor integrator with 4 SIMD
-   lanes against heyoka's batch mode (4 lanes), runs per second.
+   lanes (``taylor.propagate``: end states only, as heyoka's ``propagate_until``; and
+   ``taylor.solve``, which keeps the dense output), both with the model's contact-loss event,
+   against heyoka's batch mode (4 lanes) with the same terminal event and without events, runs
+   per second. (heyoka's batch mode stops all four lanes when one of them loses contact, which
+   leaves the other three unfinished and saves it that work; mett runs each lane to its own end.)
+3. The same grid through ``mett.sweep`` (per point: validation, the predicted end state, the
+   θ = π/2 crossing and the settled test) on the Taylor and on the compiled DOP853 backend.
 
 Times are CPU times of this thread (``time.thread_time``), best of several repeats: on a shared
 machine they are less disturbed than wall-clock times, and both codes are timed the same way.
@@ -70,7 +76,8 @@ def main() -> None:
     rhs, ev = dop853_kernels(mdl)
     print("1. thesis trajectory, 8 s (CPU ms, best of 15; error of t(θ = π/2) in s)")
     for tol in (1e-10, 1e-12):
-        k = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding")
+        k = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding",
+                          vectors=mdl.vectors)  # fmt: skip
 
         def mett_taylor(k=k, tol=tol):
             return taylor.solve(k, (0.0, 8.0), y0, p, scales=scales, direction=[-1.0])[0]
@@ -85,7 +92,11 @@ def main() -> None:
         sol = mett_taylor()
         row = {
             "taylor": (cpu_best(mett_taylor, 15), t_half(sol.dense) - T_HALF, sol.n_steps),
-            "simulate(taylor)": (cpu_best(mett_simulate, 5), math.nan, sol.n_steps),
+            "simulate(taylor)": (
+                cpu_best(mett_simulate, 15),
+                float(mett_simulate().crossings(math.pi / 2)[0]) - T_HALF,
+                sol.n_steps,
+            ),
         }
         d = mett_dop853()
         row["dop853"] = (cpu_best(mett_dop853, 15), t_half(d.dense) - T_HALF, d.n_accepted)
@@ -110,27 +121,52 @@ def main() -> None:
     P[:, 5] = mus
     Y = np.tile(y0, (64, 1))
     for tol in (1e-12, 2.220446049250313e-16):
-        k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding", lanes=4)
-        sec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales,
-                                                  direction=[-1.0]), 3)  # fmt: skip
-        line = f"   tol {tol:.1e}  mett taylor 4 lanes {64 / sec:7.0f} runs/s"
+        k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding", lanes=4,
+                           vectors=mdl.vectors)  # fmt: skip
+        sec = cpu_best(lambda k4=k4: taylor.propagate(k4, (0, 4.0), Y, P, scales=scales,
+                                                      direction=[-1.0]), 3)  # fmt: skip
+        dsec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales,
+                                                   direction=[-1.0]), 3)  # fmt: skip
+        line = (f"   tol {tol:.1e}  mett taylor 4 lanes: propagate {64 / sec:5.0f} runs/s, "
+                f"with dense output {64 / dsec:5.0f}")  # fmt: skip
         if hy is not None:
             import heyoka as hy
 
             pp = [*p[:5], hy.par[0], p[6]]
-            ta = hy.taylor_adaptive_batch(heyoka_system(mdl, pp), np.tile(y0[:, None], (1, 4)),
-                                          tol=tol, pars=np.zeros((1, 4)))  # fmt: skip
+            y = hy.make_vars(*[f"y{i}" for i in range(10)])
+            contact = mdl.events[0].fn(0.0, list(y), tuple(pp))  # g_n/(m g), traced
+            for label, kw in (
+                ("with the contact event", {"t_events": [hy.t_event_batch(
+                    contact, direction=hy.event_direction.negative)]}),
+                ("without events", {}),
+            ):  # fmt: skip
+                ta = hy.taylor_adaptive_batch(heyoka_system(mdl, pp), np.tile(y0[:, None], (1, 4)),
+                                              tol=tol, pars=np.zeros((1, 4)), **kw)  # fmt: skip
 
-            def hb(ta=ta):
-                for g in range(16):
-                    ta.set_time(0.0)
-                    ta.state[:] = y0[:, None]
-                    ta.pars[0, :] = mus[4 * g : 4 * g + 4]
-                    ta.propagate_until(4.0)
+                def hb(ta=ta):
+                    for g in range(16):
+                        ta.set_time(0.0)
+                        ta.state[:] = y0[:, None]
+                        ta.pars[0, :] = mus[4 * g : 4 * g + 4]
+                        ta.propagate_until(4.0)
 
-            hsec = cpu_best(hb, 3)
-            line += f" | heyoka batch {64 / hsec:7.0f} runs/s | ratio {hsec / sec:.2f}"
+                hsec = cpu_best(hb, 3)
+                line += f"\n      heyoka batch {label}: {64 / hsec:5.0f} runs/s, mett / heyoka {hsec / sec:.2f}"
         print(line)
+    print("3. mett.sweep over the same grid at rtol 1e-12 (validation, prediction, end labels)")
+    row = {}
+    for backend in ("taylor", "compiled"):
+
+        def run(backend=backend):
+            return mett.sweep(top, {"mu": mus}, t_end=4.0, backend=backend, rtol=1e-12,
+                              progress=False)  # fmt: skip
+
+        run()
+        row[backend] = cpu_best(run, 3)
+    print(
+        f"   backend taylor {64 / row['taylor']:5.0f} runs/s | compiled (DOP853) "
+        f"{64 / row['compiled']:5.0f} runs/s | ratio {row['compiled'] / row['taylor']:.1f}"
+    )
 
 
 def dop853_kernels(mdl):

@@ -186,12 +186,20 @@ def boolean(name: str, value: Any) -> bool:
     raise TypeError(f"{name} must be True or False; got {_type_name(value)} {value!r}")
 
 
+_PLAIN_REALS = (float, np.float64)
+
+
 def as_finite_array(name: str, value: Any) -> np.ndarray:
     """A new float array (never a view of the caller's) with every element finite.
 
     ``TypeError`` for strings, booleans, None or complex values; ``ValueError`` for NaN/inf or a
     ragged nesting, naming ``name``.
     """
+    if type(value) in _PLAIN_REALS or (type(value) is int and abs(value) < 2**53):
+        # the common scalar case, without numpy's machinery
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite; got {float(value)!r}")
+        return np.array(float(value))
     _reject_non_real(name, value)
     try:
         raw = np.asarray(value)
@@ -227,6 +235,8 @@ def cos_theta(value: Any, name: str = "z") -> np.ndarray:
 def theta(value: Any, name: str = "theta") -> np.ndarray:
     """Inclination angle θ: finite and within [0, π]."""
     th = as_finite_array(name, value)
+    if th.ndim == 0 and 0.0 <= th <= np.pi:
+        return th
     if np.any((th < 0.0) | (th > np.pi)):
         bad = th[(th < 0.0) | (th > np.pi)].ravel()[0].item()
         raise ValueError(f"{name} must lie in [0, pi]; got {bad!r}")

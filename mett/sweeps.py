@@ -54,6 +54,8 @@ _SETTLE_WINDOW = 0.25
 _SETTLE_THETA = 0.05
 _SETTLE_ENERGY = 0.01
 
+_SERIAL_CHUNK = 16  # points per step of a serial sweep: 4 SIMD batches of the Taylor backend
+
 NOT_SETTLED = "not settled"
 """End label of a completed run whose θ was still moving at ``t_end``: run it longer."""
 
@@ -75,21 +77,18 @@ def classify_end(theta_end: float, status: str, *, settled: bool = True) -> str:
     return "tumbling"
 
 
-def _settled(traj: Any) -> bool:
-    """Whether θ and the energy were steady over the last quarter of the run (see above)."""
+def _settled(end: Any) -> bool:
+    """Whether θ and the energy were steady over the last quarter of the run (see above), from
+    its :class:`~mett.dynamics.batch.RunEnd`."""
     import numpy as np
 
-    t0, t1 = float(traj.t[0]), float(traj.t[-1])
-    if not t1 > t0:
+    if end.window.size == 0 or not end.window[-1] > end.window[0]:
         return False
-    tw = t1 - _SETTLE_WINDOW * (t1 - t0)
-    theta = np.asarray(traj.at(np.linspace(tw, t1, 101)).theta)
-    E = np.asarray(traj.E, dtype=float)
-    lost = abs(E[0] - E[-1])
-    late = abs(float(np.interp(tw, traj.t, E)) - E[-1])
+    lost = abs(end.E0 - end.E_window[-1])
+    late = abs(end.E_window[0] - end.E_window[-1])
     # a conservative run (nothing lost, to rounding) is judged by θ alone
-    share = late / lost if lost > 1e-9 * abs(E[0]) else 0.0
-    return bool(np.ptp(theta) < _SETTLE_THETA and share < _SETTLE_ENERGY)
+    share = late / lost if lost > 1e-9 * abs(end.E0) else 0.0
+    return bool(np.ptp(end.theta_window) < _SETTLE_THETA and share < _SETTLE_ENERGY)
 
 
 def _point_setup(base: dict, point: dict) -> tuple[TippeTop, dict]:
@@ -123,26 +122,14 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _run_point(base: dict, point: dict) -> dict:
-    """One grid point's row. Never raises: a failure is the row's status and message.
-
-    ``status`` is "invalid" (the point's parameters are refused: ValueError/TypeError while building
-    the top or the state), "error" (the simulation raised), or the simulation's own status; an
-    exception of the prediction only sets ``predicted`` = "error" and keeps the simulated result.
-    """
+def _start(base: dict, point: dict) -> tuple[dict, Any]:
+    """The row of a grid point so far, and (top, state, simulate options, start values) to run,
+    or None if the point's parameters are refused (the row then says why)."""
     from . import friction
-    from .dynamics import simulate
     from .integrals import jellett
     from .state import State
-    from .thresholds import asymptotic_state
 
     row: dict[str, Any] = dict(point)
-
-    def finish(result: dict) -> dict:
-        # the grid's own values stay exact (λ/λ_thres recomputed would differ in the last bit)
-        row.update({k: v for k, v in {**_NAN_RESULT, **result}.items() if k not in point})
-        return row
-
     try:
         top, ic = _point_setup(base, point)
         state = State(
@@ -155,48 +142,97 @@ def _run_point(base: dict, point: dict) -> dict:
             gamma=top.gamma,
         )  # fmt: skip
     except (ValueError, TypeError, ArithmeticError) as exc:  # an inadmissible point
-        return finish(dict(status="invalid", message=str(exc), simulated="invalid"))
-    try:
-        kw = dict(base["simulate_kw"])
-        law = point.get("friction", kw.get("friction"))
-        if law is not None:  # a law name: its coefficient is the point's mu
-            r = point.get("contensou_radius", kw.pop("contensou_radius", 0.0))
+        result = dict(status="invalid", message=str(exc), simulated="invalid")
+        return _finish(row, point, result), None
+    kw: dict[str, Any] = {}
+    law = point.get("friction", base["simulate_kw"].get("friction"))
+    if law is not None:  # a law name: its coefficient is the point's mu
+        r = point.get("contensou_radius", base["simulate_kw"].get("contensou_radius", 0.0))
+        try:
             kw["friction"] = friction.from_name(law, top.mu, contensou_radius=r)
-        traj = simulate(top, state, base["t_end"], **kw)
-    except Exception as exc:  # a sweep records a failing point and goes on
-        return finish(dict(start, status="error", message=_describe(exc), simulated="error"))
-    message = traj.message
+        except Exception as exc:  # as if the simulation had raised it
+            result = dict(start, status="error", message=_describe(exc), simulated="error")
+            return _finish(row, point, result), None
+    return row, (top, state, kw, start)
+
+
+def _finish(row: dict, point: dict, result: dict) -> dict:
+    # the grid's own values stay exact (λ/λ_thres recomputed would differ in the last bit)
+    row.update({k: v for k, v in {**_NAN_RESULT, **result}.items() if k not in point})
+    return row
+
+
+def _prediction(top: TippeTop, lam: float, cache: dict) -> tuple[str, tuple[str, ...]]:
+    """The predicted end state's kind and, for "bistable", its candidates' kinds (``cache``: the
+    points of a chunk of a sweep over friction or time share their top and λ)."""
+    from .thresholds import asymptotic_state
+
+    if (top, lam) not in cache:
+        pred = asymptotic_state(top, lam)
+        cache[top, lam] = (pred.kind, tuple(c.kind for c in pred.candidates))
+    return cache[top, lam]
+
+
+def _row(row: dict, point: dict, job: tuple, end: Any, cache: dict) -> dict:
+    """The row of a point from how its run ended (a RunEnd, or the exception it raised)."""
+    top, _, _, start = job
+    if isinstance(end, BaseException):  # a sweep records a failing point and goes on
+        return _finish(row, point, dict(start, status="error", message=_describe(end),
+                                        simulated="error"))  # fmt: skip
+    message = end.message
     candidates: tuple[str, ...] = ()
     try:
-        pred = asymptotic_state(top, lam) if lam > 0 else None
-        predicted = pred.kind if pred is not None else "n/a"
-        # "bistable": the run agrees if it ends in either stable state
-        candidates = tuple(c.kind for c in pred.candidates) if pred is not None else ()
+        lam = start["lam"]
+        predicted, candidates = _prediction(top, lam, cache) if lam > 0 else ("n/a", ())
     except Exception as exc:  # the simulated result is kept
         predicted = "error"
         message = "; ".join(filter(None, [message, f"asymptotic_state: {_describe(exc)}"]))
-    cross = traj.crossings(math.pi / 2)
-    settled = traj.status != "completed" or _settled(traj)
-    simulated = classify_end(float(traj.theta[-1]), traj.status, settled=settled)
-    return finish(
+    settled = end.status != "completed" or _settled(end)
+    simulated = classify_end(end.theta_end, end.status, settled=settled)
+    return _finish(
+        row,
+        point,
         dict(
             start,
-            t_invert=float(cross[0]) if cross.size else math.nan,
-            status=traj.status,
+            t_invert=end.t_cross,
+            status=end.status,
             message=message,
-            theta_end=float(traj.theta[-1]),
-            omega3_end=float(traj.omega3[-1]),
+            theta_end=end.theta_end,
+            omega3_end=end.omega3_end,
             predicted=predicted,
             simulated=simulated,
             agree=bool(
                 predicted == simulated or (predicted == "bistable" and simulated in candidates)
             ),
-        )
+        ),
     )
 
 
+def _run_point(base: dict, point: dict) -> dict:
+    """One grid point's row. Never raises: a failure is the row's status and message.
+
+    ``status`` is "invalid" (the point's parameters are refused: ValueError/TypeError while building
+    the top or the state), "error" (the simulation raised), or the simulation's own status; an
+    exception of the prediction only sets ``predicted`` = "error" and keeps the simulated result.
+    """
+    return _run_chunk(base, [(0, point)])[0][1]
+
+
 def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dict]]:
-    return [(i, _run_point(base, p)) for i, p in chunk]
+    """The rows of a chunk of points; runs on the Taylor backend go several at a time
+    (:func:`mett.dynamics.batch.run_ends`)."""
+    from .dynamics.batch import run_ends
+
+    kw = {k: v for k, v in base["simulate_kw"].items() if k != "contensou_radius"}
+    started = [(i, p, *_start(base, p)) for i, p in chunk]
+    todo = [(i, p, row, job) for i, p, row, job in started if job is not None]
+    jobs = [(job[0], job[1], job[2]) for *_, job in todo]
+    ends = run_ends(jobs, base["t_end"], window=_SETTLE_WINDOW, **kw)
+    rows = {i: row for i, _, row, job in started if job is None}
+    cache: dict = {}
+    for (i, p, row, job), end in zip(todo, ends, strict=True):
+        rows[i] = _row(row, p, job, end, cache)
+    return [(i, rows[i]) for i, _ in chunk]
 
 
 def _grid_points(grid: Mapping[str, Any]) -> tuple[list[str], list[dict]]:
@@ -425,7 +461,10 @@ def sweep(
         JSON-lines file of finished points; rerunning with the same arguments resumes. An existing
         file that is not this sweep's checkpoint is refused and left untouched.
     chunksize : int, optional
-        Points per task sent to ``executor`` (default: about 1/32 of the grid), >= 1.
+        Points per task sent to ``executor`` (default: about 1/32 of the grid), >= 1; without an
+        executor, points run (and are checkpointed) this many at a time (default 1, and 16 with
+        ``backend="taylor"``). On the Taylor backend the points of a task run side by side, four
+        per SIMD batch (:func:`mett.dynamics.batch.run_ends`): the fastest way through a grid.
     **simulate_kw
         Passed to :func:`mett.simulate` (``model``, ``rtol``, …); checked once, before the first
         run, by a microsecond-long simulation at the first valid grid point.
@@ -502,8 +541,12 @@ def sweep(
 
     try:
         if executor is None:
-            for item in todo:
-                finish(_run_chunk(base, [item]))
+            # the Taylor backend runs a few points at a time, side by side in SIMD lanes; the
+            # others one at a time (each checkpointed as soon as it is done)
+            batched = simulate_kw.get("backend") == "taylor"
+            size = chunksize or (_SERIAL_CHUNK if batched else 1)
+            for k in range(0, len(todo), size):
+                finish(_run_chunk(base, todo[k : k + size]))
         else:
             size = chunksize or max(1, math.ceil(len(todo) / 32))
             chunks = [todo[k : k + size] for k in range(0, len(todo), size)]

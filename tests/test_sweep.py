@@ -197,3 +197,57 @@ def test_cli_scheduler_without_dask_names_the_extra():
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert_one_line_error(res, "pip install 'mett[dask]'")
+
+
+def test_taylor_sweep_runs_points_side_by_side_with_the_results_of_one_at_a_time():
+    # 7 points: one full SIMD batch of 4 and a padded one of 3, runs that lose contact, invert and
+    # stay upright; the batched table equals the table of the same points run one per task
+    grid = {"mu": [0.05, 0.3, 0.5], "omega3": [60.0, 155.0], "theta0": [0.1]}
+    grid2 = {"mu": [0.3], "omega3": [155.0], "theta0": [3.0]}
+    kw = dict(t_end=8.0, backend="taylor", rtol=1e-12, progress=False)
+    batched = pd.concat([sweep(TOP, grid, **kw), sweep(TOP, grid2, **kw)], ignore_index=True)
+    single = pd.concat(
+        [sweep(TOP, grid, chunksize=1, **kw), sweep(TOP, grid2, chunksize=1, **kw)],
+        ignore_index=True,
+    )
+    pd.testing.assert_frame_equal(batched, single)
+    assert {"contact_lost", "completed"} <= set(batched["status"])
+    assert len(set(batched["simulated"])) >= 3  # upright, tumbling, not settled, contact_lost
+    # and each row is its own simulate call on the Taylor backend (one by one, dense output)
+    for _, row in batched.iterrows():
+        traj = mett.simulate(TOP.replace(mu=row["mu"]),
+                             mett.State(theta=row["theta0"], omega3=row["omega3"]), 8.0,
+                             backend="taylor", rtol=1e-12)  # fmt: skip
+        assert row["status"] == traj.status and row["message"] == traj.message
+        assert row["theta_end"] == float(traj.theta[-1])
+        assert row["omega3_end"] == float(traj.omega3[-1])
+        cross = traj.crossings(np.pi / 2)
+        if cross.size:
+            assert abs(row["t_invert"] - cross[0]) < 1e-12
+        else:
+            assert np.isnan(row["t_invert"])
+
+
+def test_run_ends_sends_what_cannot_be_batched_through_simulate():
+    from mett.dynamics import batch
+    from mett.friction import Coulomb
+
+    state = mett.State(theta=0.1, omega3=155.0)
+    jobs = [
+        (TOP, state),  # batched
+        (TOP, state, {"friction": Coulomb(0.3)}),  # a hybrid (stick-slip) model: one by one
+        (TOP, state, {"backend": "compiled"}),  # another backend: one by one
+        (TOP, state, {"rtol": 2.0}),  # bad input: the exception, returned
+    ]
+    ends = batch.run_ends(jobs, 0.5, backend="taylor")
+    assert isinstance(ends[3], ValueError) and "rtol" in str(ends[3])
+    ref = [
+        batch.end_of(mett.simulate(TOP, state, 0.5, backend="taylor")),
+        batch.end_of(mett.simulate(TOP, state, 0.5, backend="taylor", friction=Coulomb(0.3))),
+        batch.end_of(mett.simulate(TOP, state, 0.5, backend="compiled")),
+    ]
+    for end, r in zip(ends[:3], ref, strict=True):
+        assert (end.status, end.message) == (r.status, r.message)
+        assert end.theta_end == r.theta_end and end.omega3_end == r.omega3_end
+        np.testing.assert_allclose(end.theta_window, r.theta_window, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(end.E_window, r.E_window, rtol=1e-14)

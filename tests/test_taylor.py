@@ -259,3 +259,98 @@ def test_a_kernel_refuses_parameters_that_take_other_branches():
     assert k2 is not k
     down = taylor.solve(k2, (0.0, 1.0), [1.0], [1.0, -1.0])[0]
     assert down.dense(1.0)[0] == pytest.approx(math.exp(-1.0), rel=1e-8)
+
+
+def _rotated_about_z(y: np.ndarray, beta: float) -> np.ndarray:
+    """A gliding-model state turned by ``beta`` about the vertical: the same motion, seen from a
+    space frame turned by −beta (x, y; ẋ, ẏ; L; 3̂ are horizontal pairs + vertical parts)."""
+    c, s = math.cos(beta), math.sin(beta)
+    out = y.copy()
+    for i, j in ((0, 1), (2, 3), (4, 5), (7, 8)):
+        out[i], out[j] = c * y[i] - s * y[j], s * y[i] + c * y[j]
+    return out
+
+
+def test_steps_do_not_depend_on_the_orientation_of_the_space_frame():
+    # The step-size norm measures each vector of the state (velocity, L, 3̂) by its length: the
+    # same motion started in a frame turned about ẑ takes the same steps. (A component-wise norm
+    # takes ~25 % more steps in the thesis frame, where L_x = 0 and 3̂_x = 0 at the start.)
+    mdl = MODELS["gliding"]
+    p = np.array(mdl.params(TOP, {}))
+    y0 = np.asarray(mdl.initial(THESIS, tuple(p)))
+    scales = mdl.scales(y0, tuple(p))
+    k = taylor.kernel(mdl.rhs_into, [], 10, 7, 17, "gliding", vectors=mdl.vectors)
+    runs = [
+        taylor.solve(k, (0.0, 3.0), _rotated_about_z(y0, b), p, scales=scales)[0]
+        for b in (0.0, 0.7, 2.0)
+    ]
+    h = [r.dense.h for r in runs]
+    for other in h[1:]:
+        assert other.size == h[0].size
+        np.testing.assert_allclose(other, h[0], rtol=1e-9)
+    # and the states agree once turned back
+    end = [_rotated_about_z(r.dense.y[-1], -b) for r, b in zip(runs, (0.0, 0.7, 2.0), strict=True)]
+    for e in end[1:]:
+        np.testing.assert_allclose(e, end[0], rtol=1e-9, atol=1e-12 * np.abs(end[0]).max())
+    # the component-wise norm, for contrast, depends on the frame
+    kc = taylor.kernel(mdl.rhs_into, [], 10, 7, 17, "gliding")
+    n = [taylor.solve(kc, (0.0, 3.0), _rotated_about_z(y0, b), p, scales=scales)[0].n_steps
+         for b in (0.0, 0.7)]  # fmt: skip
+    assert n[0] != n[1]
+    assert h[0].size < min(n)
+
+
+@pytest.mark.parametrize("bad", [((0, 1), (1, 2)), ((0, 10),), ((),)])
+def test_vectors_of_the_norm_are_checked(bad):
+    mdl = MODELS["gliding"]
+    with pytest.raises(ValueError, match="vectors"):
+        taylor.kernel(mdl.rhs_into, [], 10, 7, 12, "gliding", vectors=bad)
+
+
+def _ez(t, y, p):
+    return y[9]
+
+
+def test_propagate_gives_the_end_states_samples_and_crossings_of_solve():
+    # propagate keeps no dense output; its end states, samples and the first zero of a
+    # recording event must be those of solve's dense solution, lane by lane
+    mdl = MODELS["gliding"]
+    p = np.array(mdl.params(TOP, {}))
+    y0 = np.asarray(mdl.initial(THESIS, tuple(p)))
+    scales = mdl.scales(y0, tuple(p))
+    P = np.tile(p, (6, 1))
+    P[:, 5] = [0.3, 0.05, 0.25, 0.35, 0.3, 0.45]
+    Y = np.tile(y0, (6, 1))
+    contact = [ev.fn for ev in mdl.events]
+    k = taylor.kernel(mdl.rhs_into, [*contact, _ez], 10, 7, 17, "gliding", lanes=4,
+                      vectors=mdl.vectors)  # fmt: skip
+    tt = np.linspace(6.0, 7.0, 11)
+    b = taylor.propagate(k, (0.0, 7.0), Y, P, scales=scales, direction=[-1.0, 0.0],
+                         terminal=[True, False], t_eval=tt)  # fmt: skip
+    # the crossing as a terminal event: solve stops where propagate recorded it
+    stop = taylor.solve(k, (0.0, 7.0), Y, P, scales=scales, direction=[-1.0, 0.0])
+    # without the crossing event: the very same steps as propagate
+    k0 = taylor.kernel(mdl.rhs_into, contact, 10, 7, 17, "gliding", lanes=4, vectors=mdl.vectors)
+    ref = taylor.solve(k0, (0.0, 7.0), Y, P, scales=scales, direction=[-1.0])
+    assert np.isfinite(b.first[:, 1]).sum() >= 3 and (b.status == taylor.TERMINAL_EVENT).any()
+    for j in range(6):
+        if np.isfinite(b.first[j, 1]):
+            assert stop[j].status == taylor.TERMINAL_EVENT and stop[j].event_index == 1
+            assert b.first[j, 1] == stop[j].dense.t[-1]
+        assert (b.status[j], b.event_index[j]) == (ref[j].status, ref[j].event_index)
+        assert b.status[j] in (taylor.COMPLETED, taylor.TERMINAL_EVENT)
+        assert b.n_steps[j] == ref[j].n_steps and b.t[j] == ref[j].dense.t[-1]
+        np.testing.assert_array_equal(b.y[j], ref[j].dense.y[-1])
+        inside = tt <= b.t[j]
+        np.testing.assert_allclose(b.samples[j][inside], ref[j].dense(tt[inside]).T, atol=1e-15)
+        assert np.isnan(b.samples[j][~inside]).all()
+    # the thesis top (μ = 0.3, lanes 0 and 4: one batch each) crosses at the converged time
+    assert abs(b.first[0, 1] - T_HALF) < 1e-10 and b.first[4, 1] == b.first[0, 1]
+
+
+def test_propagate_checks_its_arguments():
+    k = taylor.kernel(_exp_into, [], 1, 1, 8, "test")
+    with pytest.raises(ValueError, match="t_eval"):
+        taylor.propagate(k, (0.0, 1.0), [1.0], [1.0], t_eval=[0.5, 0.2])
+    with pytest.raises(ValueError, match="one entry per event"):
+        taylor.propagate(k, (0.0, 1.0), [1.0], [1.0], terminal=[True])

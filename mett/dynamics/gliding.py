@@ -184,6 +184,13 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([sc["length"]] * 2 + [sc["velocity"]] * 2 + [sc["momentum"]] * 3 + [0.1] * 3)
 
 
+def _cos_theta(t: float, y: Any, p: Any) -> Any:
+    return y[9]  # 3̂_z (its sign and zeros are those of cos θ, whatever |3̂| drifts to)
+
+
+VECTORS = ((0, 1), (2, 3), (4, 5, 6), (7, 8, 9))
+"""The state's vectors: horizontal position and velocity of the centre of mass, L, 3̂."""
+
 MODEL = register(
     Model(
         name="gliding",
@@ -198,5 +205,7 @@ MODEL = register(
         scales=_scales,
         events=(Event(_contact, -1.0, "contact_lost"),),
         conserves=("lam",),
+        vectors=VECTORS,
+        cos_theta=_cos_theta,
     )
 )

@@ -217,6 +217,14 @@ class Model:
         ``variant(options) -> Model or None``: the model that actually runs for these validated
         options (None: this one). E.g. "gliding" with ``friction=Coulomb(...)`` can hand over to a
         hybrid stick–slip model; the variant must accept the same options.
+    vectors : tuple of tuple of int
+        Index tuples of state components that form one physical vector (a position, velocity,
+        angular momentum, unit axis): the Taylor backend measures a vector's truncation error
+        against its length (:func:`mett.dynamics.taylor.kernel`). Default: none.
+    cos_theta : callable, optional
+        ``cos_theta(t, y, p)``: cos θ of one state in plain arithmetic (no branches; traceable
+        by :mod:`.taylor`), so that many runs at once (:func:`mett.dynamics.batch.run_ends`) can
+        locate the crossings of θ on the Taylor polynomials. None: those runs go one by one.
     finish : callable, optional
         ``finish(traj)``: adds series that the states alone do not fix to a finished
         :class:`~mett.Trajectory` (e.g. the contact force of each sample's phase of a stick–slip
@@ -241,6 +249,8 @@ class Model:
     start_phase: Callable[[np.ndarray, Params], str] | None = None
     variant: Callable[[dict], Model | None] | None = None
     finish: Callable[[Any], None] | None = None
+    vectors: tuple[tuple[int, ...], ...] = ()
+    cos_theta: Callable[[float, Any, Any], Any] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -153,6 +153,10 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([sc["length"]] * 2 + [sc["omega"]] * 3 + [1.0] * 3)
 
 
+def _cos_theta(t: float, y: Any, p: Any) -> Any:
+    return y[7]  # 3̂_z
+
+
 MODEL = register(
     Model(
         name="rolling",
@@ -167,5 +171,7 @@ MODEL = register(
         scales=_scales,
         events=(Event(_contact, -1.0, "contact_lost"),),
         conserves=("lam", "D", "E"),
+        vectors=((0, 1), (2, 3, 4), (5, 6, 7)),
+        cos_theta=_cos_theta,
     )
 )

@@ -364,6 +364,70 @@ def simulate(
         return stemmed_run(simulate, top, state, t_end, model=model, rtol=rtol, atol=atol,
                            t_eval=t_eval, events=events, method=method, backend=backend,
                            max_step=max_step, friction=friction, **options)  # fmt: skip
+    prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
+                    events=events, method=method, backend=backend, max_step=max_step,
+                    friction=friction, **options)  # fmt: skip
+    if not isinstance(prep, PreparedRun):  # a run decided before the first step
+        return prep
+    return run_prepared(prep)
+
+
+def completed_message(t_end: float) -> str:
+    """The message of a run that reached ``t_end``."""
+    return f"reached t_end = {t_end:g} s"
+
+
+def event_end(action: str, message: str, t_ev: float) -> tuple[str, str]:
+    """Status and message of a run stopped at ``t_ev`` by a model event (not a switch) with this
+    ``action`` and ``message``."""
+    if action == "contact_lost":
+        return "contact_lost", f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
+    return "failed", f"{message} (t = {t_ev:.9g} s)"
+
+
+def taylor_failure(status: int, t_stop: float) -> str:
+    """The message of a Taylor run that failed with ``status`` (< 0) at ``t_stop``."""
+    from . import taylor
+
+    base = taylor.STATUS_MESSAGES[status]
+    if status == taylor.MAX_STEPS:
+        base = f"maximum number of steps ({MAX_STEPS}) reached"
+    return f"integrator failed at t = {t_stop:.9g} s: {base}"
+
+
+class PreparedRun(NamedTuple):
+    """A validated run, ready for its solver (:func:`_prepare`)."""
+
+    run: _Run
+    table: dict[str, Phase]
+    t_end: float
+    rtol: float
+    atol_arr: np.ndarray
+    t_eval_arr: np.ndarray | None
+    max_step: float
+    method: str
+    user: list
+
+
+def prepare_run(
+    top: TippeTop,
+    state: Any,
+    t_end: float,
+    *,
+    model: str | Model,
+    rtol: float,
+    atol: Any,
+    t_eval: Any,
+    events: Any,
+    method: str,
+    backend: str,
+    max_step: float,
+    friction: Any,
+    **options: Any,
+) -> PreparedRun | Trajectory:
+    """Everything :func:`simulate` does before integrating: validation, the model that runs (its
+    friction law and variant), the backend, parameters and start; a run decided at t = 0 (contact
+    lost, a guard, the viscous law's own run) is returned as its Trajectory."""  # fmt: skip
     mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
@@ -467,9 +531,16 @@ def simulate(
     if gn0 <= 0.0:
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
+    return PreparedRun(run, table, t_end, rtol, atol_arr, t_eval_arr, max_step, method, user)
+
+
+def run_prepared(prep: PreparedRun) -> Trajectory:
+    """Integrate a prepared run (:func:`_prepare`) with its backend."""
+    run, table, t_end, rtol, atol_arr, t_eval_arr, max_step, method, user = prep
+    mdl = run.mdl
     solvers = {"compiled": _solve_compiled, "scipy": _solve_scipy, "taylor": _solve_taylor}
     solve = functools.partial(
-        solvers[backend],
+        solvers[run.backend],
         t_end=t_end,
         rtol=rtol,
         atol_arr=atol_arr,
@@ -647,7 +718,7 @@ class _Run:
         return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
-        msg = f"contact lost: the normal force g_n reached 0 at t = {t_ev:.9g} s"
+        msg = event_end("contact_lost", "", t_ev)[1]
         return self.result(t_out, Y, sol, "contact_lost", msg, t_contact_lost=float(t_ev), **kw)
 
     def stopped(self, t_out, Y, sol, index: int, t_ev: float, **kw: Any) -> Trajectory:
@@ -659,8 +730,7 @@ class _Run:
             self.switch = (index, float(t_ev))
             msg = f"switch to phase {ev.target!r} at t = {t_ev:.9g} s"
             return self.result(t_out, Y, sol, "completed", msg, **kw)
-        msg = f"{ev.message} (t = {t_ev:.9g} s)"
-        return self.result(t_out, Y, sol, "failed", msg, **kw)
+        return self.result(t_out, Y, sol, *event_end(ev.action, ev.message, t_ev), **kw)
 
 
 def _recording(method: str, pieces: list[Any], states: list[np.ndarray]) -> type:
@@ -798,7 +868,7 @@ def _solve_scipy(
             return run.stopped(t_out, Y, sol, idx, t_ev, **kw)
         msg = f"stopped by terminal event {idx - n_internal} at t = {t_ev:.9g} s"
         return run.result(t_out, Y, sol, "completed", msg, **kw)
-    return run.result(t_out, Y, sol, "completed", f"reached t_end = {t_end:g} s", **kw)
+    return run.result(t_out, Y, sol, "completed", completed_message(t_end), **kw)
 
 
 def _solve_compiled(
@@ -889,7 +959,7 @@ def _finish(
         return run.stopped(t_out, Y, dense, stopped_by[0], stopped_by[1], **kw)
     if failure is not None:
         return run.result(t_out, Y, dense, "failed", failure, **kw)
-    return run.result(t_out, Y, dense, "completed", f"reached t_end = {t_end:g} s", **kw)
+    return run.result(t_out, Y, dense, "completed", completed_message(t_end), **kw)
 
 
 def _solve_taylor(
@@ -897,8 +967,9 @@ def _solve_taylor(
 ) -> Any:
     """The Taylor-series backend (:mod:`.taylor`): ``run.phase``'s jet at the order of ``rtol``.
 
-    The per-step truncation error of component i is held at ≈ max(atol_i, rtol |y_i|) (the
-    step-size norm of Jorba & Zou scaled by σ_i = atol_i/rtol). Model events are located on the
+    The per-step truncation error of component i is held at ≈ max(atol_i, rtol |y|_g) (the
+    step-size norm of Jorba & Zou scaled by σ_i = atol_i/rtol), |y|_g the size of the model's
+    vector that holds component i (``Model.vectors``; the component itself if none). Model events are located on the
     Taylor polynomials; user events after the run on the dense output, as for DOP853.
     """
     from . import taylor
@@ -908,7 +979,7 @@ def _solve_taylor(
     ph = run.phase
     kernel = taylor.kernel(
         ph.rhs_into, [ev.fn for ev in ph.events], run.y0.size, len(params),
-        taylor.order_for(rtol), f"{mdl.name}_{ph.name}", params=params,
+        taylor.order_for(rtol), f"{mdl.name}_{ph.name}", params=params, vectors=mdl.vectors,
     )  # fmt: skip
     sol = taylor.solve(
         kernel, (run.t0, t_end), run.y0, params, scales=atol_arr / rtol,
@@ -919,10 +990,7 @@ def _solve_taylor(
     nfev = sol.n_steps  # one jet per step (a jet of order p costs about p²/4 right-hand sides)
     failure = None
     if sol.status < 0:
-        base = taylor.STATUS_MESSAGES[sol.status]
-        if sol.status == taylor.MAX_STEPS:
-            base = f"maximum number of steps ({MAX_STEPS}) reached"
-        failure = f"integrator failed at t = {t_stop:.9g} s: {base}"
+        failure = taylor_failure(sol.status, t_stop)
         if sol.n_steps == 0:
             return run.at_start("failed", failure, nfev=nfev)
     stopped_by = None

@@ -28,11 +28,13 @@ a tolerance ε the order is p = ⌈−½ ln ε⌉ + 1 and the step
 
     h = ρ / e² · exp(−0.7 / (p − 1)),   ρ = min(‖y_{p−1}‖^{−1/(p−1)}, ‖y_p‖^{−1/p}),
 
-where the norm is the maximum over the components scaled by σ_i = max(scale_i, |y_i|); ``scale``
-is the model's typical magnitude per component (the one that sets DOP853's absolute tolerance),
-so the truncation error of each component is ≈ ε σ_i per step. No step is ever rejected: the
-Taylor polynomial of a step is known before its size is chosen. The polynomials are kept, so the
-dense output is the solution itself, of order p. Events are located on the Taylor polynomials of
+where the norm is the maximum over the parts g of the state of |y_g,k| / max(scale_g, |y_g|):
+a part is a physical vector of the model (its ``vectors``: the velocity, L, 3̂), measured by its
+Euclidean length, or a lone component; ``scale`` is the model's typical magnitude per component
+(the one that sets DOP853's absolute tolerance). So the truncation error of a vector is ≈ ε times
+its length per step, and the steps do not depend on how the space frame is oriented. No step is
+ever rejected: the Taylor polynomial of a step is known before its size is chosen. The
+polynomials are kept, so the dense output is the solution itself, of order p. Events are located on the Taylor polynomials of
 the event functions: a sign change over a step (tested at the end and at interior points) is
 refined by safeguarded Newton iteration on that polynomial.
 """
@@ -54,11 +56,13 @@ from numpy.typing import ArrayLike
 
 __all__ = [
     "STATUS_MESSAGES",
+    "TaylorBatch",
     "TaylorDense",
     "TaylorKernel",
     "TaylorSolution",
     "kernel",
     "order_for",
+    "propagate",
     "solve",
     "trace",
 ]
@@ -337,6 +341,25 @@ def _hex(x: float) -> str:
     return f"0x{int(np.float64(x).view(np.uint64)):016X}"
 
 
+def _norm_groups(vectors: Sequence[Sequence[int]], n_state: int) -> tuple[tuple[int, ...], ...]:
+    """The components of the step-size norm grouped into vectors: each of ``vectors`` (index
+    tuples of a model's state that form one physical vector, e.g. L or 3̂) and every other
+    component alone. A vector's truncation error is measured against its length, not against
+    each component: the components of L or 3̂ along the axes of the space frame can be small only
+    because of how the frame happens to be oriented, and holding each of them to ε of itself
+    costs steps that no frame-independent quantity needs (Jorba & Zou 2005 and heyoka use the
+    norm of the whole state)."""
+    seen: set[int] = set()
+    groups = []
+    for v in vectors:
+        v = tuple(int(i) for i in v)
+        if not v or seen & set(v) or not all(0 <= i < n_state for i in v):
+            raise ValueError(f"vectors must be disjoint index tuples into the state; got {vectors}")
+        seen |= set(v)
+        groups.append(v)
+    return (*groups, *((i,) for i in range(n_state) if i not in seen))
+
+
 class _IR:
     """Straight-line LLVM IR of the jet of one traced model at one order, for ``lanes`` states.
 
@@ -349,8 +372,11 @@ class _IR:
 
     FLAGS = "contract"  # lets LLVM fuse a*b + c into an FMA; no reassociation
 
-    def __init__(self, tr: _Traced, order: int, name: str, lanes: int = 1) -> None:
+    def __init__(
+        self, tr: _Traced, order: int, name: str, lanes: int = 1, vectors: tuple = ()
+    ) -> None:
         self.tr, self.order, self.name, self.W = tr, order, name, lanes
+        self.vectors = _norm_groups(vectors, tr.n_state)
         self.T = "double" if lanes == 1 else f"<{lanes} x double>"
         self.suffix = "f64" if lanes == 1 else f"v{lanes}f64"
         self.lines: list[str] = []
@@ -469,34 +495,37 @@ class _IR:
 
     def norms(self) -> None:
         """The step-size norms of every lane (Jorba & Zou 2005, §3.3), with the jet:
-        ``nrm[0] = max_i |y_i,p−1| w_i``, ``nrm[1] = max_i |y_i,p| w_i``, w_i = 1/max(σ_i, ε|y_i|)
-        for ``sig = (σ_i ... , ε)`` (σ_i already scaled by the tolerance ε)."""
+        ``nrm[0] = max_g |y_g,p−1| / w_g``, ``nrm[1] = max_g |y_g,p| / w_g``, w_g = max(σ_g, ε|y_g|)
+        over the vectors g of :func:`_norm_groups` with Euclidean lengths |·| (a lone component: its
+        absolute value), for ``sig = (σ_i ... , ε)`` (σ_i already scaled by the tolerance ε;
+        σ_g the largest over g). Computed with squares and one square root per norm."""
         L, T, p = self.lines, self.T, self.order
         eps = self.load("%sig", self.tr.n_state)
+        eps2 = self.op("fmul", eps, eps)
         n1 = n2 = self.c(0.0)
-        for i in range(self.tr.n_state):
-            a = self.tmp()
-            L.append(f"{a} = {self.call('fabs', f'%y{i}_0')}")
-            ea = self.op("fmul", eps, a)
-            sg = self.load("%sig", i)
+
+        def maxnum(a: str, b: str) -> str:
             m = self.tmp()
-            L.append(f"{m} = call {T} @llvm.maxnum.{self.suffix}({T} {sg}, {T} {ea})")
-            w = self.tmp()
-            L.append(f"{w} = fdiv {T} {self.c(1.0)}, {m}")
-            for acc_name, k in (("n1", p - 1), ("n2", p)):
-                q = self.tmp()
-                L.append(f"{q} = {self.call('fabs', f'%y{i}_{k}')}")
-                qw = self.op("fmul", q, w)
-                new = self.tmp()
-                cur = n1 if acc_name == "n1" else n2
-                L.append(f"{new} = call {T} @llvm.maxnum.{self.suffix}({T} {cur}, {T} {qw})")
-                if acc_name == "n1":
-                    n1 = new
-                else:
-                    n2 = new
+            L.append(f"{m} = call {T} @llvm.maxnum.{self.suffix}({T} {a}, {T} {b})")
+            return m
+
+        def square_length(group: tuple[int, ...], k: int) -> str:
+            return self.sum([self.op("fmul", f"%y{i}_{k}", f"%y{i}_{k}") for i in group])
+
+        for group in self.vectors:
+            sg = self.load("%sig", group[0])
+            for i in group[1:]:
+                sg = maxnum(sg, self.load("%sig", i))
+            w2 = maxnum(self.op("fmul", sg, sg), self.op("fmul", eps2, square_length(group, 0)))
+            inv = self.tmp()
+            L.append(f"{inv} = fdiv {T} {self.c(1.0)}, {w2}")
+            n1 = maxnum(n1, self.op("fmul", square_length(group, p - 1), inv))
+            n2 = maxnum(n2, self.op("fmul", square_length(group, p), inv))
         for idx, val in ((0, n1), (1, n2)):
+            r = self.tmp()
+            L.append(f"{r} = {self.call('sqrt', val)}")
             g = self.ptr("%nrm", idx)
-            L.append(f"store {T} {val}, {T}* {g}, align 8")
+            L.append(f"store {T} {r}, {T}* {g}, align 8")
 
     def update(self) -> str:
         """IR of ``update_<name>(X, h, y)``: y_i = Σ_k X[i, k] h^k (Horner) for every lane."""
@@ -676,18 +705,24 @@ def order_for(tol: float) -> int:
 class TaylorKernel:
     """The compiled jet of one model at one order, callable from the numba integration loop."""
 
-    def __init__(self, tr: _Traced, order: int, label: str, lanes: int = 1) -> None:
+    def __init__(
+        self, tr: _Traced, order: int, label: str, lanes: int = 1, vectors: tuple = ()
+    ) -> None:
         self.traced, self.order, self.lanes = tr, order, lanes
         self.n_state, self.n_events = tr.n_state, len(tr.events)
-        digest = hashlib.sha256(repr((tr, order, lanes)).encode()).hexdigest()[:16]
+        self.vectors = _norm_groups(vectors, tr.n_state)
+        digest = hashlib.sha256(repr((tr, order, lanes, self.vectors)).encode()).hexdigest()[:16]
         self.name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
-        ir = _IR(tr, order, self.name, lanes).text()
+        ir = _IR(tr, order, self.name, lanes, self.vectors).text()
         self.address = _native(ir, self.name)
         self.function = _JetAddress(self.address[0], _JET_SIG)
         self.update = _JetAddress(self.address[1], _UPDATE_SIG)
 
 
 _KERNELS: dict[tuple, list[TaylorKernel]] = {}
+
+_NO_TIMES = np.empty(0)
+_HUGE = 4 << 20  # numpy asks for transparent huge pages for arrays of this many bytes and more
 
 
 def kernel(
@@ -699,6 +734,7 @@ def kernel(
     label: str = "model",
     lanes: int = 1,
     params: ArrayLike | None = None,
+    vectors: Sequence[Sequence[int]] = (),
 ) -> TaylorKernel:
     """The :class:`TaylorKernel` of a model phase (``rhs_into`` and its event functions) at
     ``order`` for ``lanes`` trajectories at once; compiled once per process (and cached on disk).
@@ -706,12 +742,13 @@ def kernel(
     A right-hand side that branches on its parameters (an option of the model) is traced with
     ``params``; the kernel serves every parameter set that takes the same branches.
     """
-    key = (rhs_into, tuple(events), n_state, n_params, order, lanes)
+    vectors = _norm_groups(vectors, n_state)
+    key = (rhs_into, tuple(events), n_state, n_params, order, lanes, vectors)
     for k in _KERNELS.get(key, []):
         if params is None or k.traced.admits(params):
             return k
     tr = trace(rhs_into, events, n_state, n_params, params)
-    k = TaylorKernel(tr, order, label, lanes)
+    k = TaylorKernel(tr, order, label, lanes, vectors)
     _KERNELS.setdefault(key, []).append(k)
     return k
 
@@ -800,17 +837,23 @@ _INTEGRATE_SIG = types.void(
     types.int64,  # order
     types.float64,  # max_step
     types.float64[::1],  # ev_dir
+    types.float64[::1],  # ev_terminal: 1 stops the lane, 0 records the first zero
     types.int64,  # n_sub
-    types.float64[:, ::1],  # T (room + 1, W)
-    types.float64[:, :, ::1],  # Y (room + 1, n, W)
-    types.float64[:, :, :, ::1],  # C (room, rows, order + 1, W)
+    types.int64,  # room: steps this call may take
+    types.float64[:, ::1],  # T (room + 1, W), or (2, W) without dense output
+    types.float64[:, :, ::1],  # Y (room + 1, n, W), or (2, n, W)
+    types.float64[:, :, :, ::1],  # C (room, rows, order + 1, W), or (1, ...): no dense output
+    types.float64[:, ::1],  # first (W, n_ev): time of the first zero of each recording event
+    types.float64[::1],  # tt: sample times, increasing
+    types.float64[:, :, ::1],  # S (tt.size, n, W): the states at tt
     types.int64[:, ::1],  # info (W, 3): steps, event index, status
 )
 
 
 @numba.njit(_INTEGRATE_SIG, cache=True, error_model="numpy")
 def _integrate(
-    jet, update, t0, t_end, y0, p, sig, fac, order, max_step, ev_dir, n_sub, T, Y, C, info
+    jet, update, t0, t_end, y0, p, sig, fac, order, max_step, ev_dir, ev_terminal, n_sub, room,
+    T, Y, C, first, tt, S, info,
 ):  # fmt: skip
     """Taylor steps of W trajectories (lanes) at once, from ``t0`` towards ``t_end``.
 
@@ -818,13 +861,18 @@ def _integrate(
     each lane then chooses its step and looks for events, and one update call advances every lane
     (a lane that is done gets h = 0, which leaves its state exactly as it is). Active lanes have
     all taken the same number of steps, so step m of lane l starts at ``T[m, l]`` in state
-    ``Y[m, :, l]`` with coefficients ``C[m, :, :, l]`` (the jet writes them there).
+    ``Y[m, :, l]`` with coefficients ``C[m, :, :, l]`` (the jet writes them there). With a
+    one-step ``C`` (no dense output) the coefficients of every step are written to ``C[0]`` (they
+    stay in cache) and ``T[1]``, ``Y[1]`` hold the last state. A terminal event stops its lane at
+    its zero; a recording one (``ev_terminal`` 0) notes its first zero in ``first`` (NaN: none).
+    The states at the sample times ``tt`` go to ``S`` (left as they are after a lane stops).
     ``info[l]`` = (steps, index of the terminal event or −1, status), status as in
     :data:`STATUS_MESSAGES` (:data:`MAX_STEPS`: out of room, to be resumed).
     """
     n, W = y0.shape
     n_ev = ev_dir.size
-    room = C.shape[0]
+    dense = C.shape[0] >= room  # a slot per step; else one slot, reused
+    n_tt = tt.size
     y = y0.copy()
     y_new = np.empty((n, W))
     t = t0.copy()
@@ -835,6 +883,8 @@ def _integrate(
     hit_of = np.full(W, -1)
     last_of = np.zeros(W, dtype=np.bool_)
     active = np.ones(W, dtype=np.bool_)
+    next_sample = np.zeros(W, dtype=np.int64)
+    bound = np.empty((n_ev, W))
     for lane in range(W):
         T[0, lane] = t0[lane]
         for i in range(n):
@@ -842,6 +892,8 @@ def _integrate(
         info[lane, 0] = 0
         info[lane, 1] = -1
         info[lane, 2] = COMPLETED
+        while next_sample[lane] < n_tt and tt[next_sample[lane]] < t0[lane]:
+            next_sample[lane] += 1
     it = 0
     while True:
         for lane in range(W):
@@ -854,9 +906,9 @@ def _integrate(
                 if active[lane]:
                     info[lane, 2] = MAX_STEPS
             break
-        X = C[it]
+        X = C[it] if dense else C[0]
         jet(t.ctypes, y.ctypes, p.ctypes, X.ctypes, sig.ctypes, nrm.ctypes)
-        for lane in range(W):
+        for lane in range(W):  # the steps
             h[lane] = 0.0
             if not active[lane]:
                 continue
@@ -871,47 +923,82 @@ def _integrate(
             if n2 > 0.0:
                 rho = min(rho, n2 ** (-1.0 / order))
             hl = min(rho * fac, max_step)
-            last = False
+            last_of[lane] = False
             if t[lane] + hl >= t_end:
                 hl = t_end - t[lane]
-                last = True
+                last_of[lane] = True
             elif not (t[lane] + hl > t[lane]):
                 info[lane, 2] = STEP_TOO_SMALL
                 active[lane] = False
                 continue
+            h[lane] = hl
+        # events that cannot have a zero in [0, h]: |c_0| > Σ_{k≥1} |c_k| h^k, most steps of most
+        # events; screened for all lanes at once (the loop over lanes vectorises)
+        for e in range(n_ev):
+            r = n + e
+            for lane in range(W):
+                bound[e, lane] = abs(X[r, order, lane])
+            for k in range(order - 1, 0, -1):
+                for lane in range(W):
+                    bound[e, lane] = bound[e, lane] * h[lane] + abs(X[r, k, lane])
+            for lane in range(W):
+                bound[e, lane] = bound[e, lane] * h[lane] - abs(X[r, 0, lane])
+        for lane in range(W):
+            if not active[lane]:
+                continue
+            hl = h[lane]
+            last = last_of[lane]
             # events: sign changes of the event polynomials over [0, h] at n_sub sample points
-            # (evaluated together: independent Horner chains overlap in the pipeline)
+            # (evaluated together: independent Horner chains overlap in the pipeline); the
+            # terminal ones first, since the first of their zeros ends the step
             hit = -1
             x_hit = hl
-            for q in range(n_sub + 1):
-                xs[q] = hl * q / n_sub
-            for e in range(n_ev):
-                r = n + e
-                for q in range(n_sub + 1):
-                    fa[q] = X[r, order, lane]
-                for k in range(order - 1, -1, -1):
-                    c = X[r, k, lane]
+            for recording in range(2):
+                for e in range(n_ev):
+                    if (ev_terminal[e] == 0.0) != (recording == 1):
+                        continue
+                    if recording == 1 and first[lane, e] == first[lane, e]:
+                        continue  # its first zero is known
+                    if bound[e, lane] < 0.0:
+                        continue  # screened out above
+                    r = n + e
                     for q in range(n_sub + 1):
-                        fa[q] = fa[q] * xs[q] + c
-                for q in range(1, n_sub + 1):
-                    f0, f1 = fa[q - 1], fa[q]
-                    up = f0 < 0.0 and f1 >= 0.0
-                    down = f0 > 0.0 and f1 <= 0.0
-                    if (up and ev_dir[e] >= 0.0) or (down and ev_dir[e] <= 0.0):
-                        x = xs[q]
-                        if f1 != 0.0:
-                            x = _root(X[:, :, lane], r, order, xs[q - 1], xs[q], f0, f1)
-                        if hit < 0 or x < x_hit:
-                            x_hit = x
-                            hit = e
-                        break
+                        xs[q] = x_hit * q / n_sub
+                    for q in range(n_sub + 1):
+                        fa[q] = X[r, order, lane]
+                    for k in range(order - 1, -1, -1):
+                        c = X[r, k, lane]
+                        for q in range(n_sub + 1):
+                            fa[q] = fa[q] * xs[q] + c
+                    for q in range(1, n_sub + 1):
+                        f0, f1 = fa[q - 1], fa[q]
+                        up = f0 < 0.0 and f1 >= 0.0
+                        down = f0 > 0.0 and f1 <= 0.0
+                        if (up and ev_dir[e] >= 0.0) or (down and ev_dir[e] <= 0.0):
+                            x = xs[q]
+                            if f1 != 0.0:
+                                x = _root(X[:, :, lane], r, order, xs[q - 1], xs[q], f0, f1)
+                            if recording == 1:
+                                first[lane, e] = t[lane] + x
+                            elif hit < 0 or x < x_hit:
+                                x_hit = x
+                                hit = e
+                            break
             if hit >= 0:
                 hl = x_hit
                 last = False
             h[lane] = hl
             hit_of[lane] = hit
             last_of[lane] = last
+            # the samples in this step, from its polynomial
+            t_stop = t_end if last else t[lane] + hl
+            while next_sample[lane] < n_tt and tt[next_sample[lane]] <= t_stop:
+                x = tt[next_sample[lane]] - t[lane]
+                for i in range(n):
+                    S[next_sample[lane], i, lane] = _poly(X[:, :, lane], i, order, x)
+                next_sample[lane] += 1
         update(X.ctypes, h.ctypes, y_new.ctypes)
+        slot = it + 1 if dense else 1
         for lane in range(W):
             if not active[lane]:
                 continue
@@ -920,10 +1007,10 @@ def _integrate(
                 v = y_new[i, lane]
                 finite = finite and (v - v == 0.0)
                 y[i, lane] = v
-                Y[it + 1, i, lane] = v
+                Y[slot, i, lane] = v
             info[lane, 0] = it + 1
             t[lane] = t_end if last_of[lane] else t[lane] + h[lane]
-            T[it + 1, lane] = t[lane]
+            T[slot, lane] = t[lane]
             if not finite:
                 info[lane, 2] = NON_FINITE
                 active[lane] = False
@@ -1076,7 +1163,12 @@ def solve(
     t_now, y_now = np.full(m, t0), Y0.copy()
     done = np.zeros(m, dtype=np.int64)
     result: list[tuple[int, int] | None] = [None] * m
-    pending, room = list(range(m)), 1024
+    # The coefficients are the dense output, written once and kept: the first buffer is at least
+    # _HUGE bytes, which numpy backs with transparent huge pages where the system has them (one
+    # page fault per 2 MiB instead of per 4 KiB; measured: the thesis run 5.4 → 4.6 ms). Pages
+    # are only made resident when written; a short run's coefficients are copied out (below).
+    step_bytes = rows * width * W * 8
+    pending, room = list(range(m)), max(1024, -(-_HUGE // step_bytes))
     while pending:
         resume = []
         for g in range(0, len(pending), W):
@@ -1090,7 +1182,9 @@ def solve(
                 k.function, k.update, np.ascontiguousarray(t_now[lanes]), t_end,
                 np.ascontiguousarray(y_now[lanes].T), np.ascontiguousarray(P[lanes].T),
                 np.ascontiguousarray(np.vstack([tol_scale * SC[lanes].T, np.full(W, tol_scale)])),
-                fac, k.order, float(max_step), ev_dir, n_sub, T, Yb, C, info,
+                fac, k.order, float(max_step), ev_dir, np.ones(k.n_events), n_sub, rm, T, Yb, C,
+                np.empty((W, k.n_events)), _NO_TIMES, np.empty((0, n, W)),
+                info,
             )  # fmt: skip
             for lane, j in enumerate(group):
                 steps, hit, status = (int(x) for x in info[lane])
@@ -1111,6 +1205,8 @@ def solve(
             t = np.concatenate([[t0], parts[j][0][0]])
             y = np.concatenate([Y0[j][None, :], parts[j][0][1]])
             C = parts[j][0][2]
+            if C.nbytes * W < _HUGE // 4:  # a short run does not keep a large buffer alive
+                C = C.copy()
         else:
             t = np.concatenate([[t0], *(q[0] for q in parts[j])])
             y = np.concatenate([Y0[j][None, :], *(q[1] for q in parts[j])])
@@ -1118,4 +1214,107 @@ def solve(
         out.append(
             TaylorSolution(TaylorDense(t, y, C), status, STATUS_MESSAGES[status], hit, k.order)
         )
+    return out
+
+
+@dataclass
+class TaylorBatch:
+    """Result of :func:`propagate`, one row per trajectory (m of them).
+
+    Attributes
+    ----------
+    t, y : ndarray, shapes (m,), (m, n)
+        Where each run ended: ``t_end``, a terminal event's zero, or where it failed.
+    status : ndarray of int, shape (m,)
+        As in :data:`STATUS_MESSAGES`.
+    event_index : ndarray of int, shape (m,)
+        The terminal event that stopped the run, or −1.
+    first : ndarray, shape (m, n_events)
+        Time of the first zero of each recording (non-terminal) event; NaN if none, and for the
+        terminal events.
+    samples : ndarray, shape (m, len(t_eval), n)
+        The states at ``t_eval``, from the Taylor polynomials; NaN after a run stopped.
+    n_steps : ndarray of int, shape (m,)
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    status: np.ndarray
+    event_index: np.ndarray
+    first: np.ndarray
+    samples: np.ndarray
+    n_steps: np.ndarray
+
+
+def propagate(
+    k: TaylorKernel,
+    t_span: tuple[float, float],
+    y0: ArrayLike,
+    params: ArrayLike,
+    *,
+    t_eval: ArrayLike = (),
+    terminal: ArrayLike | None = None,
+    scales: ArrayLike | None = None,
+    direction: ArrayLike | None = None,
+    max_step: float = math.inf,
+    max_steps: int = 10_000_000,
+    n_sub: int = 4,
+) -> TaylorBatch:
+    """Many trajectories, ``k.lanes`` at a time, keeping only what a sweep needs: the end states,
+    the states at ``t_eval``, the first zero of every recording event, no dense output.
+
+    The same steps as :func:`solve` (its ``tol=None`` step), but each step's coefficients are
+    written over the previous step's, so they stay in the processor's cache: for a batch of many
+    short runs this is the faster path (measured: 64 thesis-top runs of 4 s, 4 lanes, 1.35×).
+    ``terminal``: per event, True to stop the run at its zero (default: all), False to record
+    its first zero in ``first`` and go on. Other arguments as for :func:`solve`.
+    """
+    t0, t_end = float(t_span[0]), float(t_span[1])
+    Y0 = np.atleast_2d(np.asarray(y0, dtype=float))
+    m, n = Y0.shape
+    P = np.asarray(params, dtype=float)
+    P = np.broadcast_to(P, (m, P.shape[-1]))
+    SC = np.broadcast_to(np.ones(n) if scales is None else np.asarray(scales, dtype=float), (m, n))
+    ev_dir = np.zeros(k.n_events) if direction is None else np.array(direction, dtype=float)
+    ev_term = np.ones(k.n_events) if terminal is None else np.array(terminal, dtype=float)
+    if ev_dir.size != k.n_events or ev_term.size != k.n_events:
+        raise ValueError(f"direction and terminal need one entry per event ({k.n_events})")
+    tt = np.ascontiguousarray(np.asarray(t_eval, dtype=float).ravel())
+    if tt.size and (np.any(np.diff(tt) < 0) or not np.all(np.isfinite(tt))):
+        raise ValueError("t_eval must be finite and increasing")
+    bad = [j for j in range(m) if not k.traced.admits(P[j])]
+    if bad:
+        raise ValueError(
+            f"params[{bad[0]}] take other branches of the model than the kernel was traced for; "
+            "get a kernel for them with kernel(..., params=...)"
+        )
+    fac = math.exp(-0.7 / (k.order - 1)) / math.e**2
+    W, width, rows = k.lanes, k.order + 1, n + k.n_events
+    T, Yb = np.empty((2, W)), np.empty((2, n, W))
+    C = np.empty((1, rows, width, W))
+    first = np.full((W, k.n_events), np.nan)
+    S = np.full((tt.size, n, W), np.nan)
+    info = np.zeros((W, 3), dtype=np.int64)
+    out = TaylorBatch(
+        np.empty(m), np.empty((m, n)), np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
+        np.full((m, k.n_events), np.nan), np.empty((m, tt.size, n)), np.empty(m, dtype=np.int64),
+    )  # fmt: skip
+    for g in range(0, m, W):
+        group = list(range(g, min(g + W, m)))
+        lanes = group + [group[0]] * (W - len(group))
+        first.fill(np.nan)
+        S.fill(np.nan)
+        _integrate(
+            k.function, k.update, np.full(W, t0), t_end, np.ascontiguousarray(Y0[lanes].T),
+            np.ascontiguousarray(P[lanes].T),
+            np.ascontiguousarray(np.vstack([SC[lanes].T, np.ones(W)])), fac, k.order,
+            float(max_step), ev_dir, ev_term, n_sub, int(max_steps), T, Yb, C, first, tt, S, info,
+        )  # fmt: skip
+        for lane, j in enumerate(group):
+            steps, hit, status = (int(x) for x in info[lane])
+            out.t[j] = T[1 if steps else 0, lane]
+            out.y[j] = Yb[1 if steps else 0, :, lane]
+            out.status[j], out.event_index[j], out.n_steps[j] = status, hit, steps
+            out.first[j] = first[lane]
+            out.samples[j] = S[:, :, lane]
     return out

@@ -215,9 +215,8 @@ class Trajectory:
         self.backend = backend
         self._model = model
         self._sol = solution
-        series = model.derive(self.states, params)
-        for name in SERIES:
-            setattr(self, name, np.asarray(series[name], dtype=float).reshape(self.t.shape))
+        # the series (θ, E, D, λ, ...) are derived from the states on first access (__getattr__):
+        # a run whose caller reads only a few of them, or none, does not pay for all of them
         if initial_state is None:
             # not given (a Trajectory built outside simulate): the start of the dense output
             t0 = float(np.asarray(solution.ts, dtype=float)[0])
@@ -229,6 +228,18 @@ class Trajectory:
         self.phase = np.full(self.t.shape, "rolling" if model.name == "rolling" else "sliding")
         for name, values in (extra or {}).items():
             setattr(self, name, np.asarray(values).reshape(self.t.shape))
+
+    def __getattr__(self, name: str) -> Any:
+        # called only for attributes not set: the derived series, computed once, all together
+        # (an "extra" series of the same name, set in __init__, is found before and kept)
+        if name in SERIES and "_model" in self.__dict__:
+            series = self._model.derive(self.states, self.params)
+            for key in SERIES:
+                if key not in self.__dict__:
+                    value = np.asarray(series[key], dtype=float).reshape(self.t.shape)
+                    self.__dict__[key] = value
+            return self.__dict__[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     # --- summary -----------------------------------------------------------------------------
     def __len__(self) -> int:
