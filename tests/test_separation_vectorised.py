@@ -1,11 +1,11 @@
-"""The array path of mett.separation against its scalar reference path (issue 5).
+"""The array path of mett.separation against its per-element path (issue 5).
 
 The public functions (band, turning_points, nutation_period, mean_precession, f) work on whole
-arrays; the scalar reference functions (``_reference_*``, one element at a time with scipy's
-brentq) are what the library computed before. The array helpers repeat the scalar arithmetic
-operation for operation and :func:`mett.separation._brentq` transcribes scipy's brentq, so the two
-paths agree to the last bit on every case below (measured: max difference 0). The tests ask for
-1e-13 relative, the issue's target. The exact energy shift is checked against mpmath separately.
+arrays; the ``_reference_*`` functions run the same algorithms one element at a time (the
+per-element path, whose brentq is scipy's and which :func:`mett.separation._brentq` transcribes),
+so the two paths agree to the last bit on every case below (measured: max difference 0). The tests
+ask for 1e-13 relative, the issue's target. The exact energy shift is checked against mpmath
+separately.
 """
 
 from __future__ import annotations
