@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -325,6 +326,75 @@ def test_regular_stick_slip_every_nutation():
     # rolling conserves E to the integration error (rtol 1e-9), sliding dissipates
     assert np.max(np.diff(tr.E)) <= 1e-11 * tr.E[0]
     assert tr.E[-1] < tr.E[0]
+
+
+def _steps_per_phase(tr) -> tuple[list[int], list[int]]:
+    """Solver steps (samples of a run without t_eval) of each sliding and each rolling phase."""
+    edges = [0.0, *(sw.t for sw in tr.switches), tr.t_final]
+    phases = [tr.switches[0].before, *(sw.after for sw in tr.switches)]
+    counts = [int(np.sum((tr.t > a) & (tr.t <= b))) for a, b in itertools.pairwise(edges)]
+    slide = [c for c, ph in zip(counts, phases, strict=True) if ph == "sliding"]
+    roll = [c for c, ph in zip(counts, phases, strict=True) if ph == "rolling"]
+    return slide, roll
+
+
+@pytest.mark.parametrize(
+    ("top", "theta0", "mu", "t_end", "max_slide_steps"),
+    [(THESIS, 1.5, 0.267, 0.2, 2500), (LG, 2.3, 0.09695, 0.12, 8000)],
+    ids=["thesis", "leine-glocker"],
+)
+def test_four_switches_per_nutation(top, theta0, mu, t_end, max_slide_steps):
+    """The force that rolling needs has two maxima per nutation when the top nutates strongly
+    (θ̇0 = 5 rad/s), one on each side of the turning point θ_max (equal, by the reversibility of
+    rolling). With μ between those maxima and the minimum between them the contact slips twice
+    per nutation: four switches per nutation, each pair cone → stop, at the default rtol.
+    Invariants hold across all of them and the solver steps per phase stay bounded."""
+    st = mett.State(theta=theta0, thetadot=5.0, omega3=155.0 if top is THESIS else 180.0)
+    tr = mett.simulate(top, st, t_end, friction=Coulomb(mu))
+    assert tr.status == "completed"
+    i = np.flatnonzero((tr.theta[1:-1] > tr.theta[:-2]) & (tr.theta[1:-1] > tr.theta[2:])) + 1
+    period = float(np.mean(np.diff(tr.t[i])))  # nutation period from the maxima of θ
+    sw = tr.switches
+    assert len(sw) / (t_end / period) >= 3.6  # 4 per nutation; the first starts at ~0.02 period
+    reasons = [s.reason for s in sw]
+    assert set(reasons[0::2]) == {"cone"} and set(reasons[1::2]) == {"stop"}
+    per = np.histogram([s.t for s in sw], bins=np.append(tr.t[i], np.inf))[0][:-1]
+    assert np.all(per == 4)  # between consecutive maxima of θ: exactly two slips
+    # at every switch its condition: the cone margin zero at "cone", the slip at the band and
+    # the required force inside the cone at "stop"
+    for s in sw:
+        if s.reason == "cone":
+            assert abs(s.margin) < 1e-8
+        else:
+            assert s.slip == pytest.approx(tr.stopping_band, rel=1e-3) and s.margin > 0.0
+    # λ kept to rounding, E never increasing beyond the integration error, lost in every slip
+    assert np.all(tr.states[6] == tr.states[6, 0])
+    assert np.max(np.abs(tr.lam / tr.lam[0] - 1.0)) <= 1e-13
+    assert np.max(np.diff(tr.E)) <= 1e-12 * tr.E[0]
+    E_at = np.interp([s.t for s in sw], tr.t, tr.E)
+    pairs = len(sw) // 2
+    assert np.all(E_at[1 : 2 * pairs : 2] < E_at[0 : 2 * pairs : 2])  # each slip dissipates
+    # rolling samples roll inside the cone
+    roll = tr.phase == "rolling"
+    assert np.max(np.hypot(tr.nu_x[roll], tr.nu_y[roll])) <= tr.stopping_band
+    assert np.all(tr.margin[roll] >= -1e-9 * mu * tr.gn[roll])
+    # cost per switch bounded (steps, not seconds): no stall, no crawl (see docs/theory/friction.md)
+    slide, roll_steps = _steps_per_phase(tr)
+    assert max(slide) <= max_slide_steps and max(roll_steps) <= 50
+    assert tr.nfev / len(sw) <= 12 * max_slide_steps
+
+
+def test_steps_per_slip_grow_as_the_root_of_the_band():
+    """A slip that starts at the cone's edge grows from the band δ ∝ rtol with an acceleration
+    that starts from 0; its direction relaxes on the time scale |v_A|/(μ g_n |G|), which limits
+    the explicit steps, so a slip phase costs ∝ δ^(−1/2) steps: ×√10 per decade of rtol."""
+    st = mett.State(theta=1.5, thetadot=5.0, omega3=155.0)
+    mean = {}
+    for rtol in (1e-8, 1e-10):
+        tr = mett.simulate(THESIS, st, 0.1, friction=Coulomb(0.267), rtol=rtol)
+        assert len(tr.switches) >= 8
+        mean[rtol] = np.mean(_steps_per_phase(tr)[0][:4])  # four complete slips
+    assert 5.0 < mean[1e-10] / mean[1e-8] < 15.0  # measured 8.6 (√100 = 10)
 
 
 @pytest.mark.slow
