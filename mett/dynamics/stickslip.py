@@ -52,9 +52,10 @@ Switching, all by events located by the integrator (:func:`mett.simulate` runs t
   ω̇_z = 0 with the drilling torque M it needs (:func:`_solve_GM`), inside the ellipsoid
   |F_t|² + (M/r*)² ≤ (μ g_n)²; slip restarts opposite to the generalised required force, and the
   impulses at a switch include an angular impulse about ẑ.
-* Near v_A = 0 the slip direction is a fast variable (its rate is ~ μ g_n |G| / |v_A|); the slip
-  reaches the band in finite time, and the explicit integrator's steps shrink with |v_A|, so the
-  approach costs a number of steps logarithmic in (initial slip)/δ.
+* Near v_A = 0 the slip direction is a fast variable (its rate is ~ μ g_n |G| / |v_A|) and the
+  explicit integrator's steps shrink with |v_A|: the approach to a stop costs a number of steps
+  logarithmic in (initial slip)/δ; a slip that starts at the cone's edge (zero acceleration,
+  |v_A| − 2δ ∝ t²) costs ∝ δ^(−1/2) steps (docs/theory/friction.md, "Frequent switching").
 
 The start (:func:`_initial`, ``start_phase``): a state whose slip is within the band starts
 rolling (after the stopping impulse) if the cone holds, else sliding from 2δ in the excess-force
