@@ -397,6 +397,38 @@ def test_steps_per_slip_grow_as_the_root_of_the_band():
     assert 5.0 < mean[1e-10] / mean[1e-8] < 15.0  # measured 8.6 (√100 = 10)
 
 
+@pytest.fixture(scope="module")
+def grazing():
+    """θ0 = 0.3, θ̇0 = 1 rad/s: μ = 1e-4 below the largest ratio |F_t|/g_n rolling needs, from
+    a densely sampled rolling run (the rolling motion does not depend on μ)."""
+    st = mett.State(theta=0.3, thetadot=1.0, omega3=155.0)
+    tev = np.linspace(0.0, 0.04, 20001)
+    roll = mett.simulate(THESIS, st, 0.04, friction=Coulomb(50.0), rtol=1e-11, t_eval=tev)
+    assert set(roll.phase) == {"rolling"}
+    r = np.hypot(roll.F_x, roll.F_y) / roll.gn
+    return st, float(r.max()) * (1.0 - 1e-4)
+
+
+def test_grazing_slip_found_with_a_max_step(grazing):
+    """An excursion of the required force above μ lasting ~1/100 of a nutation is found when the
+    steps are limited (max_step = 1e-4 s): one slip, cone → stop, of a few 1e-8 m/s."""
+    st, mu = grazing
+    tr = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu), max_step=1e-4)
+    assert [s.reason for s in tr.switches] == ["cone", "stop"]
+    assert 1e-8 < np.max(np.hypot(tr.nu_x, tr.nu_y)) < 1e-6  # measured 7.5e-8
+    assert 0.0 < 1.0 - tr.E[-1] / tr.E[0] < 1e-9
+    assert np.all(tr.states[6] == tr.states[6, 0])
+
+
+@pytest.mark.xfail(strict=True, reason="a cone excursion shorter than a step is not seen")
+def test_grazing_slip_found_without_a_max_step(grazing):
+    """Known limitation (docs/theory/friction.md, "Grazing"): at the default settings the cone
+    event is checked at steps ~3 ms apart while rolling, and this excursion is missed."""
+    st, mu = grazing
+    tr = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu))
+    assert [s.reason for s in tr.switches] == ["cone", "stop"]
+
+
 @pytest.mark.slow
 def test_regularised_law_converges_to_the_exact_one():
     """On the stick–slip case above the regularised law converges to exact stick–slip, error ∝ ε."""
