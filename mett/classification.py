@@ -250,9 +250,9 @@ def subgroup_boundaries(alpha: ArrayLike) -> SubgroupBoundaries:
 
 
 def _domain(top: TippeTop) -> tuple[float, float]:
-    from .thresholds import _tumbling_domain
+    from .thresholds import tumbling_domain
 
-    return _tumbling_domain(top)
+    return tumbling_domain(top)
 
 
 def _fold_theta(top: TippeTop) -> float | None:

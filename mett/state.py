@@ -61,13 +61,19 @@ class State:
             object.__setattr__(self, name, float(arr) if arr.ndim == 0 else arr)
 
     @classmethod
-    def _trusted(
+    def unchecked(
         cls, theta: float, thetadot: float, phidot: float, omega3: float, nu_x: float, nu_y: float
     ) -> State:
-        """A scalar State from values already known to be valid (finite, θ in [0, π]).
+        """A scalar State from values already known to be valid, without validating them.
 
-        Internal: skips validation, for states read off a finished integration (events are
-        evaluated at every solver step, where validating would cost more than the event).
+        For states read off an integration (user events are evaluated at every solver step,
+        where validating would cost more than the event). The caller guarantees what
+        ``State(...)`` would check: finite floats and θ in [0, π] (rad); units as there.
+
+        Parameters
+        ----------
+        theta, thetadot, phidot, omega3, nu_x, nu_y : float
+            The fields of :class:`State` (rad, rad/s, m/s).
         """
         obj = object.__new__(cls)
         for name, value in zip(_FIELDS, (theta, thetadot, phidot, omega3, nu_x, nu_y), strict=True):

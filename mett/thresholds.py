@@ -30,6 +30,7 @@ __all__ = [
     "lambda_thres",
     "min_spin_for_inversion",
     "pole_spins",
+    "tumbling_domain",
     "tumbling_lambda",
     "tumbling_state",
 ]
@@ -177,8 +178,24 @@ def tumbling_lambda(top: TippeTop, theta: ArrayLike) -> np.ndarray:
     return np.where(den > 0.0, lam, np.nan)
 
 
-def _tumbling_domain(top: TippeTop) -> tuple[float, float]:
-    """Interval of θ_t on which the family exists: where α − (1 − γ) cos θ > 0."""
+def tumbling_domain(top: TippeTop) -> tuple[float, float]:
+    """Interval (rad) of the tumbling angle θ_t on which the tumbling family exists.
+
+    The family λ(θ_t) of :func:`tumbling_lambda` is real where α − (1 − γ) cos θ_t > 0
+    (docs/theory/thresholds.md#thresholds): all of (0, π) if |α/(1 − γ)| ≥ 1, else
+    (θ_f, π) for γ < 1 and (0, θ_f) for γ > 1, with θ_f = arccos(α/(1 − γ)).
+
+    Parameters
+    ----------
+    top : TippeTop
+        The body.
+
+    Returns
+    -------
+    (lo, hi) : tuple of float
+        Ends of the interval (rad); the family is a limit at both.
+    """
+    _validate.instance("top", top, "TippeTop")
     a, gam = top.alpha, top.gamma
     if gam == 1.0 or abs(a / (1.0 - gam)) >= 1.0:
         return 0.0, math.pi
@@ -205,7 +222,7 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
     from scipy import optimize
 
     lam = _validate.positive_jellett(lam)
-    lo, hi = _tumbling_domain(top)
+    lo, hi = tumbling_domain(top)
     # Stay a hair inside the domain: λ is infinite at θ_f and the family's ends are limits.
     pad = 1e-12 * (hi - lo)
     grid = np.linspace(lo + pad, hi - pad, 2001)

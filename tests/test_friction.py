@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -124,10 +125,20 @@ def test_sliding_core_with_viscous_force_is_the_gliding_model():
             nu_y=rng.normal(0, 0.05),
         )
         y = gliding.MODEL.initial(st, pg)
-        nu = stickslip._nu(y, p)
-        d = stickslip._slide(y, p, -THESIS.mu * nu[0], -THESIS.mu * nu[1], 0.0)
+        ys = stickslip.from_gliding(y, p)  # L_z → λ = −L·a
+        assert np.allclose(stickslip.to_gliding(ys, p), y, rtol=1e-14, atol=1e-18)
+        nu = stickslip._nu(ys, p)
+        d = stickslip._slide(ys, p, -THESIS.mu * nu[0], -THESIS.mu * nu[1], 0.0)
+        rate = np.array(d[0])
         ref = gliding.gliding_rhs(0.0, y, pg)
-        assert np.allclose(d[0], ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+        same = np.arange(10) != 6
+        assert np.allclose(rate[same], ref[same], rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+        # dλ/dt: exactly 0 here, and −(L̇·a + L·ȧ) of the gliding model's rates to rounding
+        e = y[7:10] / np.linalg.norm(y[7:10])
+        a = THESIS.R * THESIS.alpha * e - np.array([0.0, 0.0, THESIS.R])
+        lam_rate = -(ref[4:7] @ a + y[4:7] @ (THESIS.R * THESIS.alpha * ref[7:10]))
+        assert rate[6] == 0.0
+        assert abs(lam_rate) < 1e-12 * np.linalg.norm(ref[4:7]) * THESIS.R
         assert d[1] == pytest.approx(gliding.gliding_normal_force(y, pg), rel=1e-12)
         assert abs(d[4][2]) < 1e-12  # the contact point stays on the plane
 
@@ -227,6 +238,26 @@ def test_mett_analysis_works_under_dry_friction(stick_slip_run):
     assert np.all(np.isfinite(tr.D)) and np.all(np.isfinite(tr.E_mod))
 
 
+@pytest.mark.parametrize(
+    ("top", "omega3", "mu", "t_end"),
+    [(THESIS, 155.0, 0.01, 40.0), (LG, 180.0, 0.01, 40.0), (THESIS, 155.0, 0.02, 12.0)],
+    ids=["thesis-mu0.01", "leine-glocker-mu0.01", "thesis-mu0.02-stick-slip"],
+)
+def test_jellett_kept_over_long_runs_at_default_tolerances(top, omega3, mu, t_end):
+    """λ is a state variable of the Coulomb model with rate exactly 0 (no torque about the
+    normal), so long sliding runs keep it to rounding; integrating L_z instead drifted by
+    2.6e-9 over 20 s at rtol = 1e-10. λ here is recomputed as −L·a from the reconstructed L."""
+    tr = mett.simulate(top, cm_at_rest(top, 0.1, omega3), t_end, friction=Coulomb(mu))
+    assert tr.t_final > 11.0 and tr.status in ("completed", "contact_lost")
+    assert np.max(np.abs(tr.lam / tr.lam[0] - 1.0)) <= 1e-13
+    assert np.all(tr.states[6] == tr.states[6, 0])  # the state's λ: bit for bit
+    # E falls; it is constant while rolling, to the integration error (not rounding) there
+    assert np.max(np.diff(tr.E)) <= 1e-12 * tr.E[0] and tr.E[-1] < tr.E[0]
+    # the reconstruction L_z = −(λ + L_x a_x + L_y a_y)/a_z inverts λ = −L·a
+    back = stickslip.from_gliding(stickslip.to_gliding(tr.states, tr.params), tr.params)
+    assert np.allclose(back, tr.states, rtol=1e-14, atol=0.0)
+
+
 def test_zeno_accumulation_is_bounded_and_reported(monkeypatch):
     st = cm_at_rest(THESIS, 0.1, 155.0)
     monkeypatch.setattr(mett.dynamics.simulation, "MAX_SWITCHES", 2)
@@ -264,7 +295,7 @@ def test_slip_starts_in_the_direction_of_the_excess_force():
     st = mett.State(theta=0.5, thetadot=1.0, phidot=2.0, omega3=120.0)
     mu = 0.01
     p = params(THESIS, mu)
-    y = gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {}))
+    y = stickslip.from_gliding(gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {})), p)
     _, gn, F, _, _ = stickslip._stick(y, p)
     assert math.hypot(F[0], F[1]) > mu * gn  # rolling would need more than the cone gives
     u = stickslip._excess_direction(y, p, -np.array(F))[:2]
@@ -295,6 +326,107 @@ def test_regular_stick_slip_every_nutation():
     # rolling conserves E to the integration error (rtol 1e-9), sliding dissipates
     assert np.max(np.diff(tr.E)) <= 1e-11 * tr.E[0]
     assert tr.E[-1] < tr.E[0]
+
+
+def _steps_per_phase(tr) -> tuple[list[int], list[int]]:
+    """Solver steps (samples of a run without t_eval) of each sliding and each rolling phase."""
+    edges = [0.0, *(sw.t for sw in tr.switches), tr.t_final]
+    phases = [tr.switches[0].before, *(sw.after for sw in tr.switches)]
+    counts = [int(np.sum((tr.t > a) & (tr.t <= b))) for a, b in itertools.pairwise(edges)]
+    slide = [c for c, ph in zip(counts, phases, strict=True) if ph == "sliding"]
+    roll = [c for c, ph in zip(counts, phases, strict=True) if ph == "rolling"]
+    return slide, roll
+
+
+@pytest.mark.parametrize(
+    ("top", "theta0", "mu", "t_end", "max_slide_steps"),
+    [(THESIS, 1.5, 0.267, 0.2, 2500), (LG, 2.3, 0.09695, 0.12, 8000)],
+    ids=["thesis", "leine-glocker"],
+)
+def test_four_switches_per_nutation(top, theta0, mu, t_end, max_slide_steps):
+    """The force that rolling needs has two maxima per nutation when the top nutates strongly
+    (θ̇0 = 5 rad/s), one on each side of the turning point θ_max (equal, by the reversibility of
+    rolling). With μ between those maxima and the minimum between them the contact slips twice
+    per nutation: four switches per nutation, each pair cone → stop, at the default rtol.
+    Invariants hold across all of them and the solver steps per phase stay bounded."""
+    st = mett.State(theta=theta0, thetadot=5.0, omega3=155.0 if top is THESIS else 180.0)
+    tr = mett.simulate(top, st, t_end, friction=Coulomb(mu))
+    assert tr.status == "completed"
+    i = np.flatnonzero((tr.theta[1:-1] > tr.theta[:-2]) & (tr.theta[1:-1] > tr.theta[2:])) + 1
+    period = float(np.mean(np.diff(tr.t[i])))  # nutation period from the maxima of θ
+    sw = tr.switches
+    assert len(sw) / (t_end / period) >= 3.6  # 4 per nutation; the first starts at ~0.02 period
+    reasons = [s.reason for s in sw]
+    assert set(reasons[0::2]) == {"cone"} and set(reasons[1::2]) == {"stop"}
+    per = np.histogram([s.t for s in sw], bins=np.append(tr.t[i], np.inf))[0][:-1]
+    assert np.all(per == 4)  # between consecutive maxima of θ: exactly two slips
+    # at every switch its condition: the cone margin zero at "cone", the slip at the band and
+    # the required force inside the cone at "stop"
+    for s in sw:
+        if s.reason == "cone":
+            assert abs(s.margin) < 1e-8
+        else:
+            assert s.slip == pytest.approx(tr.stopping_band, rel=1e-3) and s.margin > 0.0
+    # λ kept to rounding, E never increasing beyond the integration error, lost in every slip
+    assert np.all(tr.states[6] == tr.states[6, 0])
+    assert np.max(np.abs(tr.lam / tr.lam[0] - 1.0)) <= 1e-13
+    assert np.max(np.diff(tr.E)) <= 1e-12 * tr.E[0]
+    E_at = np.interp([s.t for s in sw], tr.t, tr.E)
+    pairs = len(sw) // 2
+    assert np.all(E_at[1 : 2 * pairs : 2] < E_at[0 : 2 * pairs : 2])  # each slip dissipates
+    # rolling samples roll inside the cone
+    roll = tr.phase == "rolling"
+    assert np.max(np.hypot(tr.nu_x[roll], tr.nu_y[roll])) <= tr.stopping_band
+    assert np.all(tr.margin[roll] >= -1e-9 * mu * tr.gn[roll])
+    # cost per switch bounded (steps, not seconds): no stall, no crawl (see docs/theory/friction.md)
+    slide, roll_steps = _steps_per_phase(tr)
+    assert max(slide) <= max_slide_steps and max(roll_steps) <= 50
+    assert tr.nfev / len(sw) <= 12 * max_slide_steps
+
+
+def test_steps_per_slip_grow_as_the_root_of_the_band():
+    """A slip that starts at the cone's edge grows from the band δ ∝ rtol with an acceleration
+    that starts from 0; its direction relaxes on the time scale |v_A|/(μ g_n |G|), which limits
+    the explicit steps, so a slip phase costs ∝ δ^(−1/2) steps: ×√10 per decade of rtol."""
+    st = mett.State(theta=1.5, thetadot=5.0, omega3=155.0)
+    mean = {}
+    for rtol in (1e-8, 1e-10):
+        tr = mett.simulate(THESIS, st, 0.1, friction=Coulomb(0.267), rtol=rtol)
+        assert len(tr.switches) >= 8
+        mean[rtol] = np.mean(_steps_per_phase(tr)[0][:4])  # four complete slips
+    assert 5.0 < mean[1e-10] / mean[1e-8] < 15.0  # measured 8.6 (√100 = 10)
+
+
+@pytest.fixture(scope="module")
+def grazing():
+    """θ0 = 0.3, θ̇0 = 1 rad/s: μ = 1e-4 below the largest ratio |F_t|/g_n rolling needs, from
+    a densely sampled rolling run (the rolling motion does not depend on μ)."""
+    st = mett.State(theta=0.3, thetadot=1.0, omega3=155.0)
+    tev = np.linspace(0.0, 0.04, 20001)
+    roll = mett.simulate(THESIS, st, 0.04, friction=Coulomb(50.0), rtol=1e-11, t_eval=tev)
+    assert set(roll.phase) == {"rolling"}
+    r = np.hypot(roll.F_x, roll.F_y) / roll.gn
+    return st, float(r.max()) * (1.0 - 1e-4)
+
+
+def test_grazing_slip_found_with_a_max_step(grazing):
+    """An excursion of the required force above μ lasting ~1/100 of a nutation is found when the
+    steps are limited (max_step = 1e-4 s): one slip, cone → stop, of a few 1e-8 m/s."""
+    st, mu = grazing
+    tr = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu), max_step=1e-4)
+    assert [s.reason for s in tr.switches] == ["cone", "stop"]
+    assert 1e-8 < np.max(np.hypot(tr.nu_x, tr.nu_y)) < 1e-6  # measured 7.5e-8
+    assert 0.0 < 1.0 - tr.E[-1] / tr.E[0] < 1e-9
+    assert np.all(tr.states[6] == tr.states[6, 0])
+
+
+@pytest.mark.xfail(strict=True, reason="a cone excursion shorter than a step is not seen")
+def test_grazing_slip_found_without_a_max_step(grazing):
+    """Known limitation (docs/theory/friction.md, "Grazing"): at the default settings the cone
+    event is checked at steps ~3 ms apart while rolling, and this excursion is missed."""
+    st, mu = grazing
+    tr = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu))
+    assert [s.reason for s in tr.switches] == ["cone", "stop"]
 
 
 @pytest.mark.slow
@@ -444,7 +576,7 @@ def test_the_cone_decides_between_stop_and_reversal_at_the_band():
     for mu, inside in ((0.01, False), (5.0, True)):
         p = params(THESIS, mu)
         band = p[10]
-        y = stickslip._set_slip(y0, p, np.array([0.5 * band, 0.0, 0.0]))
+        y = stickslip._set_slip(stickslip.from_gliding(y0, p), p, np.array([0.5 * band, 0.0, 0.0]))
         assert np.linalg.norm(stickslip._slip(y, p)) == pytest.approx(0.5 * band, rel=1e-6)
         stop, rev = stickslip._stop_event(0.0, y, p), stickslip._reversal_event(0.0, y, p)
         assert (stop < 0.0) == inside and (rev < 0.0) == (not inside)
@@ -455,5 +587,6 @@ def test_the_cone_decides_between_stop_and_reversal_at_the_band():
             u = stickslip._excess_direction(stickslip._set_slip(y, p, np.zeros(3)), p, np.ones(3))
             assert slip[:2] / np.linalg.norm(slip) == pytest.approx(u[:2], abs=1e-6)
             # λ is untouched by the impulses at A
-            lam = gliding.MODEL.derive(np.c_[y, z], gliding.MODEL.params(THESIS, {}))["lam"]
+            ys = stickslip.to_gliding(np.c_[y, z], p)
+            lam = gliding.MODEL.derive(ys, gliding.MODEL.params(THESIS, {}))["lam"]
             assert lam[1] == pytest.approx(lam[0], rel=1e-14)

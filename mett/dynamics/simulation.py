@@ -38,7 +38,7 @@ from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
 from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
-from .trajectory import Trajectory, _Constant  # _Constant: the saved form of a run at t0
+from .trajectory import ConstantSolution, Trajectory
 
 __all__ = ["MAX_STEPS", "MODELS", "RATE_MAX", "simulate"]
 
@@ -195,7 +195,7 @@ def _user_event(
 
     def wrapped(t: float, y: np.ndarray) -> float:
         s = model.derive(np.asarray(y, dtype=float).reshape(-1, 1), params)
-        state = State._trusted(
+        state = State.unchecked(
             float(np.clip(s["theta"][0], 0.0, math.pi)),
             *(float(s[k][0]) for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
         )
@@ -714,7 +714,7 @@ class _Run:
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
-        sol = _Constant(self.t0, self.y0)
+        sol = ConstantSolution(self.t0, self.y0)
         return self.result([self.t0], self.y0, sol, status, message, **kw)
 
     def contact_lost(self, t_out, Y, sol, t_ev: float, **kw: Any) -> Trajectory:
@@ -831,7 +831,7 @@ def _solve_scipy(
 
     sol = res.sol
     if sol is None or sol.n_segments == 0:
-        sol = _Constant(t0, y0)
+        sol = ConstantSolution(t0, y0)
     elif method in ("BDF", "LSODA"):  # solve_ivp sets this only for its own classes
         sol = OdeSolution(sol.ts, sol.interpolants, alt_segment=True)
     t_stop = float(sol.t_max)
@@ -1018,7 +1018,7 @@ def _user_events_after_run(
     series = run.mdl.derive(dense.y.T, run.params)
     theta = np.clip(series["theta"], 0.0, math.pi)
     states = [
-        State._trusted(th, a, b, c, d, e)
+        State.unchecked(th, a, b, c, d, e)
         for th, a, b, c, d, e in zip(
             theta.tolist(),
             *(series[k].tolist() for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),

@@ -36,7 +36,14 @@ if TYPE_CHECKING:
     from ..top import TippeTop
     from ._model import Model
 
-__all__ = ["FORMAT_VERSION", "SERIES", "STATUSES", "DenseSolution", "Trajectory"]
+__all__ = [
+    "FORMAT_VERSION",
+    "SERIES",
+    "STATUSES",
+    "ConstantSolution",
+    "DenseSolution",
+    "Trajectory",
+]
 
 STATUSES = ("completed", "contact_lost", "failed")
 
@@ -77,7 +84,7 @@ class DenseSolution(Protocol):
     """What a :class:`Trajectory` needs of the integrator's continuous solution.
 
     Both backends provide one: scipy's ``OdeSolution`` and the compiled integrator's
-    :class:`mett.dynamics.dop853.DenseOutput` (and ``_Constant`` for a run that never left t = 0).
+    :class:`mett.dynamics.dop853.DenseOutput` (and ``ConstantSolution`` for a run that never left t = 0).
     """
 
     ts: np.ndarray
@@ -88,8 +95,19 @@ class DenseSolution(Protocol):
         ...
 
 
-class _Constant:
-    """Dense output of a run that never left its start (contact lost or failure at t0)."""
+class ConstantSolution:
+    """Dense output of a run that never left its start (contact lost or failure at t0).
+
+    The :class:`DenseSolution` of such a run: its state ``y0`` at every time. Made by
+    :func:`mett.simulate` and by :meth:`Trajectory.load` for a saved run with one dense time.
+
+    Parameters
+    ----------
+    t0 : float
+        The start time (s), the only time of the run.
+    y0 : ndarray, shape (n,)
+        The model state there.
+    """
 
     def __init__(self, t0: float, y0: np.ndarray) -> None:
         self.ts = np.array([t0])
@@ -665,7 +683,9 @@ def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str
     """(description, arrays) of a dense output, for :meth:`Trajectory.save`."""
     from .dop853 import DenseOutput
 
-    if isinstance(sol, _Constant) or np.asarray(sol.ts).size == 1:  # a run that never left t0
+    if (
+        isinstance(sol, ConstantSolution) or np.asarray(sol.ts).size == 1
+    ):  # a run that never left t0
         ts = np.asarray(sol.ts, dtype=float)[:1]
         return {"kind": "constant"}, {"t": ts, "y": np.asarray(sol(ts[0]), dtype=float)}
     if isinstance(sol, DenseOutput):
@@ -704,7 +724,7 @@ def _decode_dense(desc: dict, arrays: dict[str, np.ndarray]) -> Any:
 
     kind = desc["kind"]
     if kind == "constant":
-        return _Constant(float(arrays["dense_t"][0]), arrays["dense_y"])
+        return ConstantSolution(float(arrays["dense_t"][0]), arrays["dense_y"])
     if kind == "dop853":
         return DenseOutput(
             arrays["dense_t"], arrays["dense_y"], arrays["dense_h"], arrays["dense_F"]
