@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from ._model import lab_vectors, scales_from_state, unit_axis
-from .gliding import _core, gliding_series
+from .gliding import gliding_core, gliding_series
 from .registry import Event, JumpFailed, Model, Option, Phase, positive_length, register
 
 __all__ = ["MODEL", "impact", "stem_params"]
@@ -76,11 +76,11 @@ def _ez(y: Any) -> Any:
 
 def ball_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     """Gliding right-hand side on the ball (R, l); the phase flag stays constant."""
-    return np.array((*_core(y, _ball(p))[:10], 0.0))
+    return np.array((*gliding_core(y, _ball(p))[:10], 0.0))
 
 
 def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
-    d = _core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
     out[10] = 0.0
@@ -88,7 +88,7 @@ def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _ball_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) of the ball contact."""
-    d = _core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
     return d[10] * (1.0 / (p[0] * p[6]))
 
 
@@ -103,11 +103,11 @@ def _touchdown(t: float, y: Any, p: Any) -> Any:
 
 def stem_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     """Gliding right-hand side on the stem sphere (r_s, l + l_s); the phase flag stays constant."""
-    return np.array((*_core(y, _stem(p))[:10], 0.0))
+    return np.array((*gliding_core(y, _stem(p))[:10], 0.0))
 
 
 def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
-    d = _core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
     out[10] = 0.0
@@ -115,7 +115,7 @@ def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _stem_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) of the stem contact."""
-    d = _core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
     return d[10] * (1.0 / (p[0] * p[6]))
 
 
@@ -217,7 +217,7 @@ def _start_phase(y0: np.ndarray, p: tuple) -> str:
 
 def _normal_force(y: np.ndarray, p: tuple) -> Any:
     y = np.asarray(y, dtype=float)
-    return np.where(y[10] > 0.5, _core(y, _stem(p))[10], _core(y, _ball(p))[10])
+    return np.where(y[10] > 0.5, gliding_core(y, _stem(p))[10], gliding_core(y, _ball(p))[10])
 
 
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
@@ -237,7 +237,7 @@ def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     q = _stem(p) if y0[10] > 0.5 else _ball(p)
-    w = np.array(_core(y0, q)[11])
+    w = np.array(gliding_core(y0, q)[11])
     sc = scales_from_state(w, y0[2:4], p[1], max(p[2] + p[8], p[1]), p[3], p[4], p[6])
     return np.array(
         [sc["length"]] * 2 + [sc["velocity"]] * 2 + [sc["momentum"]] * 3 + [0.1] * 3 + [1.0]
