@@ -557,9 +557,11 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     """g_n, F_t, M and the cone margin at states ``Y`` (shape (10, k)) in the given phases.
 
     ``rolling`` is a boolean per sample. The margin μ g_n − |F_t| (N) is that of the required force
-    in rolling samples and of the sliding force (≈ 0 for Coulomb) in sliding ones.
+    in rolling samples and of the sliding force (≈ 0 for Coulomb) in sliding ones. ``Y`` may carry
+    components beyond the ten of the gliding state (the stemmed top's contact flag).
     """
-    Y = np.asarray(Y, dtype=float).reshape(10, -1)
+    Y = np.asarray(Y, dtype=float)
+    Y = Y.reshape(Y.shape[0], -1)
     rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
     with np.errstate(divide="ignore", invalid="ignore"):  # the sliding law at v_A = 0
         s = _slide_law(Y, p)
