@@ -39,7 +39,8 @@ The trajectory (``Model.finish``) carries ``contact`` ("ball"/"stem") and ``phas
 ``gn`` of each sample's contact and phase, ``touchdowns`` and ``switches``
 (:class:`mett.dynamics.stickslip.Switch` records; reason "stop", "cone", "reversal",
 "touchdown" or "landing"; for an impact ``margin`` is that of the impulse, (μ P_n − |Π_t|)/(μ P_n),
-0 for an impact that slides throughout, and ``slip`` the new contact's |γ| just after it).
+≥ 0, 0 for an impact that slides in one direction throughout, and ``slip`` the new contact's |γ|
+just after it).
 """
 
 from __future__ import annotations
