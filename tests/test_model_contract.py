@@ -219,13 +219,14 @@ class TestStemmedCoulomb(ModelContract):
         "stem_radius": 0.005,
         "stem_distance": 0.025,
     }
+    _geometry = {"stem_radius": 0.005, "stem_distance": 0.025}  # noqa: RUF012
     bad_options = (
-        ({"stem_distance": 0.01, "stem_radius": 0.005, "friction": mett.friction.Coulomb(0.3)},
-         ValueError),  # fmt: skip
-        ({"stopping_band": -1e-9, "stem_radius": 0.005, "stem_distance": 0.025,
-          "friction": mett.friction.Coulomb(0.3)}, ValueError),  # fmt: skip
-        ({"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-3), "stem_radius": 0.005,
-          "stem_distance": 0.025}, TypeError),  # fmt: skip
+        (
+            {"stem_distance": 0.01, "stem_radius": 0.005, "friction": options["friction"]},
+            ValueError,
+        ),
+        ({"stopping_band": -1e-9, **_geometry, "friction": options["friction"]}, ValueError),
+        ({"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-3), **_geometry}, TypeError),
     )
 
     def test_selected_by_the_law_on_a_stemmed_top(self):
