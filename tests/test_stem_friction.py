@@ -263,3 +263,79 @@ def test_contensou_on_the_stem_loses_energy_and_breaks_jellett():
     j = i + int(np.argmax(~on[i:])) if not on[i:].all() else on.size
     assert np.ptp(tr.lam[i:j]) > 1e-6 * abs(tr.lam[i])  # the drilling torque changes λ_s
     assert np.any(tr.M_n[on] != 0.0)
+
+
+# --- long runs ---------------------------------------------------------------------------------
+
+UPRIGHT = mett.State(theta=0.1, omega3=180.0)  # the Leine–Glocker start, contact point at rest
+
+
+def _stem_stretches(tr):
+    edges = np.flatnonzero(tr.contact[1:] != tr.contact[:-1]) + 1
+    bounds = zip(np.concatenate(([0], edges)), np.concatenate((edges, [tr.t.size])), strict=True)
+    return [(i, j) for i, j in bounds if tr.contact[i] == "stem"]
+
+
+@pytest.mark.slow
+def test_near_touchdown_start_ends_rolling_on_the_stem():
+    tr = simulate(TOP, NEAR, 20.0, friction=LAW)
+    assert tr.status == "completed", tr.message
+    assert tr.touchdowns.size == 3 and tr.contact[-1] == "stem" and tr.phase[-1] == "rolling"
+    i, _ = _stem_stretches(tr)[-1]
+    assert tr.t[i] == pytest.approx(0.41738502, abs=1e-6)
+    lam = tr.lam[i:]
+    assert float(np.ptp(lam) / abs(lam[0])) < 1e-9  # measured 7e-11
+    # rolling from the last stop on: E constant, the contact at rest
+    last_stop = [s.t for s in tr.switches if s.reason == "stop"][-1]
+    k = tr.t >= last_stop
+    assert float(np.ptp(tr.E[k]) / tr.E[-1]) < 1e-9
+    assert np.all(tr.phase[k] == "rolling")
+    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
+    assert tr.theta[-1] == pytest.approx(2.483, abs=2e-3)  # measured 2.48281
+    assert tr.omega3[-1] == pytest.approx(-93.50, abs=2e-2)  # measured −93.498
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_leine_glocker_start_rolls_on_its_ball_under_coulomb():
+    # μ = 0.3: the force rolling needs stays inside the cone, nothing dissipates, no inversion
+    tr = simulate(TOP, UPRIGHT, 20.0, friction=LAW)
+    assert tr.status == "completed", tr.message
+    assert tr.touchdowns.size == 0 and tr.switches == []
+    assert set(tr.contact) == {"ball"} and set(tr.phase) == {"rolling"}
+    assert float(np.ptp(tr.E) / tr.E[0]) < 1e-9
+    assert float(np.ptp(tr.lam) / tr.lam[0]) < 1e-9
+    assert np.all(tr.theta < 0.101)  # measured 0.0994 at 20 s
+    assert np.all(tr.margin > 0.0)
+
+
+@pytest.mark.slow
+def test_leine_glocker_start_touches_down_under_coulomb_contensou():
+    tr = simulate(TOP, UPRIGHT, 20.0, friction=Coulomb(0.3, contensou_radius=3e-3))
+    assert tr.status == "completed", tr.message
+    assert tr.touchdowns[0] == pytest.approx(2.277, abs=1e-3)  # measured 2.27704
+    for t in tr.touchdowns:
+        assert abs(tr.at(t).theta - TOP.touchdown_angle) < 1e-9
+    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
+    # the spin consumed, it ends rolling on its ball just short of the stem
+    assert tr.contact[-1] == "ball" and tr.phase[-1] == "rolling"
+    assert TOP.touchdown_angle - 0.05 < tr.theta[-1] < TOP.touchdown_angle  # measured 2.219
+    assert abs(tr.omega3[-1]) < 10.0  # measured −4.1 rad/s (from 180)
+
+
+@pytest.mark.slow
+def test_leine_glocker_start_inverts_under_weak_coulomb_friction():
+    # μ = 0.01: it slides until it inverts; the stem touches down at θ_touch, then the impacts
+    # accumulate towards a two-point contact (not modelled)
+    tr = simulate(TOP, UPRIGHT, 35.84, friction=Coulomb(0.01))
+    assert tr.status == "completed", tr.message
+    assert tr.touchdowns[0] == pytest.approx(35.8169, abs=1e-3)  # measured 35.81692
+    for t in tr.touchdowns[:20]:
+        assert abs(tr.at(t).theta - TOP.touchdown_angle) < 1e-9
+    assert tr.touchdowns.size > 100  # measured 592
+    gaps = np.diff(tr.touchdowns[:10])
+    assert np.all(gaps[1:] < gaps[:-1])  # shrinking: an accumulation
+    for i, j in _stem_stretches(tr)[:50]:
+        lam = tr.lam[i:j]
+        assert float(np.ptp(lam) / abs(lam[0])) < 1e-9
+    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
