@@ -276,6 +276,15 @@ def _stem_stretches(tr):
     return [(i, j) for i, j in bounds if tr.contact[i] == "stem"]
 
 
+def _energy_never_increases(tr):
+    """E never increases: to rounding while sliding and at the switches; while rolling (E
+    conserved) by no more than the integration error at rtol = 1e-10."""
+    dE = np.diff(tr.E) / tr.E[0]
+    rolling = (tr.phase[1:] == "rolling") & (tr.phase[:-1] == "rolling")
+    assert np.all(dE[~rolling] <= 1e-12), dE[~rolling].max()
+    assert np.all(dE[rolling] <= 1e-10), dE[rolling].max()
+
+
 @pytest.mark.slow
 def test_near_touchdown_start_ends_rolling_on_the_stem():
     tr = simulate(TOP, NEAR, 20.0, friction=LAW)
@@ -290,7 +299,7 @@ def test_near_touchdown_start_ends_rolling_on_the_stem():
     k = tr.t >= last_stop
     assert float(np.ptp(tr.E[k]) / tr.E[-1]) < 1e-9
     assert np.all(tr.phase[k] == "rolling")
-    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
+    _energy_never_increases(tr)  # rolling steps measured up to 4e-12, 7e-11 over 19.6 s
     assert tr.theta[-1] == pytest.approx(2.483, abs=2e-3)  # measured 2.48281
     assert tr.omega3[-1] == pytest.approx(-93.50, abs=2e-2)  # measured −93.498
 
@@ -316,7 +325,7 @@ def test_leine_glocker_start_touches_down_under_coulomb_contensou():
     assert tr.touchdowns[0] == pytest.approx(2.277, abs=1e-3)  # measured 2.27704
     for t in tr.touchdowns:
         assert abs(tr.at(t).theta - TOP.touchdown_angle) < 1e-9
-    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
+    _energy_never_increases(tr)
     # the spin consumed, it ends rolling on its ball just short of the stem
     assert tr.contact[-1] == "ball" and tr.phase[-1] == "rolling"
     assert TOP.touchdown_angle - 0.05 < tr.theta[-1] < TOP.touchdown_angle  # measured 2.219
@@ -338,4 +347,4 @@ def test_leine_glocker_start_inverts_under_weak_coulomb_friction():
     for i, j in _stem_stretches(tr)[:50]:
         lam = tr.lam[i:j]
         assert float(np.ptp(lam) / abs(lam[0])) < 1e-9
-    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
+    _energy_never_increases(tr)
