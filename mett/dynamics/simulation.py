@@ -236,7 +236,9 @@ def simulate(
         Body and friction parameters. A :class:`~mett.stem.StemmedTop` (``top.with_stem(...)``)
         runs the ``"stemmed"`` model: ball and stem contacts with inelastic impacts at each change
         of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball" or
-        "stem" per sample) and ``touchdowns`` (s).
+        "stem" per sample) and ``touchdowns`` (s). With ``friction=Coulomb(...)`` it runs
+        ``"stemmed-coulomb"`` (``"stemmed-coulomb-contensou"``): stick–slip on either contact,
+        ``phase`` per sample as for the dry models below (docs/theory/stem.md#dry-friction).
     state : State or array_like
         Initial state (θ, θ̇, φ̇, ω3, ν_x, ν_y); the default ν = 0 of :class:`~mett.State` is the
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.

@@ -23,6 +23,10 @@ of the new contact point; the contact-point velocity then obeys the linear ODE
 dv/dp = W (ẑ − μ v_t), W = 𝟙/m − [a×] I⁻¹ [a×], integrated until the normal velocity v_z reaches 0
 (restitution e = 0: the end of compression). Energy changes by ∫ (v_z − μ|v_t|²) dp ≤ 0 (v_z < 0
 during compression). Momentum and angular momentum about G change by P and a × P.
+
+Under dry friction (``friction=Coulomb(...)``) the variant "stemmed-coulomb" of :mod:`.stemslip`
+runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the
+Coulomb law in the impulse equations.
 """
 
 from __future__ import annotations
