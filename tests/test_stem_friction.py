@@ -348,3 +348,19 @@ def test_leine_glocker_start_inverts_under_weak_coulomb_friction():
         lam = tr.lam[i:j]
         assert float(np.ptp(lam) / abs(lam[0])) < 1e-9
     _energy_never_increases(tr)
+
+
+def test_a_switch_to_an_unknown_phase_ends_the_run_failed():
+    # the registry's Event.select: a phase name the model does not have is a status, not a crash
+    import dataclasses
+
+    mdl = mett.dynamics.MODELS["stemmed-coulomb"]
+    events = tuple(
+        dataclasses.replace(ev, select=lambda y, p: "nowhere") if ev.select is not None else ev
+        for ev in mdl.events
+    )
+    model = dataclasses.replace(mdl, name="stemmed-coulomb-broken", events=events, variant=None)
+    tr = simulate(BALL, NEAR, 0.1, model=model, friction=LAW, backend="scipy",
+                  stem_radius=TOP.radius, stem_distance=TOP.distance)  # fmt: skip
+    assert tr.status == "failed" and "unknown phase 'nowhere'" in tr.message
+    assert tr.t[-1] == pytest.approx(0.0198558, abs=1e-6)  # the first touchdown, kept
