@@ -265,7 +265,7 @@ def test_contensou_on_the_stem_loses_energy_and_breaks_jellett():
     assert np.any(tr.M_n[on] != 0.0)
 
 
-# --- long runs ---------------------------------------------------------------------------------
+# --- the long runs (fast once the kernels are compiled) ---------------------------------------------------------------------------------
 
 UPRIGHT = mett.State(theta=0.1, omega3=180.0)  # the Leine–Glocker start, contact point at rest
 
@@ -285,7 +285,6 @@ def _energy_never_increases(tr):
     assert np.all(dE[rolling] <= 1e-10), dE[rolling].max()
 
 
-@pytest.mark.slow
 def test_near_touchdown_start_ends_rolling_on_the_stem():
     tr = simulate(TOP, NEAR, 20.0, friction=LAW)
     assert tr.status == "completed", tr.message
@@ -304,8 +303,6 @@ def test_near_touchdown_start_ends_rolling_on_the_stem():
     assert tr.omega3[-1] == pytest.approx(-93.50, abs=2e-2)  # measured −93.498
 
 
-@pytest.mark.slow
-@pytest.mark.ci
 def test_leine_glocker_start_rolls_on_its_ball_under_coulomb():
     # μ = 0.3: the force rolling needs stays inside the cone, nothing dissipates, no inversion
     tr = simulate(TOP, UPRIGHT, 20.0, friction=LAW)
@@ -318,7 +315,6 @@ def test_leine_glocker_start_rolls_on_its_ball_under_coulomb():
     assert np.all(tr.margin > 0.0)
 
 
-@pytest.mark.slow
 def test_leine_glocker_start_touches_down_under_coulomb_contensou():
     tr = simulate(TOP, UPRIGHT, 20.0, friction=Coulomb(0.3, contensou_radius=3e-3))
     assert tr.status == "completed", tr.message
@@ -333,6 +329,7 @@ def test_leine_glocker_start_touches_down_under_coulomb_contensou():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_leine_glocker_start_inverts_under_weak_coulomb_friction():
     # μ = 0.01: it slides until it inverts; the stem touches down at θ_touch, then the impacts
     # accumulate towards a two-point contact (not modelled)
