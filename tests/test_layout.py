@@ -17,7 +17,7 @@ import mett
 ROOT = pathlib.Path(mett.__file__).parent
 FILES = sorted(ROOT.rglob("*.py"))
 # reworked in parallel changes; each lists its own imports of another module's private names
-PENDING = {"dynamics/stem.py"}
+PENDING: set[str] = set()  # modules still to be reworked (expected to fail until then)
 
 
 def _module(path: pathlib.Path) -> tuple[str, str]:

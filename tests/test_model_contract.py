@@ -208,6 +208,47 @@ class TestStemmed(ModelContract):
     )
 
 
+class TestStemmedCoulomb(ModelContract):
+    """The stemmed top under Coulomb friction: all four phases (ball/stem × sliding/rolling)
+    compiled and checked; the states start on the ball (touchdown at 2.21 rad)."""
+
+    name = "stemmed-coulomb"
+    states = (_SPUN, _TILTED)
+    options = {  # noqa: RUF012
+        "friction": mett.friction.Coulomb(0.3),
+        "stem_radius": 0.005,
+        "stem_distance": 0.025,
+    }
+    _geometry = {"stem_radius": 0.005, "stem_distance": 0.025}  # noqa: RUF012
+    bad_options = (
+        (
+            {"stem_distance": 0.01, "stem_radius": 0.005, "friction": options["friction"]},
+            ValueError,
+        ),
+        ({"stopping_band": -1e-9, **_geometry, "friction": options["friction"]}, ValueError),
+        ({"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-3), **_geometry}, TypeError),
+    )
+
+    def test_selected_by_the_law_on_a_stemmed_top(self):
+        top = TOP.with_stem(radius=0.005, distance=0.025)
+        tr = simulate(top, _SPUN, 0.01, friction=mett.friction.Coulomb(0.3))
+        assert tr.model == self.name
+        assert set(tr.contact) == {"ball"} and set(tr.phase) <= {"sliding", "rolling"}
+        cc = simulate(top, _SPUN, 0.01, friction=mett.friction.Coulomb(0.3, contensou_radius=1e-3))
+        assert cc.model == "stemmed-coulomb-contensou"
+        assert simulate(top, _SPUN, 0.01).model == "stemmed"
+
+
+class TestStemmedCoulombContensou(ModelContract):
+    name = "stemmed-coulomb-contensou"
+    states = (_SPUN, _SLIPPING)
+    options = {  # noqa: RUF012
+        "friction": mett.friction.Coulomb(0.3, contensou_radius=3e-3),
+        "stem_radius": 0.005,
+        "stem_distance": 0.025,
+    }
+
+
 class TestCoulomb(ModelContract):
     """Exact Coulomb stick–slip (friction=Coulomb(mu)): both phases compiled and checked."""
 

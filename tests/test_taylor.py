@@ -114,7 +114,8 @@ STARTS = {
 
 
 # models that need options of their own are checked separately (stem, dry friction: below)
-_OWN_TEST = {"stemmed", "coulomb", "coulomb-contensou", "coulomb-regularised"}
+_OWN_TEST = {"stemmed", "coulomb", "coulomb-contensou", "coulomb-regularised", "stemmed-coulomb",
+             "stemmed-coulomb-contensou"}  # fmt: skip
 
 
 @pytest.mark.parametrize("name", sorted(STARTS))
@@ -244,6 +245,22 @@ def test_dry_friction_models_run_on_the_taylor_backend():
     d = simulate(TOP, start, 0.2, friction=Coulomb(0.3, contensou_radius=3e-3))
     assert c.model == d.model == "coulomb-contensou"
     assert abs(c.theta[-1] - d.theta[-1]) < 1e-7
+
+
+def test_the_stemmed_top_under_dry_friction_runs_on_the_taylor_backend():
+    # ball and stem, sliding and rolling, touchdowns and landings with the dry impact law
+    from mett.friction import Coulomb
+
+    ball = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=0.3)
+    top = ball.with_stem(radius=0.005, distance=0.016)
+    start = mett.State(theta=2.15, thetadot=2.0, phidot=110.0, omega3=-76.0, nu_y=0.16)
+    a = simulate(top, start, 0.5, friction=Coulomb(0.3), backend="taylor", rtol=1e-10)
+    b = simulate(top, start, 0.5, friction=Coulomb(0.3), backend="compiled", rtol=1e-10)
+    assert a.model == b.model == "stemmed-coulomb" and a.status == b.status == "completed"
+    assert a.touchdowns.size == b.touchdowns.size >= 2
+    np.testing.assert_allclose(a.touchdowns, b.touchdowns, rtol=0, atol=1e-8)
+    assert a.contact[-1] == b.contact[-1]
+    assert abs(a.theta[-1] - b.theta[-1]) < 1e-6
 
 
 def test_a_kernel_refuses_parameters_that_take_other_branches():

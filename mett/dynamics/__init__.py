@@ -10,7 +10,10 @@ Models (docs/theory/equations.md#equations-of-motion, docs/theory/equations.md#i
 * ``"gliding-euler"`` — the Euler-angle form of "gliding", a cross-check (:mod:`.euler`);
 * ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"`` — dry friction (exact
   stick–slip, a hybrid of sliding and rolling phases; the regularised law), chosen by
-  ``simulate(..., friction=...)`` (:mod:`.stickslip`).
+  ``simulate(..., friction=...)`` (:mod:`.stickslip`);
+* ``"stemmed"`` — the top with a stem, ball and stem contacts with impacts (:mod:`.stem`), and
+  ``"stemmed-coulomb"``, ``"stemmed-coulomb-contensou"`` — the same under dry friction
+  (:mod:`.stemslip`), chosen by ``simulate(top.with_stem(...), ..., friction=Coulomb(...))``.
 
 Every model declares itself once, in its own module, with :func:`~.registry.register` (see
 :mod:`.registry` for the design): right-hand side, events, options, conserved quantities. Adding a
@@ -25,7 +28,7 @@ first compiled run so that ``import mett`` does not import numba.
 
 # the registry first, then the built-in models, which register themselves in MODELS in this order
 from . import registry  # noqa: F401, I001
-from . import gliding, rolling, reduced, euler, routhian, stickslip, stem  # noqa: F401
+from . import gliding, rolling, reduced, euler, routhian, stickslip, stem, stemslip  # noqa: F401
 from .euler import euler_normal_force, euler_rhs
 from .gliding import gliding_normal_force, gliding_rhs
 from .reduced import cylinder_rhs, hst_euler_rhs

@@ -1,7 +1,7 @@
 """Compiled twins of the model right-hand sides and events, for the compiled DOP853 (:mod:`.dop853`).
 
 The physics is written once. Each model module keeps its equations in private functions of plain
-float arithmetic (``gliding._core``, ``rolling._core``, …) that numpy evaluates on floats or on
+float arithmetic (``gliding.gliding_core``, ``rolling._core``, …) that numpy evaluates on floats or on
 arrays of samples, and declares in its :class:`~mett.dynamics.registry.Model` an out-style
 ``rhs_into(t, y, p, out)`` and its events ``fn(t, y, p)``. This module compiles those very
 functions with numba (:func:`compiled`): :func:`_jit` makes a copy of a function whose

@@ -40,12 +40,12 @@ from ._model import (
 )
 from .registry import Event, Model, register
 
-__all__ = ["MODEL", "gliding_normal_force", "gliding_rhs", "gliding_series"]
+__all__ = ["MODEL", "gliding_core", "gliding_normal_force", "gliding_rhs", "gliding_series"]
 
 N_STATE = 10
 
 
-def _core(y: Any, p: tuple) -> tuple:
+def gliding_core(y: Any, p: tuple) -> tuple:
     """Time derivatives and g_n; plain arithmetic, so ``y`` may hold floats or equal-shape arrays.
 
     Returns ``(ẋ, ẏ, ẍ, ÿ, L̇_x, L̇_y, L̇_z, 3̂̇_x, 3̂̇_y, 3̂̇_z, g_n, ω, ν)``.
@@ -114,29 +114,29 @@ def gliding_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     -------
     ndarray, shape (10,)
     """
-    d = _core(y, p)
+    d = gliding_core(y, p)
     return np.array(d[:10])
 
 
 def gliding_normal_force(y: np.ndarray, p: tuple) -> Any:
     """Normal force g_n (N) of state(s) ``y`` (shape (10,) or (10, k)), docs/theory/equations.md#vector-form."""
-    return _core(y, p)[10]
+    return gliding_core(y, p)[10]
 
 
 def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
     """:func:`gliding_rhs` written into ``out``: the form the compiled integrator calls.
 
-    Plain Python on purpose: :mod:`mett.dynamics._kernels` compiles this function and :func:`_core`
+    Plain Python on purpose: :mod:`mett.dynamics._kernels` compiles this function and :func:`gliding_core`
     with numba, so the physics is written once (and ``import mett`` does not import numba).
     """
-    d = _core(y, p)
+    d = gliding_core(y, p)
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
 
 
 def _contact(t: float, y: Any, p: Any) -> Any:
     """The contact event g_n/(m g): terminal when it falls through 0 (compiled like _rhs_into)."""
-    return _core(y, p)[10] * (1.0 / (p[0] * p[6]))
+    return gliding_core(y, p)[10] * (1.0 / (p[0] * p[6]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
@@ -157,7 +157,7 @@ def gliding_series(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     (pole-safe). Also the series of each contact of the stemmed top."""
     m, R, l, I1, I3, mu, g = p
     Y = np.asarray(Y, dtype=float)
-    d = _core(Y, p)
+    d = gliding_core(Y, p)
     e = unit_axis(Y, 7)
     w = np.array(d[11])
     nu = np.array([d[12][0], d[12][1], np.zeros_like(d[12][0])])
@@ -176,7 +176,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     m, R, l, I1, I3, mu, g = p
-    w = np.array(_core(y0, p)[11])
+    w = np.array(gliding_core(y0, p)[11])
     sc = scales_from_state(w, y0[2:4], R, l, I1, I3, g)
     # Axis scale 0.1, not 1: near the upright start the horizontal components of 3̂ are O(θ) ≪ 1.
     # Measured on the thesis run at rtol = 1e-10: pointwise θ error 1.3e-6 → 1.7e-7 for 15 % more

@@ -37,8 +37,9 @@ A record holds
 vanishes) declares its first phase as above, named by ``phase``, and its other phases in
 ``phases`` (:class:`Phase`: name, rhs, rhs_into, events); all phases share the state vector and
 parameters. A ``"switch"`` event names the phase it leads to (``target``) and may map the state
-across the switch (``jump(y, p) -> y``, e.g. a projection onto the constraint); ``start_phase(y0,
-p)`` chooses the phase at t = 0. :meth:`Model.phase_table` lists all phases. :func:`mett.simulate`
+across the switch (``jump(y, p) -> y``, e.g. a projection onto the constraint) and choose the
+phase it continues in from the jumped state (``select(y, p)``, e.g. rolling or sliding after an
+impact); ``start_phase(y0, p)`` chooses the phase at t = 0. :meth:`Model.phase_table` lists all phases. :func:`mett.simulate`
 runs a hybrid model phase by phase: each phase until one of its events is located; a "switch"
 event restarts the integration (same tolerances, same backend) in the target phase from the
 located time and the (jumped) state; ``Trajectory.phase`` gives the phase of every sample and
@@ -117,6 +118,10 @@ class Event:
     jump : callable, optional
         ``jump(y, p) -> y`` applied to the state at a switch (identity if None); it may raise
         :class:`JumpFailed` to end the run with status "failed".
+    select : callable, optional
+        ``select(y, p) -> str``: the phase the run continues in, chosen from the state after the
+        jump (e.g. after an impact, sliding or rolling by the slip it leaves); default ``target``.
+        A name that is no phase of the model ends the run with status "failed".
     """
 
     fn: Callable[[float, Any, Any], float]
@@ -125,6 +130,7 @@ class Event:
     message: str = ""
     target: str = ""
     jump: Callable[[np.ndarray, Params], np.ndarray] | None = None
+    select: Callable[[np.ndarray, Params], str] | None = None
 
     def __post_init__(self) -> None:
         if not callable(self.fn):

@@ -236,7 +236,9 @@ def simulate(
         Body and friction parameters. A :class:`~mett.stem.StemmedTop` (``top.with_stem(...)``)
         runs the ``"stemmed"`` model: ball and stem contacts with inelastic impacts at each change
         of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball" or
-        "stem" per sample) and ``touchdowns`` (s).
+        "stem" per sample) and ``touchdowns`` (s). With ``friction=Coulomb(...)`` it runs
+        ``"stemmed-coulomb"`` (``"stemmed-coulomb-contensou"``): stick–slip on either contact,
+        ``phase`` per sample as for the dry models below (docs/theory/stem.md#dry-friction).
     state : State or array_like
         Initial state (θ, θ̇, φ̇, ω3, ν_x, ν_y); the default ν = 0 of :class:`~mett.State` is the
         thesis start (contact point at rest). The CM starts over the origin with φ(0) = 0.
@@ -474,15 +476,15 @@ def prepare_run(
                 )
             mdl = _model_of_law(friction)
         options = {**options, "friction": friction}
-        if _declares(mdl, "stopping_band") and options.get("stopping_band") is None:
-            from .stickslip import stopping_band  # tied to rtol, as the integration error is
-
-            options["stopping_band"] = stopping_band(top, state, rtol)
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
         if alt is not None and alt is not mdl:
             mdl, model_options = alt, validate_options(alt, options)
+    if _declares(mdl, "stopping_band") and model_options["stopping_band"] is None:
+        from .stickslip import stopping_band  # tied to rtol, as the integration error is
+
+        model_options["stopping_band"] = stopping_band(top, state, rtol)
     compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
     if backend == "auto":
         backend = "compiled" if method == "DOP853" and compilable else "scipy"
@@ -616,12 +618,17 @@ def _solve_hybrid(
             index, t_sw = run.switch
             ev = run.phase.events[index]
             y_ev = np.asarray(seg.sol(t_sw), dtype=float)
-            y_sw = y_ev
+            y_sw, target = y_ev, ev.target
             if ev.jump is not None:
                 try:
                     y_sw = np.asarray(ev.jump(y_ev, params), dtype=float)
                 except JumpFailed as exc:  # the run ends at the switch, state before it kept
                     jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
+            if ev.select is not None and not last:
+                target = ev.select(y_sw, params)
+                if target not in table:
+                    jump_failed = f"switch to unknown phase {target!r} (t = {t_sw:.9g} s)"
+                    last = True
         t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
         if not last:
             t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
@@ -630,9 +637,9 @@ def _solve_hybrid(
         phases.extend([run.phase.name] * t_seg.size)
         if last:
             break
-        switches.append((t_sw, run.phase.name, ev.target))
+        switches.append((t_sw, run.phase.name, target))
         jumps.append((y_ev, y_sw))
-        run = _Run(mdl, run.top, params, y_sw, run.backend, table[ev.target], t0=t_sw,
+        run = _Run(mdl, run.top, params, y_sw, run.backend, table[target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
     kw = dict(seg.kw)
     kw["nfev"] = nfev

@@ -23,19 +23,42 @@ of the new contact point; the contact-point velocity then obeys the linear ODE
 dv/dp = W (ẑ − μ v_t), W = 𝟙/m − [a×] I⁻¹ [a×], integrated until the normal velocity v_z reaches 0
 (restitution e = 0: the end of compression). Energy changes by ∫ (v_z − μ|v_t|²) dp ≤ 0 (v_z < 0
 during compression). Momentum and angular momentum about G change by P and a × P.
+
+Under dry friction (``friction=Coulomb(...)``) the variant "stemmed-coulomb" of :mod:`.stemslip`
+runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the
+Coulomb law in the impulse equations.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ._model import lab_vectors, scales_from_state, unit_axis
-from .gliding import _core, gliding_series
-from .registry import Event, JumpFailed, Model, Option, Phase, positive_length, register
+from .gliding import gliding_core, gliding_series
+from .registry import (
+    Event,
+    JumpFailed,
+    Model,
+    Option,
+    Phase,
+    lookup,
+    positive_length,
+    register,
+)
 
-__all__ = ["MODEL", "impact", "stem_params"]
+__all__ = [
+    "MODEL",
+    "ImpactFrame",
+    "apply_impulse",
+    "ball_clearance",
+    "darboux_keller",
+    "impact",
+    "impact_frame",
+    "stem_clearance",
+    "stem_params",
+]
 
 N_STATE = 11
 
@@ -76,11 +99,11 @@ def _ez(y: Any) -> Any:
 
 def ball_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     """Gliding right-hand side on the ball (R, l); the phase flag stays constant."""
-    return np.array((*_core(y, _ball(p))[:10], 0.0))
+    return np.array((*gliding_core(y, _ball(p))[:10], 0.0))
 
 
 def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
-    d = _core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
     out[10] = 0.0
@@ -88,14 +111,27 @@ def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _ball_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) of the ball contact."""
-    d = _core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
     return d[10] * (1.0 / (p[0] * p[6]))
 
 
-def _touchdown(t: float, y: Any, p: Any) -> Any:
-    """Stem clearance (R + l_s 3̂_z − r_s)/R while the ball touches (+ :data:`SWITCH_OFFSET`)."""
+def stem_clearance(y: Any, R: Any, r_s: Any, l_s: Any) -> Any:
+    """Touchdown event: stem clearance (R + l_s 3̂_z − r_s)/R while the ball touches
+    (+ :data:`SWITCH_OFFSET`); plain arithmetic, for every model of the stemmed top."""
     n = (y[7] * y[7] + y[8] * y[8] + y[9] * y[9]) ** 0.5
-    return (p[1] + p[8] * (y[9] / n) - p[7]) / p[1] + SWITCH_OFFSET
+    return (R + l_s * (y[9] / n) - r_s) / R + SWITCH_OFFSET
+
+
+def ball_clearance(y: Any, R: Any, r_s: Any, l_s: Any) -> Any:
+    """Landing event: ball clearance (r_s − l_s 3̂_z − R)/R while the stem touches
+    (+ :data:`SWITCH_OFFSET`)."""
+    n = (y[7] * y[7] + y[8] * y[8] + y[9] * y[9]) ** 0.5
+    return (r_s - l_s * (y[9] / n) - R) / R + SWITCH_OFFSET
+
+
+def _touchdown(t: float, y: Any, p: Any) -> Any:
+    """Stem clearance while the ball touches (:func:`stem_clearance`)."""
+    return stem_clearance(y, p[1], p[7], p[8])
 
 
 # --- stem phase ----------------------------------------------------------------------------------
@@ -103,11 +139,11 @@ def _touchdown(t: float, y: Any, p: Any) -> Any:
 
 def stem_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     """Gliding right-hand side on the stem sphere (r_s, l + l_s); the phase flag stays constant."""
-    return np.array((*_core(y, _stem(p))[:10], 0.0))
+    return np.array((*gliding_core(y, _stem(p))[:10], 0.0))
 
 
 def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
-    d = _core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
     out[10] = 0.0
@@ -115,14 +151,13 @@ def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _stem_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) of the stem contact."""
-    d = _core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
     return d[10] * (1.0 / (p[0] * p[6]))
 
 
 def _landing(t: float, y: Any, p: Any) -> Any:
-    """Ball clearance (r_s − l_s 3̂_z − R)/R while the stem touches (+ :data:`SWITCH_OFFSET`)."""
-    n = (y[7] * y[7] + y[8] * y[8] + y[9] * y[9]) ** 0.5
-    return (p[7] - p[8] * (y[9] / n) - p[1]) / p[1] + SWITCH_OFFSET
+    """Ball clearance while the stem touches (:func:`ball_clearance`)."""
+    return ball_clearance(y, p[1], p[7], p[8])
 
 
 # --- the impact ----------------------------------------------------------------------------------
@@ -140,54 +175,98 @@ def _body(y: np.ndarray, q: tuple) -> tuple:
     return e, L, w, V
 
 
-def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
-    """State after the impact of the contact ``to`` ("ball" or "stem"), and the impulse P (N s).
+class ImpactFrame(NamedTuple):
+    """The body at the instant of an impact at a new contact (configuration fixed during it)."""
 
-    ``y`` is the state just before (on the other sphere). Perfectly inelastic Darboux–Keller
-    impact with the viscous law in impulse form (module docstring): the new contact's normal
-    velocity is 0 afterwards and the energy does not increase.
-    """
-    from scipy.integrate import solve_ivp
+    e: np.ndarray
+    """Symmetry axis 3̂."""
+    L: np.ndarray
+    """Angular momentum about the CM before the impact (kg m² s⁻¹)."""
+    w: np.ndarray
+    """Angular velocity before the impact (rad/s)."""
+    V: np.ndarray
+    """CM velocity before the impact (m/s), V_z from the old contact's constraint."""
+    a: np.ndarray
+    """CM → new contact point (m)."""
+    Iinv: np.ndarray
+    """Inverse inertia tensor (kg⁻¹ m⁻²)."""
+    W: np.ndarray
+    """Δv = W P at the new contact: W = 𝟙/m − [a×] I⁻¹ [a×] (kg⁻¹)."""
+    v: np.ndarray
+    """Velocity of the new contact point before the impact (m/s)."""
 
+
+def impact_frame(y: np.ndarray, p: tuple, to: str) -> ImpactFrame:
+    """:class:`ImpactFrame` of state ``y`` (on the other sphere) for an impact of contact ``to``
+    ("ball" or "stem"); ``p`` the parameters of the "stemmed" model (μ unused)."""
     old, new = (_stem(p), _ball(p)) if to == "ball" else (_ball(p), _stem(p))
-    m, I1, I3, mu = p[0], p[3], p[4], p[5]
+    m, I1, I3 = p[0], p[3], p[4]
     e, L, w, V = _body(y, old)
     a = new[2] * e - np.array([0.0, 0.0, new[1]])
     Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
     A = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])  # a × x = A x
     W = np.eye(3) / m - A @ Iinv @ A
-    v0 = V + np.cross(w, a)
-    P = np.zeros(3)
-    if v0[2] < 0.0:
+    return ImpactFrame(e, L, w, V, a, Iinv, W, V + np.cross(w, a))
 
-        def rate(_: float, z: np.ndarray) -> np.ndarray:
-            dP = np.array([-mu * z[0], -mu * z[1], 1.0])
-            return np.concatenate((W @ dP, dP))
 
-        def stop(_: float, z: np.ndarray) -> float:
-            return z[2]
+def apply_impulse(
+    y: np.ndarray, f: ImpactFrame, m: float, P: np.ndarray, to: str, Q: float = 0.0
+) -> np.ndarray:
+    """The state after the impulse ``P`` (N s) and the torque impulse ``Q`` ẑ (N m s) at the new
+    contact ``to``: Δ(m ṙ) = P, ΔL = a × P + Q ẑ, phase flag set to the new contact.
 
-        stop.terminal, stop.direction = True, 1.0
-        # The impact always ends: v_t relaxes to W_tt⁻¹W_tz/μ and then v_z grows at the rate
-        # 1/(W⁻¹)_zz > 0 (W positive definite). Friction can make p much larger than the
-        # frictionless −v_z/W_zz, so the interval is extended until v_z reaches 0.
-        z, p0, p1 = np.concatenate((v0, P)), 0.0, 10.0 * -v0[2] / W[2, 2]
-        for _ in range(12):
-            sol = solve_ivp(rate, (p0, p1), z, method="DOP853", events=stop, rtol=1e-13,
-                            atol=1e-15 * (1.0 + abs(v0[2])))  # fmt: skip
-            if sol.status != 0:
-                break
-            z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
-        if sol.status != 1:
-            raise JumpFailed(
-                f"impact of the {to}: the impulse equations could not be solved ({sol.message})"
-            )
-        P = sol.y_events[0][0][3:]
+    Any impulse at the new contact keeps its Jellett integral −L·a: −(a × P)·a = 0 (Q changes
+    it by −Q ẑ·a, the Contensou torque's share).
+    """
     out = np.array(y, dtype=float)
-    out[2:4] = V[:2] + P[:2] / m
-    out[4:7] = L + np.cross(a, P)
+    out[2:4] = f.V[:2] + np.asarray(P[:2]) / m
+    out[4:7] = f.L + np.cross(f.a, P) + np.array([0.0, 0.0, Q])
     out[10] = 1.0 if to == "stem" else 0.0
-    return out, P
+    return out
+
+
+def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
+    """State after the impact of the contact ``to`` ("ball" or "stem"), and the impulse P (N s).
+
+    ``y`` is the state just before (on the other sphere). Perfectly inelastic Darboux–Keller
+    impact with the viscous law in impulse form (module docstring, :func:`darboux_keller`): the
+    new contact's normal velocity is 0 afterwards and the energy does not increase.
+    """
+    f = impact_frame(y, p, to)
+    P = darboux_keller(f.v, f.W, p[5]) if f.v[2] < 0.0 else np.zeros(3)
+    return apply_impulse(y, f, p[0], P, to), P
+
+
+def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
+    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact, viscous law.
+
+    dP = (ẑ − μ v_t) dp, dv = W dP from the contact velocity ``v0`` (v0_z < 0) until v_z = 0
+    (module docstring); μ in s/m. Raises :class:`JumpFailed` if the impulse equations cannot be
+    solved.
+    """
+    from scipy.integrate import solve_ivp
+
+    def rate(_: float, z: np.ndarray) -> np.ndarray:
+        dP = np.array([-mu * z[0], -mu * z[1], 1.0])
+        return np.concatenate((W @ dP, dP))
+
+    def stop(_: float, z: np.ndarray) -> float:
+        return z[2]
+
+    stop.terminal, stop.direction = True, 1.0
+    # The impact always ends: v_t relaxes to W_tt⁻¹W_tz/μ and then v_z grows at the rate
+    # 1/(W⁻¹)_zz > 0 (W positive definite). Friction can make p much larger than the
+    # frictionless −v_z/W_zz, so the interval is extended until v_z reaches 0.
+    z, p0, p1 = np.concatenate((v0, np.zeros(3))), 0.0, 10.0 * -v0[2] / W[2, 2]
+    for _ in range(12):
+        sol = solve_ivp(rate, (p0, p1), z, method="DOP853", events=stop, rtol=1e-13,
+                        atol=1e-15 * (1.0 + abs(v0[2])))  # fmt: skip
+        if sol.status != 0:
+            break
+        z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
+    if sol.status != 1:
+        raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
+    return sol.y_events[0][0][3:]
 
 
 def _to_stem(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -217,7 +296,7 @@ def _start_phase(y0: np.ndarray, p: tuple) -> str:
 
 def _normal_force(y: np.ndarray, p: tuple) -> Any:
     y = np.asarray(y, dtype=float)
-    return np.where(y[10] > 0.5, _core(y, _stem(p))[10], _core(y, _ball(p))[10])
+    return np.where(y[10] > 0.5, gliding_core(y, _stem(p))[10], gliding_core(y, _ball(p))[10])
 
 
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
@@ -237,11 +316,30 @@ def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     q = _stem(p) if y0[10] > 0.5 else _ball(p)
-    w = np.array(_core(y0, q)[11])
+    w = np.array(gliding_core(y0, q)[11])
     sc = scales_from_state(w, y0[2:4], p[1], max(p[2] + p[8], p[1]), p[3], p[4], p[6])
     return np.array(
         [sc["length"]] * 2 + [sc["velocity"]] * 2 + [sc["momentum"]] * 3 + [0.1] * 3 + [1.0]
     )
+
+
+def _check_dry_law(name: str, value: Any) -> Any:
+    """The dry law of a stemmed run: Coulomb (the viscous law runs this model with top.mu)."""
+    from ..friction import Coulomb
+
+    if not isinstance(value, Coulomb):
+        raise TypeError(
+            f"{name} of a top with a stem must be mett.friction.Viscous or Coulomb; got {value!r}"
+        )
+    return value
+
+
+def _dry_variant(options: dict) -> Model | None:
+    """friction=Coulomb(...): the stick–slip models of the stemmed top (:mod:`.stemslip`)."""
+    law = options["friction"]
+    if law is None:
+        return None
+    return lookup("stemmed-coulomb-contensou" if law.contensou_radius > 0 else "stemmed-coulomb")
 
 
 MODEL = register(
@@ -264,6 +362,7 @@ MODEL = register(
         options=(
             Option("stem_radius", positive_length, None, "stem sphere radius r_s (m)"),
             Option("stem_distance", positive_length, None, "ball centre to stem centre l_s (m)"),
+            Option("friction", _check_dry_law, None, "a dry law: runs 'stemmed-coulomb'"),
         ),
         phase="ball",
         phases=(
@@ -278,34 +377,30 @@ MODEL = register(
             ),
         ),
         start_phase=_start_phase,
+        variant=_dry_variant,
     )
 )
 
 
 def stemmed_run(simulate: Any, top: Any, state: Any, t_end: float, **kw: Any) -> Any:
     """:func:`mett.simulate` of a :class:`~mett.stem.StemmedTop`: the "stemmed" model on its ball
-    with its stem; the Trajectory also gets ``contact`` ("ball"/"stem" per sample) and
+    with its stem (with ``friction=Coulomb(...)`` its dry-friction variant "stemmed-coulomb",
+    :mod:`.stemslip`); the Trajectory also gets ``contact`` ("ball"/"stem" per sample) and
     ``touchdowns`` (the times the stem touched down, s)."""
     model = kw.pop("model")
     if model not in ("gliding", "stemmed", MODEL):
         raise ValueError(f"a top with a stem runs the 'stemmed' model only; got model {model!r}")
-    friction = kw.get("friction")
-    if friction is not None:
-        from .. import friction as _friction
-
-        law = _friction.check_law(friction)
-        if not isinstance(law, _friction.Viscous):
-            raise ValueError(
-                "a top with a stem runs with the viscous friction law only (dry laws on the stem "
-                f"are not implemented); got friction={law!r}"
-            )
     for name in ("stem_radius", "stem_distance"):
         if kw.get(name) is not None:
             raise ValueError(f"{name} is given by the StemmedTop; do not pass it to simulate")
     kw.update(stem_radius=top.radius, stem_distance=top.distance)
+    # friction=Viscous runs this model with its μ; a dry law its variant "stemmed-coulomb"
     traj = simulate(top.ball, state, t_end, model=MODEL, **kw)
-    # the phase flag of each sample (also for a run that ended at t = 0, before any phase ran)
+    # the contact of each sample (also for a run that ended at t = 0, before any phase ran)
     traj.contact = np.where(traj.states[10] > 0.5, "stem", "ball")
     traj.switches = list(getattr(traj, "switches", []))
-    traj.touchdowns = np.array([t for t, _, to in traj.switches if to == "stem"])
+    # a phase is named by its contact ("stem", or "stem-rolling" under dry friction)
+    traj.touchdowns = np.array(
+        [sw[0] for sw in traj.switches if sw[1].startswith("ball") and sw[2].startswith("stem")]
+    )
     return traj

@@ -96,10 +96,26 @@ __all__ = [
     "PHASES",
     "REGULARISED",
     "Switch",
+    "cone_event",
+    "cone_jump",
     "contact_quantities",
     "from_gliding",
+    "required",
+    "reversal_event",
+    "reversal_jump",
+    "rolling_contact",
+    "rolling_guess",
+    "set_slip",
+    "settle",
+    "slide_law",
     "slide_rhs",
+    "sliding_contact",
+    "slip",
+    "start_phase",
+    "stick",
     "stick_rhs",
+    "stop_event",
+    "stop_jump",
     "stopping_band",
     "to_gliding",
     "viscous_force",
@@ -530,14 +546,24 @@ def _params(top: Any, options: dict) -> tuple:
     return (top.m, top.R, l, top.I1, top.I3, top.g, law.mu, r_star, eps, code, band)
 
 
-def _initial(state: Any, p: tuple) -> np.ndarray:
-    """The gliding state; a slip within the band is removed (rolling) or restarted (cone)."""
-    y = from_gliding(gliding.MODEL.initial(state, _gliding_params(p)), p)
+def settle(y: np.ndarray, p: tuple) -> np.ndarray:
+    """``y`` with a slip within the stopping band settled (``y`` itself if the slip is larger).
+
+    The stopping impulse removes the slip; if the force rolling then needs lies outside the cone,
+    slip restarts with |γ| = 2δ in the excess-force direction. :func:`start_phase` of the result
+    is the phase it starts. Used at the start of a run and after an impact (the stemmed top,
+    :mod:`.stemslip`). ``y`` may carry components beyond the ten of the state (kept).
+    """
     if p[9] == _COULOMB and float(np.linalg.norm(_slip(y, p))) <= p[10]:
         y = _set_slip(y, p, np.zeros(3))
         if _required(y, p)[2] < 0.0:
             y = _restart(y, p)
     return y
+
+
+def _initial(state: Any, p: tuple) -> np.ndarray:
+    """The state; a slip within the band is removed (rolling) or restarted (cone)."""
+    return settle(from_gliding(gliding.MODEL.initial(state, _gliding_params(p)), p), p)
 
 
 def _start_phase(y0: np.ndarray, p: tuple) -> str:
@@ -578,9 +604,11 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     """g_n, F_t, M and the cone margin at states ``Y`` (shape (10, k)) in the given phases.
 
     ``rolling`` is a boolean per sample. The margin μ g_n − |F_t| (N) is that of the required force
-    in rolling samples and of the sliding force (≈ 0 for Coulomb) in sliding ones.
+    in rolling samples and of the sliding force (≈ 0 for Coulomb) in sliding ones. ``Y`` may carry
+    components beyond the ten of the state (the stemmed top's contact flag).
     """
-    Y = np.asarray(Y, dtype=float).reshape(10, -1)
+    Y = np.asarray(Y, dtype=float)
+    Y = Y.reshape(Y.shape[0], -1)
     rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
     with np.errstate(divide="ignore", invalid="ignore"):  # the sliding law at v_A = 0
         s = _slide_law(Y, p)
@@ -786,3 +814,42 @@ REGULARISED = register(
     )
 )
 """The regularised law (``friction=RegularisedCoulomb(...)``), one smooth stiff right-hand side."""
+
+
+# --- the contact interface for other models (the stemmed top, :mod:`.stemslip`) ----------------
+# Every function above takes the contact's geometry from p = (m, R, l, ...): the sphere's radius R
+# and the distance l from the CM to its centre along 3̂, so the stem sphere is the same contact
+# with (R, l) = (r_s, l + l_s); the state carries that contact's Jellett integral λ = −L·a in
+# place of L_z (from_gliding, to_gliding with the same p). These public names are the interface;
+# the equations stay above.
+
+slide_law = _slide_law
+"""(derivatives, g_n, F, M, v̇_A) of the sliding phase at state(s) ``y`` (plain arithmetic)."""
+stick = _stick
+"""(derivatives, g_n, F, M, v̇_A) of the rolling phase at state(s) ``y`` (plain arithmetic)."""
+sliding_contact = _contact_sliding
+"""Event g_n/(m g) of the sliding phase ("contact_lost")."""
+rolling_contact = _contact_rolling
+"""Event g_n/(m g) of the rolling phase ("contact_lost")."""
+stop_event = _stop_event
+"""Event sliding → rolling (|γ| at the band, the cone holding)."""
+reversal_event = _reversal_event
+"""Event sliding → sliding (|γ| at the band outside the cone)."""
+cone_event = _cone_event
+"""Event rolling → sliding (the cone margin of the required force)."""
+stop_jump = _stop_jump
+"""Jump of the "stop" switch: the impulse that removes the last slip."""
+reversal_jump = _reversal_jump
+"""Jump of the "reversal" switch: stop, then restart along the excess force."""
+cone_jump = _cone_jump
+"""Jump of the "cone" switch: slip restarts along the excess force."""
+slip = _slip
+"""The generalised slip γ = (v_A, r* ω_z) (m/s) of state(s) ``y``."""
+set_slip = _set_slip
+"""``y`` after the contact impulse that sets the generalised slip to ``target``."""
+required = _required
+"""(g_n, generalised force, cone margin (N)) that rolling needs at state(s) ``y``."""
+start_phase = _start_phase
+""""rolling" if the slip of ``y`` is within the band, else "sliding"."""
+rolling_guess = _rolling_guess
+"""Per sample of states ``Y``: rolling where the slip is within the band and the cone holds."""
