@@ -64,9 +64,9 @@ _NEEDED = {
 }
 
 
-# "stemmed" needs its stem options and has a phase per contact: its contract class in
-# test_model_contract.py checks compiled == Python for each phase
-@pytest.mark.parametrize("name", [n for n in MODELS if n != "stemmed"])
+# the stemmed models need their stem options and have a phase per contact: their contract classes
+# in test_model_contract.py check compiled == Python for each phase
+@pytest.mark.parametrize("name", [n for n in MODELS if not n.startswith("stemmed")])
 def test_compiled_rhs_and_events_equal_the_python_model(name, top):
     model = MODELS[name]
     rhs, events = _kernels.compiled(model)

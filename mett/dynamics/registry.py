@@ -122,6 +122,13 @@ class Event:
         ``select(y, p) -> str``: the phase the run continues in, chosen from the state after the
         jump (e.g. after an impact, sliding or rolling by the slip it leaves); default ``target``.
         A name that is no phase of the model ends the run with status "failed".
+    grazing : bool
+        The event function can dip through zero and back within one step (a grazing excursion,
+        e.g. a cone margin that a smooth motion brushes twice per nutation): the compiled DOP853
+        backend then also looks for an interior minimum (maximum) of the event over each step
+        and locates the zero before it (:func:`mett.dynamics.dop853.solve`, ``grazing``); the
+        other backends check the ends of steps (scipy) or sample points (Taylor) only. Needs a
+        direction of −1 or +1.
     """
 
     fn: Callable[[float, Any, Any], float]
@@ -131,8 +138,11 @@ class Event:
     target: str = ""
     jump: Callable[[np.ndarray, Params], np.ndarray] | None = None
     select: Callable[[np.ndarray, Params], str] | None = None
+    grazing: bool = False
 
     def __post_init__(self) -> None:
+        if self.grazing and self.direction == 0.0:
+            raise ValueError("a grazing event needs a direction (-1 or +1)")
         if not callable(self.fn):
             raise TypeError(f"Event.fn must be callable; got {self.fn!r}")
         if self.action not in ACTIONS:

@@ -903,6 +903,7 @@ def _solve_compiled(
         events=ev_fn,
         direction=directions,
         terminal=[True] * len(directions),
+        grazing=[ev.grazing for ev in run.phase.events],
         max_step=max_step,
         max_steps=MAX_STEPS,
     )

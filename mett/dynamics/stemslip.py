@@ -476,7 +476,12 @@ MODEL = register(
                 (
                     Event(_ball_rolling_contact, -1.0, "contact_lost"),
                     Event(
-                        _ball_cone, -1.0, "switch", target="ball-sliding", jump=_on_ball(cone_jump)
+                        _ball_cone,
+                        -1.0,
+                        "switch",
+                        target="ball-sliding",
+                        jump=_on_ball(cone_jump),
+                        grazing=True,
                     ),
                     _TOUCHDOWN,
                 ),
@@ -507,7 +512,12 @@ MODEL = register(
                 (
                     Event(_stem_rolling_contact, -1.0, "contact_lost"),
                     Event(
-                        _stem_cone, -1.0, "switch", target="stem-sliding", jump=_on_stem(cone_jump)
+                        _stem_cone,
+                        -1.0,
+                        "switch",
+                        target="stem-sliding",
+                        jump=_on_stem(cone_jump),
+                        grazing=True,
                     ),
                     _LANDING,
                 ),

@@ -758,7 +758,9 @@ MODEL = register(
                 _stick_into,
                 (
                     Event(_contact_rolling, -1.0, "contact_lost"),
-                    Event(_cone_event, -1.0, "switch", target="sliding", jump=_cone_jump),
+                    Event(
+                        _cone_event, -1.0, "switch", target="sliding", jump=_cone_jump, grazing=True
+                    ),
                 ),
             ),
         ),
