@@ -101,3 +101,21 @@ def test_band_of_a_few_ulps_next_to_the_inverted_pole_period_against_mpmath():
     assert float(mett.nutation_period(TOP, E, D, lam, z0=z0)) == pytest.approx(
         ref.period, rel=1e-10
     )
+
+
+@pytest.mark.parametrize("omega3, phidot", [(1e-4, 1.0), (1e-4, -30.0), (1e-2, 1.0)])
+def test_band_ending_at_the_upright_pole_with_p_negative_next_to_it(omega3, phidot):
+    # θ0 = 1e-8: the band runs from one ulp below z = 1 to z = 1 itself, but with the exact N(1)
+    # (≈ 1e-23) P < 0 within ~1e-19 of the pole, so that end turns at the root of P, not at the
+    # pole (was: integrated from the pole, the square root of a negative P, NaN; found by
+    # hypothesis). The period is the small-amplitude limit, continuous with θ0 = 1e-7, which the
+    # mpmath reference resolves (it cannot at 1e-8: its bracket is below its working precision).
+    E, D, lam = _integrals(mett.State(theta=1e-8, omega3=omega3, phidot=phidot))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        T = float(mett.nutation_period(TOP, E, D, lam, z0=math.cos(1e-8)))
+        prec = float(mett.mean_precession(TOP, E, D, lam, z0=math.cos(1e-8)))
+    assert math.isfinite(prec)
+    E7, D7, lam7 = _integrals(mett.State(theta=1e-7, omega3=omega3, phidot=phidot))
+    ref = mps.reference(TOP, E7, D7, lam7, math.cos(1e-7), dps=60, start=True)
+    assert T == pytest.approx(float(ref.period), rel=1e-10)

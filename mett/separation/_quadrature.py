@@ -136,7 +136,10 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
         us_a, us_b = 1.0 - pa * zs, 1.0 - pb * zs
     tol = 64.0 * _EPS * max(abs(w.Es), float(w.gravity(pa)), float(w.gravity(pb)))
     T = integral = 0.0
-    for form, u0, us, at_end in ((fa, ua0, us_a, abs(za) == 1.0), (fb, ub0, us_b, abs(zb) == 1.0)):
+    for form, u0, us in ((fa, ua0, us_a), (fb, ub0, us_b)):
+        # an end exactly at the pole in this form of P (a band at z = ±1 whose P < 0 just off
+        # the pole turns at the root u_lo > 0 found above, not at the pole)
+        at_end = u0 == 0.0
         if at_end and _separatrix(form, tol):
             return math.inf, form.phidot_limit()
         u_t = 0.0 if at_end else form.root(u0, us)
