@@ -77,7 +77,7 @@ def main() -> None:
     print("1. thesis trajectory, 8 s (CPU ms, best of 15; error of t(θ = π/2) in s)")
     for tol in (1e-10, 1e-12):
         k = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding",
-                          vectors=mdl.vectors)  # fmt: skip
+                          vectors=mdl.vectors, lengths=mdl.conserved_lengths)  # fmt: skip
 
         def mett_taylor(k=k, tol=tol):
             return taylor.solve(k, (0.0, 8.0), y0, p, scales=scales, direction=[-1.0])[0]
@@ -122,7 +122,7 @@ def main() -> None:
     Y = np.tile(y0, (64, 1))
     for tol in (1e-12, 2.220446049250313e-16):
         k4 = taylor.kernel(mdl.rhs_into, events, 10, 7, taylor.order_for(tol), "gliding", lanes=4,
-                           vectors=mdl.vectors)  # fmt: skip
+                           vectors=mdl.vectors, lengths=mdl.conserved_lengths)  # fmt: skip
         sec = cpu_best(lambda k4=k4: taylor.propagate(k4, (0, 4.0), Y, P, scales=scales,
                                                       direction=[-1.0]), 3)  # fmt: skip
         dsec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales,

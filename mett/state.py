@@ -51,6 +51,10 @@ class State:
         values["theta"] = _validate.theta(values["theta"])
         for name in _FIELDS[1:]:
             values[name] = _validate.as_finite_array(name, values[name])
+        if all(np.ndim(v) == 0 for v in values.values()):  # one state: the common case, fast
+            for name, v in values.items():
+                object.__setattr__(self, name, float(v))
+            return
         try:
             shape = np.broadcast_shapes(*(np.shape(v) for v in values.values()))
         except ValueError:

@@ -162,18 +162,32 @@ def _finish(row: dict, point: dict, result: dict) -> dict:
     return row
 
 
-def _prediction(top: TippeTop, lam: float, cache: dict) -> tuple[str, tuple[str, ...]]:
-    """The predicted end state's kind and, for "bistable", its candidates' kinds (``cache``: the
-    points of a chunk of a sweep over friction or time share their top and λ)."""
+_PREDICTED: dict[tuple, tuple[str, tuple[str, ...]]] = {}
+_PREDICTION_KEY = tuple(f for f in _TOP_FIELDS if f != "mu")
+
+
+def _prediction(top: TippeTop, lam: float) -> tuple[str, tuple[str, ...]]:
+    """The predicted end state's kind and, for "bistable", its candidates' kinds.
+
+    Remembered for every (top, λ) of the process: the points of a sweep over friction, time or
+    tolerance share them. The friction coefficient is left out of the key, since the end states
+    and their stability do not depend on it (docs/theory/thresholds.md#thresholds: λ and the
+    top's m, R, α, I1, I3, g decide them; a test checks this).
+    """
     from .thresholds import asymptotic_state
 
-    if (top, lam) not in cache:
+    key = (*(getattr(top, f) for f in _PREDICTION_KEY), lam)
+    found = _PREDICTED.get(key)
+    if found is None:
         pred = asymptotic_state(top, lam)
-        cache[top, lam] = (pred.kind, tuple(c.kind for c in pred.candidates))
-    return cache[top, lam]
+        found = (pred.kind, tuple(c.kind for c in pred.candidates))
+        if len(_PREDICTED) >= 4096:  # bounded: a long-lived process sweeps many grids
+            _PREDICTED.clear()
+        _PREDICTED[key] = found
+    return found
 
 
-def _row(row: dict, point: dict, job: tuple, end: Any, cache: dict) -> dict:
+def _row(row: dict, point: dict, job: tuple, end: Any) -> dict:
     """The row of a point from how its run ended (a RunEnd, or the exception it raised)."""
     top, _, _, start = job
     if isinstance(end, BaseException):  # a sweep records a failing point and goes on
@@ -183,7 +197,7 @@ def _row(row: dict, point: dict, job: tuple, end: Any, cache: dict) -> dict:
     candidates: tuple[str, ...] = ()
     try:
         lam = start["lam"]
-        predicted, candidates = _prediction(top, lam, cache) if lam > 0 else ("n/a", ())
+        predicted, candidates = _prediction(top, lam) if lam > 0 else ("n/a", ())
     except Exception as exc:  # the simulated result is kept
         predicted = "error"
         message = "; ".join(filter(None, [message, f"asymptotic_state: {_describe(exc)}"]))
@@ -229,9 +243,8 @@ def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dic
     jobs = [(job[0], job[1], job[2]) for *_, job in todo]
     ends = run_ends(jobs, base["t_end"], window=_SETTLE_WINDOW, **kw)
     rows = {i: row for i, _, row, job in started if job is None}
-    cache: dict = {}
     for (i, p, row, job), end in zip(todo, ends, strict=True):
-        rows[i] = _row(row, p, job, end, cache)
+        rows[i] = _row(row, p, job, end)
     return [(i, rows[i]) for i, _ in chunk]
 
 

@@ -106,6 +106,81 @@ def test_vector_and_euler_forms_agree_over_the_thesis_run_away_from_the_pole(top
     assert eul_b.theta.max() > 3.0  # segment B covers the inversion
 
 
+def _textbook_gliding_rhs(y, p, digits=None):
+    """The vector form as printed (docs/theory/equations.md#vector-form: W, W0, ω̇ and g_n), with
+    none of the simplifications of mett.dynamics.gliding: [ẍ, ÿ, L̇, 3̂̇, g_n], in mpmath at
+    ``digits`` digits, or in floats (None)."""
+    import mpmath as mp
+
+    if digits:
+        mp.mp.dps = digits
+    num, sqrt = (mp.mpf, mp.sqrt) if digits else (float, math.sqrt)
+    y = [num(float(v)) for v in y]
+    m, R, l, I1, I3, mu, g = (num(float(v)) for v in p)
+    cross = lambda a, b: [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],  # noqa: E731
+                          a[0] * b[1] - a[1] * b[0]]  # fmt: skip
+    dot = lambda a, b: a[0] * b[0] + a[1] * b[1] + a[2] * b[2]  # noqa: E731
+    v, L, e = [y[2], y[3], num(0)], y[4:7], y[7:10]
+    n = sqrt(dot(e, e))
+    e = [x / n for x in e]
+    c = 1 / I3 - 1 / I1
+    w = [Li / I1 + c * dot(L, e) * ei for Li, ei in zip(L, e, strict=True)]
+    de = cross(w, e)
+    a = [l * e[0], l * e[1], l * e[2] - R]
+    nu = [vi + wi for vi, wi in zip(v, cross(w, a), strict=True)]
+    K = cross(a, [-mu * nu[0], -mu * nu[1], num(1)])
+    W = [Ki / I1 + c * dot(K, e) * ei for Ki, ei in zip(K, e, strict=True)]
+    W0 = [c * dot(L, e) * x for x in de]
+    q = cross(W0, e)[2] + cross(w, de)[2]
+    den = 1 + m * l * cross(W, e)[2]
+    gn = m * (g - l * q) / den
+    F = [-mu * gn * nu[0], -mu * gn * nu[1], gn]
+    # the sizes of the terms that cancel in each part (ν = ṙ + ω × a, ω across 3̂, q)
+    norm = lambda x: sqrt(dot(x, x))  # noqa: E731
+    slip, turn = norm(v) + norm(w) * norm(a), norm(L) / I1 + abs(c * dot(L, e))
+    sizes = [mu * abs(gn) / m * slip, norm(a) * abs(gn) * (1 + mu * slip), turn,
+             m * (g + l * norm(de) * (turn + norm(w))) / abs(den)]  # fmt: skip
+    values = [F[0] / m, F[1] / m, *cross(a, F), *de, gn]
+    return np.array([float(x) for x in values]), np.array([float(x) for x in sizes])
+
+
+def test_the_simplified_vector_rhs_equals_the_printed_formulas_in_mpmath(top):
+    # gliding_core uses |3̂| = 1 to drop products (ω × 3̂ = (L × 3̂)/I1, the z-parts of W × 3̂ and
+    # of the gyroscopic terms). Against the printed formulas at 50 digits, at random states, on
+    # and off |3̂| = 1, at the poles, for a huge spin and with R = 0 (the heavy top): its error is
+    # within that of the printed formulas in floats, relative to the size of the terms that
+    # cancel in each part (at a huge spin the small part of ω across 3̂ limits both to 1e-12)
+    from mett.dynamics.gliding import gliding_core
+
+    rng = np.random.default_rng(5)
+    mdl = MODELS["gliding"]
+    cases = [(top, mett.State(theta=th, omega3=w3, thetadot=rng.normal(0, 3),
+                              phidot=rng.normal(0, 10), nu_x=rng.normal(0, 0.1),
+                              nu_y=rng.normal(0, 0.1)))
+             for th, w3 in zip(rng.uniform(0, np.pi, 12), rng.normal(0, 150, 12), strict=True)]  # fmt: skip
+    cases += [(top, mett.State(theta=0.0, omega3=155.0)), (top, mett.State(theta=math.pi)),
+              (top, mett.State(theta=2.0, omega3=1e5, phidot=3.0)),
+              (top.replace(mu=0.0), mett.State(theta=1.0, omega3=50.0, nu_x=0.2))]  # fmt: skip
+    parts = (slice(0, 2), slice(2, 5), slice(5, 8), slice(8, 9))  # ν̇-part, L̇, 3̂̇, g_n
+    worst = 0.0
+    for t_, state in cases:
+        for p in (mdl.params(t_, {}), (t_.m, 0.0, t_.R * t_.alpha, t_.I1, t_.I3, t_.mu, t_.g)):
+            y = np.asarray(mdl.initial(state, p), dtype=float)
+            for stretch in (1.0, 1.0 + 1e-6):
+                y[7:10] *= stretch
+                exact, sizes = _textbook_gliding_rhs(y, p, digits=50)
+                printed = _textbook_gliding_rhs(y, p)[0]
+                d = gliding_core(y, p)
+                got = np.array([*d[2:10], d[10]], dtype=float)
+                for part, size in zip(parts, sizes, strict=True):
+                    size = max(size, 1e-300)  # μ = 0: no friction force at all
+                    err = np.abs(got[part] - exact[part]).max() / size
+                    ref = np.abs(printed[part] - exact[part]).max() / size
+                    assert err <= max(4.0 * ref, 1e-14), (state, part, err, ref)
+                    worst = max(worst, err)
+    assert worst > 0.0  # the comparison is not vacuous
+
+
 def test_euler_rhs_matches_the_vector_rhs_pointwise(top):
     # d/dt of (θ, ω3, |ν|²) computed from the vector RHS equals the Euler RHS at random states.
     rng = np.random.default_rng(7)

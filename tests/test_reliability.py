@@ -266,6 +266,7 @@ def test_a_failing_prediction_keeps_the_simulated_row(monkeypatch):
         raise ValueError("no tumbling state here")
 
     monkeypatch.setattr(mett.thresholds, "asymptotic_state", broken)
+    monkeypatch.setattr(mett.sweeps, "_PREDICTED", {})  # nothing remembered from other sweeps
     table = _tiny()
     row = table.iloc[0]
     assert row["status"] == "completed" and row["predicted"] == "error"

@@ -251,3 +251,17 @@ def test_run_ends_sends_what_cannot_be_batched_through_simulate():
         assert end.theta_end == r.theta_end and end.omega3_end == r.omega3_end
         np.testing.assert_allclose(end.theta_window, r.theta_window, rtol=0, atol=1e-14)
         np.testing.assert_allclose(end.E_window, r.E_window, rtol=1e-14)
+
+
+def test_the_predicted_end_state_does_not_depend_on_friction():
+    # mett.sweep remembers predictions by the top without mu: asymptotic_state must not see mu
+    # (for every class of top: the thesis body IIa, one with a fold, one that never inverts)
+    tops = [TOP, TOP.replace(I3=1.9 * TOP.I1, alpha=0.45), TOP.replace(I3=0.5 * TOP.I1)]
+    for top in tops:
+        for lam in np.geomspace(0.2, 5.0, 7) * TOP.lambda_thres:
+            want = repr(mett.asymptotic_state(top, lam))  # repr: NaN fields compare equal
+            for mu in (0.0, 1e-3, 0.7, 40.0):
+                assert repr(mett.asymptotic_state(top.replace(mu=mu), lam)) == want, (lam, mu)
+    rows = sweep(TOP, {"mu": [0.01, 0.3, 3.0]}, t_end=0.01, progress=False)
+    want = mett.asymptotic_state(TOP, float(rows["lam"][0])).kind
+    assert list(rows["predicted"]) == [want] * 3

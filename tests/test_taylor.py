@@ -77,6 +77,46 @@ def test_first_coefficients_are_the_rhs_and_its_flow_derivative():
     np.testing.assert_allclose(C[:10, 2], 0.5 * df, rtol=1e-6, atol=1e-8 * np.abs(df).max())
 
 
+def _gliding_jet(y0, p, order, lengths):
+    mdl = MODELS["gliding"]
+    k = taylor.kernel(mdl.rhs_into, [], 10, 7, order, "frozen", lengths=lengths)
+    return taylor.solve(k, (0.0, 1e-300), y0, np.array(p))[0].dense.C[0]
+
+
+@pytest.mark.parametrize("stretch", [1.0, 1.3, 0.6])
+def test_a_frozen_conserved_length_leaves_the_taylor_coefficients_as_they_are(stretch):
+    # The jet with |3̂| taken as a number at the start of the step (Model.conserved_lengths)
+    # against the jet of the series of √(Σ 3̂_i²) and the quotients: the same coefficients, also
+    # off |3̂| = 1 (there the length is still conserved, so the argument of _freeze_lengths holds)
+    mdl = MODELS["gliding"]
+    p = mdl.params(TOP, {})
+    y0 = np.asarray(mdl.initial(mett.State(theta=1.0, omega3=100.0, phidot=5.0, nu_x=0.1), p))
+    y0[7:10] *= stretch
+    frozen = _gliding_jet(y0, p, 16, mdl.conserved_lengths)
+    series = _gliding_jet(y0, p, 16, ())
+    scale = np.abs(series).max(axis=1, keepdims=True)  # per component, over the orders
+    np.testing.assert_allclose(frozen / scale, series / scale, rtol=0, atol=1e-13)
+    # and the coefficients of |3̂|² vanish beyond the first, to rounding: the length is constant
+    e = frozen[7:10]
+    for k in range(17):
+        terms = [e[i, j] * e[i, k - j] for i in range(3) for j in range(k + 1)]
+        limit = 1e-15 if k == 0 else 1e-13 * sum(abs(x) for x in terms)
+        assert abs(sum(terms) - (stretch**2 if k == 0 else 0.0)) <= limit, k
+
+
+def test_only_the_declared_lengths_are_frozen():
+    mdl = MODELS["gliding"]
+    frozen = taylor.trace(mdl.rhs_into, [], 10, 7, lengths=mdl.conserved_lengths)
+    ops = [frozen.nodes[i][0] for i in taylor._live(frozen)]
+    assert ops.count("len") == 1 and "sqrt" not in ops
+    # L is a vector but its length is not conserved: declaring the wrong group changes nothing
+    # in the graph (no √|L|² is computed), and a partial group of the axis is no match either
+    for lengths in [((4, 5, 6),), ((7, 8),)]:
+        tr = taylor.trace(mdl.rhs_into, [], 10, 7, lengths=lengths)
+        ops = [tr.nodes[i][0] for i in taylor._live(tr)]
+        assert "len" not in ops and ops.count("sqrt") == 1
+
+
 def test_a_branch_on_the_state_cannot_be_traced():
     def branchy(t, y, p, out):
         out[0] = y[0] if y[0] > 0 else -y[0]

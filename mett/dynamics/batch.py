@@ -141,7 +141,7 @@ def run_ends(
                     run.phase.rhs_into, [*(ev.fn for ev in run.phase.events), run.mdl.cos_theta],
                     run.y0.size, len(run.params), taylor.order_for(prep.rtol),
                     f"{run.mdl.name}_{run.phase.name}", lanes=LANES, params=run.params,
-                    vectors=run.mdl.vectors,
+                    vectors=run.mdl.vectors, lengths=run.mdl.conserved_lengths,
                 )  # fmt: skip
                 fast.setdefault((k, prep.max_step), []).append((j, prep))
             else:
@@ -176,8 +176,10 @@ def _propagate_group(
         direction=[ev.direction for ev in events] + [0.0], max_step=max_step,
         max_steps=MAX_STEPS,
     )  # fmt: skip
-    for row, ((j, _), run) in enumerate(zip(items, runs, strict=True)):
-        mdl, p = run.mdl, run.params
+    # every run's start, end and window states as the columns of one array, each column with its
+    # run's parameters (Model.derive takes one value per column): one derive for the whole group
+    cols, ends = [], []
+    for row, run in enumerate(runs):
         code, t_stop = int(res.status[row]), float(res.t[row])
         if code == taylor.COMPLETED:
             status, message = "completed", completed_message(t_end)
@@ -188,11 +190,22 @@ def _propagate_group(
             status, message = "failed", taylor_failure(code, t_stop)
         # a run that stopped early has no window (only a completed run is judged settled)
         samples = res.samples[row] if status == "completed" else np.empty((0, run.y0.size))
-        series = mdl.derive(np.column_stack([run.y0, res.y[row], samples.T]), p)
+        cols.append(np.column_stack([run.y0, res.y[row], samples.T]))
+        ends.append((status, message, t_stop, samples.shape[0]))
+    sizes = [c.shape[1] for c in cols]
+    P = np.array([r.params for r in runs], dtype=float)
+    uniform = bool(np.all(P == P[0]))
+    params = tuple(P[0]) if uniform else tuple(np.repeat(P, sizes, axis=0).T)
+    series = runs[0].mdl.derive(np.concatenate(cols, axis=1), params)
+    theta = np.asarray(series["theta"], dtype=float)
+    omega3 = np.asarray(series["omega3"], dtype=float)
+    energy = np.asarray(series["E"], dtype=float)
+    at = 0
+    for row, ((j, _), (status, message, t_stop, n_w)) in enumerate(zip(items, ends, strict=True)):
         t_cross = float(res.first[row, -1])
         out[j] = RunEnd(
-            status, message, t_stop, float(series["theta"][1]), float(series["omega3"][1]),
-            t_cross if t_cross <= t_stop else math.nan, tw[: samples.shape[0]],
-            np.asarray(series["theta"][2:], dtype=float), np.asarray(series["E"][2:], dtype=float),
-            float(series["E"][0]),
+            status, message, t_stop, float(theta[at + 1]), float(omega3[at + 1]),
+            t_cross if t_cross <= t_stop else math.nan, tw[:n_w], theta[at + 2 : at + 2 + n_w],
+            energy[at + 2 : at + 2 + n_w], float(energy[at]),
         )  # fmt: skip
+        at += sizes[row]

@@ -237,6 +237,12 @@ class Model:
         Index tuples of state components that form one physical vector (a position, velocity,
         angular momentum, unit axis): the Taylor backend measures a vector's truncation error
         against its length (:func:`mett.dynamics.taylor.kernel`). Default: none.
+    conserved_lengths : tuple of tuple of int
+        Index tuples of state vectors whose Euclidean length the equations conserve for every
+        state, not only |3̂| = 1: the rate of the vector is perpendicular to it (3̂̇ = ω × 3̂/|3̂|,
+        whatever ω). The Taylor backend then takes the length at the start of each step as a
+        number (an exact simplification, :func:`mett.dynamics.taylor.trace`); the contract
+        tests check the perpendicularity. Default: none.
     cos_theta : callable, optional
         ``cos_theta(t, y, p)``: cos θ of one state in plain arithmetic (no branches; traceable
         by :mod:`.taylor`), so that many runs at once (:func:`mett.dynamics.batch.run_ends`) can
@@ -267,6 +273,7 @@ class Model:
     finish: Callable[[Any], None] | None = None
     vectors: tuple[tuple[int, ...], ...] = ()
     cos_theta: Callable[[float, Any, Any], Any] | None = None
+    conserved_lengths: tuple[tuple[int, ...], ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -169,6 +169,7 @@ MODEL = register(
         derive=_derive,
         theta=_theta,
         scales=_scales,
+        conserved_lengths=((5, 6, 7),),
         events=(Event(_contact, -1.0, "contact_lost"),),
         conserves=("lam", "D", "E"),
         vectors=((0, 1), (2, 3, 4), (5, 6, 7)),

@@ -988,6 +988,7 @@ def _solve_taylor(
     kernel = taylor.kernel(
         ph.rhs_into, [ev.fn for ev in ph.events], run.y0.size, len(params),
         taylor.order_for(rtol), f"{mdl.name}_{ph.name}", params=params, vectors=mdl.vectors,
+        lengths=mdl.conserved_lengths,
     )  # fmt: skip
     sol = taylor.solve(
         kernel, (run.t0, t_end), run.y0, params, scales=atol_arr / rtol,

@@ -355,6 +355,7 @@ MODEL = register(
         derive=_derive,
         theta=_theta,
         scales=_scales,
+        conserved_lengths=((7, 8, 9),),
         events=(
             Event(_ball_contact, -1.0, "contact_lost"),
             Event(_touchdown, -1.0, "switch", target="stem", jump=_to_stem),

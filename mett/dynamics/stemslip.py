@@ -453,6 +453,7 @@ MODEL = register(
         derive=_derive,
         theta=stem.MODEL.theta,
         scales=_scales,
+        conserved_lengths=((7, 8, 9),),
         events=(
             Event(_ball_sliding_contact, -1.0, "contact_lost"),
             Event(_ball_stop, -1.0, "switch", target="ball-rolling", jump=_on_ball(stop_jump)),

@@ -744,6 +744,7 @@ MODEL = register(
         derive=_derive,
         theta=gliding.MODEL.theta,
         scales=_scales,
+        conserved_lengths=((7, 8, 9),),
         events=(
             Event(_contact_sliding, -1.0, "contact_lost"),
             Event(_stop_event, -1.0, "switch", target="rolling", jump=_stop_jump),
@@ -809,6 +810,7 @@ REGULARISED = register(
         derive=_derive,
         theta=gliding.MODEL.theta,
         scales=_scales,
+        conserved_lengths=((7, 8, 9),),
         events=(Event(_contact_sliding, -1.0, "contact_lost"),),
         options=(Option("friction", _check_regularised, None, "the regularised law"),),
         conserves=("lam",),

@@ -232,6 +232,7 @@ class _Traced:
     events: tuple[int, ...]
     time: int
     guards: tuple[tuple[str, int, int, bool], ...] = ()
+    lengths: tuple[tuple[int, ...], ...] = ()
 
     def admits(self, params: ArrayLike) -> bool:
         """Whether ``params`` take the branches of the parameters this graph was traced with."""
@@ -282,10 +283,16 @@ def trace(
     n_state: int,
     n_params: int,
     params: ArrayLike | None = None,
+    lengths: Sequence[Sequence[int]] = (),
 ) -> _Traced:
     """Trace a model's ``rhs_into(t, y, p, out)`` and event functions ``fn(t, y, p)`` into one
     graph (shared sub-expressions are computed once). With ``params``, comparisons of the
-    parameters alone are decided for those values and kept as the graph's guards."""
+    parameters alone are decided for those values and kept as the graph's guards.
+
+    ``lengths``: groups of state components whose Euclidean length the equations conserve
+    exactly, for every state (the rate of the group is perpendicular to it, e.g. 3̂̇ = ω × 3̂/|3̂|).
+    Every √(Σ y_i²) over such a group becomes the length at the start of the step, a number
+    rather than a series (:func:`_freeze_lengths`)."""
     g = _Graph(None if params is None else np.asarray(params, dtype=float))
     y = [g.node("var", i) for i in range(n_state)]
     p = tuple(g.node("par", i) for i in range(n_params))
@@ -301,7 +308,47 @@ def trace(
     for fn in events:
         v = fn(t, y, p)
         ev.append((v if isinstance(v, _Sym) else g.const(float(v))).i)
-    return _Traced(tuple(g.nodes), n_state, n_params, rhs, tuple(ev), t.i, tuple(g.guards))
+    groups = tuple(tuple(int(i) for i in grp) for grp in lengths)
+    nodes = _freeze_lengths(g.nodes, groups)
+    return _Traced(nodes, n_state, n_params, rhs, tuple(ev), t.i, tuple(g.guards), groups)
+
+
+def _freeze_lengths(
+    nodes: list[tuple[str, int, int, float]], groups: tuple[tuple[int, ...], ...]
+) -> tuple[tuple[str, int, int, float], ...]:
+    """The nodes with every √(Σ_{i ∈ G} y_i²) of a group G of ``groups`` replaced by
+    ("len", index of G): the length of G at the start of the step.
+
+    Exact for the Taylor coefficients: if the equations conserve |y_G| for every state, then
+    freezing |y_G| at its value n0 at the start of a step gives equations that still conserve
+    |y_G| (the rates are unchanged on the sphere |y_G| = n0), so both systems have the same
+    solution through the step's initial state, hence the same Taylor polynomial. The length
+    then costs one square root a step instead of the series of a square root and of the
+    quotients y_i/|y_G| (for the gliding top, 7 of its 32 series products and quotients).
+    """
+    nodes = list(nodes)
+    if not groups:
+        return tuple(nodes)
+    var_of = {i: a for i, (op, a, _, _) in enumerate(nodes) if op == "var"}
+
+    def squares(i: int) -> list[int] | None:
+        """The variables of a sum of squares y_a² + y_b² + ... (None: not one)."""
+        op, a, b, _ = nodes[i]
+        if op == "add":
+            left, right = squares(a), squares(b)
+            return None if left is None or right is None else left + right
+        if op == "mul" and a == b and a in var_of:
+            return [var_of[a]]
+        return None
+
+    wanted = {tuple(sorted(grp)): k for k, grp in enumerate(groups)}
+    for i, (op, a, _, _) in enumerate(nodes):
+        if op == "sqrt":
+            found = squares(a)
+            k = None if found is None else wanted.get(tuple(sorted(found)))
+            if k is not None and len(set(found)) == len(found):
+                nodes[i] = ("len", k, -1, 0.0)
+    return tuple(nodes)
 
 
 def _live(tr: _Traced) -> list[int]:
@@ -316,7 +363,7 @@ def _live(tr: _Traced) -> list[int]:
         op, a, b, _ = tr.nodes[i]
         if op in ("sin", "cos"):  # the recurrence of each needs the other
             stack.append(tr.nodes.index(("cos" if op == "sin" else "sin", a, -1, 0.0)))
-        if op not in ("var", "par", "const", "time"):
+        if op not in ("var", "par", "const", "time", "len"):
             stack.extend(x for x in (a, b) if x >= 0)
     return sorted(need)
 
@@ -327,7 +374,7 @@ def _classify(tr: _Traced) -> tuple[list[int], dict[int, bool]]:
     scalar: dict[int, bool] = {}
     for i in live:
         op, a, b, _ = tr.nodes[i]
-        if op in ("par", "const"):
+        if op in ("par", "const", "len"):
             scalar[i] = True
         elif op in ("var", "time"):
             scalar[i] = False
@@ -381,6 +428,7 @@ class _IR:
         self.suffix = "f64" if lanes == 1 else f"v{lanes}f64"
         self.lines: list[str] = []
         self.n = 0
+        self.reciprocals: set[int] = set()
         live, scalar = _classify(tr)
         self.live, self.scalar = live, scalar
         self.series = {i: f"n{i}" for i in live if not scalar[i]}
@@ -454,11 +502,17 @@ class _IR:
 
     def emit(self) -> None:
         tr, nodes, L, T = self.tr, self.tr.nodes, self.lines, self.T
+        self.t0 = self.load("%t0", 0)
+        for r in range(tr.n_state):
+            self.assign(f"%y{r}_0", self.load("%y", r))
         for i in self.live:
             if not self.scalar[i]:
                 continue
             op, a, b, val = nodes[i]
-            if op == "par":
+            if op == "len":  # a conserved length at the start of the step (_freeze_lengths)
+                squares = [self.op("fmul", f"%y{r}_0", f"%y{r}_0") for r in tr.lengths[a]]
+                L.append(f"{self.s(i)} = {self.call('sqrt', self.sum(squares))}")
+            elif op == "par":
                 self.assign(self.s(i), self.load("%p", a))
             elif op == "const":
                 self.assign(self.s(i), self.c(val))
@@ -469,9 +523,6 @@ class _IR:
                 L.append(f"{self.s(i)} = fneg {T} {self.s(a)}")
             else:
                 L.append(f"{self.s(i)} = {self.call(op, self.s(a))}")
-        self.t0 = self.load("%t0", 0)
-        for r in range(tr.n_state):
-            self.assign(f"%y{r}_0", self.load("%y", r))
         for k in range(self.order + 1):
             for i in self.live:
                 op, a, b, _ = nodes[i]
@@ -570,7 +621,13 @@ class _IR:
                 lhs, self.sum([self.op("fmul", v(a, j), v(b, k - j)) for j in range(k + 1)])
             )
         elif op == "div" and self.scalar[b]:
-            L.append(f"{lhs} = fdiv {T} {v(a, k)}, {self.s(b)}")
+            if k == 0:  # the value itself exactly as the model computes it
+                L.append(f"{lhs} = fdiv {T} {v(a, 0)}, {self.s(b)}")
+            else:  # the higher coefficients × 1/b: one division a step, not one per coefficient
+                if b not in self.reciprocals:
+                    self.reciprocals.add(b)
+                    L.append(f"%q{b} = fdiv {T} {self.c(1.0)}, {self.s(b)}")
+                L.append(f"{lhs} = fmul {T} {v(a, k)}, %q{b}")
         elif op == "div":
             if k == 0:
                 L.append(f"{lhs} = fdiv {T} {v(a, 0)}, {v(b, 0)}")
@@ -735,19 +792,24 @@ def kernel(
     lanes: int = 1,
     params: ArrayLike | None = None,
     vectors: Sequence[Sequence[int]] = (),
+    lengths: Sequence[Sequence[int]] = (),
 ) -> TaylorKernel:
     """The :class:`TaylorKernel` of a model phase (``rhs_into`` and its event functions) at
     ``order`` for ``lanes`` trajectories at once; compiled once per process (and cached on disk).
 
     A right-hand side that branches on its parameters (an option of the model) is traced with
     ``params``; the kernel serves every parameter set that takes the same branches.
+    ``vectors`` (``Model.vectors``) group the step-size norm; ``lengths``
+    (``Model.conserved_lengths``) are the vectors whose length the equations conserve (see
+    :func:`trace`).
     """
     vectors = _norm_groups(vectors, n_state)
-    key = (rhs_into, tuple(events), n_state, n_params, order, lanes, vectors)
+    lengths = tuple(tuple(int(i) for i in grp) for grp in lengths)
+    key = (rhs_into, tuple(events), n_state, n_params, order, lanes, vectors, lengths)
     for k in _KERNELS.get(key, []):
         if params is None or k.traced.admits(params):
             return k
-    tr = trace(rhs_into, events, n_state, n_params, params)
+    tr = trace(rhs_into, events, n_state, n_params, params, lengths)
     k = TaylorKernel(tr, order, label, lanes, vectors)
     _KERNELS.setdefault(key, []).append(k)
     return k
