@@ -13,9 +13,8 @@ Zou 2005, §2):
     (sin a)_k = (1/k) Σ_{j=1}^{k} j a_j (cos a)_{k−j},   (cos a)_k = −(1/k) Σ_{j=1}^{k} j a_j (sin a)_{k−j},
     y_{k+1} = f_k / (k + 1),
 
-unrolled into straight-line LLVM IR (sums as balanced trees, so they do not form one long chain
-of dependent additions) and compiled to machine code with llvmlite, which numba already depends
-on. The machine code is cached on disk, keyed by the IR, the CPU and llvmlite's version. The
+unrolled into straight-line LLVM IR (each sum of products one chain of fused multiply-adds) and
+compiled to machine code with llvmlite, which numba already depends on. The machine code is cached on disk, keyed by the IR, the CPU and llvmlite's version. The
 integration loop is numba code compiled once for every model (``cache=True``); it calls the
 model's jet through a function pointer, as :mod:`.dop853` calls its right-hand sides.
 
@@ -460,6 +459,18 @@ class _IR:
             terms = nxt
         return terms[0]
 
+    def dot(self, pairs: list[tuple[str, str]]) -> str:
+        """Σ a b over ``pairs`` as one chain of multiply-adds, each fused into an FMA. Measured
+        on the gliding top's jet at order 15: 5 % faster than a balanced tree of products (whose
+        products mostly stay separate multiplications) or 2-4 interleaved chains; the chains'
+        latency hides behind the other nodes' work."""
+        if not pairs:
+            return self.c(0.0)
+        acc = self.op("fmul", *pairs[0])
+        for a, b in pairs[1:]:
+            acc = self.op("fadd", acc, self.op("fmul", a, b))
+        return acc
+
     def s(self, i: int) -> str:
         return f"%s{i}"
 
@@ -523,22 +534,28 @@ class _IR:
                 L.append(f"{self.s(i)} = fneg {T} {self.s(a)}")
             else:
                 L.append(f"{self.s(i)} = {self.call(op, self.s(a))}")
-        for k in range(self.order + 1):
+        # orders 0 … p−1 of every node: enough for the state's coefficients 0 … p
+        for k in range(self.order):
             for i in self.live:
                 op, a, b, _ = nodes[i]
                 if self.scalar[i] or op == "var":
                     continue
                 self.node(i, op, a, b, k)
-            if k < self.order:
-                # × 1/(k+1), not ÷ (k+1): 150 divisions a step at order 15 cost more than the
-                # last bit of these coefficients is worth
-                inv = self.c(1.0 / (k + 1))
-                for comp, i in enumerate(tr.rhs):
-                    L.append(f"%y{comp}_{k + 1} = fmul {T} {self.v(i, k)}, {inv}")
+            # × 1/(k+1), not ÷ (k+1): 150 divisions a step at order 15 cost more than the
+            # last bit of these coefficients is worth
+            inv = self.c(1.0 / (k + 1))
+            for comp, i in enumerate(tr.rhs):
+                L.append(f"%y{comp}_{k + 1} = fmul {T} {self.v(i, k)}, {inv}")
         width = self.order + 1
         for e, i in enumerate(tr.events):
+            # An event of the state alone (a component, e.g. cos θ = 3̂_z) has its polynomial of
+            # degree p; any other is kept to degree p − 1: its coefficient p would need the
+            # whole graph once more at the most expensive order (+10 % a step for the contact
+            # event of the gliding top), and the term it drops is of the size of the step's
+            # truncation error (|c_p| h^p ≈ ε by the step-size rule)
             for k in range(width):
-                self.store(self.v(i, k), (tr.n_state + e) * width + k)
+                full = k < self.order or nodes[i][0] == "var"
+                self.store(self.v(i, k) if full else self.c(0.0), (tr.n_state + e) * width + k)
         for r in range(tr.n_state):
             for k in range(width):
                 self.store(f"%y{r}_{k}", r * width + k)
@@ -612,13 +629,13 @@ class _IR:
             sc, x = (a, b) if self.scalar[a] else (b, a)
             L.append(f"{lhs} = fmul {T} {self.s(sc)}, {v(x, k)}")
         elif op == "mul" and a == b:  # a square: half the products
-            half = self.sum([self.op("fmul", v(a, j), v(a, k - j)) for j in range((k + 1) // 2)])
+            half = self.dot([(v(a, j), v(a, k - j)) for j in range((k + 1) // 2)])
             twice = self.op("fadd", half, half) if k > 0 else self.c(0.0)
             mid = self.op("fmul", v(a, k // 2), v(a, k // 2)) if k % 2 == 0 else self.c(0.0)
             L.append(f"{lhs} = fadd {T} {twice}, {mid}")
         elif op == "mul":
             self.assign(
-                lhs, self.sum([self.op("fmul", v(a, j), v(b, k - j)) for j in range(k + 1)])
+                lhs, self.dot([(v(a, j), v(b, k - j)) for j in range(k + 1)])
             )
         elif op == "div" and self.scalar[b]:
             if k == 0:  # the value itself exactly as the model computes it
@@ -634,7 +651,7 @@ class _IR:
                 # one division per step, then products
                 L.append(f"%r{i} = fdiv {T} {self.c(1.0)}, {v(b, 0)}")
             else:
-                acc = self.sum([self.op("fmul", v(b, j), v(i, k - j)) for j in range(1, k + 1)])
+                acc = self.dot([(v(b, j), v(i, k - j)) for j in range(1, k + 1)])
                 num = self.op("fsub", v(a, k), acc)
                 L.append(f"{lhs} = fmul {T} {num}, %r{i}")
         elif op == "sqrt":
@@ -643,7 +660,7 @@ class _IR:
             else:
                 if k == 1:
                     L.append(f"%r{i} = fdiv {T} {self.c(0.5)}, {v(i, 0)}")
-                acc = self.sum([self.op("fmul", v(i, j), v(i, k - j)) for j in range(1, k)])
+                acc = self.dot([(v(i, j), v(i, k - j)) for j in range(1, k)])
                 num = self.op("fsub", v(a, k), acc)
                 L.append(f"{lhs} = fmul {T} {num}, %r{i}")
         elif op in ("sin", "cos"):
@@ -803,15 +820,26 @@ def kernel(
     (``Model.conserved_lengths``) are the vectors whose length the equations conserve (see
     :func:`trace`).
     """
+    try:  # a model's own tuples: found without normalising them (a sweep asks once per point)
+        raw = (rhs_into, tuple(events), n_state, n_params, order, lanes, vectors, lengths)
+        found = _KERNELS.get(raw, ())
+    except TypeError:  # lists: unhashable
+        raw, found = None, ()
+    for k in found:
+        if params is None or k.traced.admits(params):
+            return k
     vectors = _norm_groups(vectors, n_state)
     lengths = tuple(tuple(int(i) for i in grp) for grp in lengths)
     key = (rhs_into, tuple(events), n_state, n_params, order, lanes, vectors, lengths)
     for k in _KERNELS.get(key, []):
         if params is None or k.traced.admits(params):
-            return k
-    tr = trace(rhs_into, events, n_state, n_params, params, lengths)
-    k = TaylorKernel(tr, order, label, lanes, vectors)
-    _KERNELS.setdefault(key, []).append(k)
+            break
+    else:
+        tr = trace(rhs_into, events, n_state, n_params, params, lengths)
+        k = TaylorKernel(tr, order, label, lanes, vectors)
+        _KERNELS.setdefault(key, []).append(k)
+    if raw is not None and raw != key:
+        _KERNELS.setdefault(raw, []).append(k)
     return k
 
 
@@ -979,12 +1007,14 @@ def _integrate(
                 info[lane, 2] = NON_FINITE
                 active[lane] = False
                 continue
-            rho = math.inf
+            # ρ = min(n1^(−1/(p−1)), n2^(−1/p)) as exp of the smaller exponent: two logarithms
+            # and one exponential cost less than two powers (which took 4 % of a batch's time)
+            ln_rho = math.inf
             if n1 > 0.0:
-                rho = n1 ** (-1.0 / (order - 1))
+                ln_rho = -math.log(n1) / (order - 1)
             if n2 > 0.0:
-                rho = min(rho, n2 ** (-1.0 / order))
-            hl = min(rho * fac, max_step)
+                ln_rho = min(ln_rho, -math.log(n2) / order)
+            hl = min(math.exp(ln_rho) * fac, max_step)
             last_of[lane] = False
             if t[lane] + hl >= t_end:
                 hl = t_end - t[lane]
