@@ -132,7 +132,7 @@ def main() -> None:
             sec = cpu_best(lambda k4=k4, kw=kw: taylor.propagate(k4, (0, 4.0), Y, P,
                                                                  scales=scales, **kw), 5)  # fmt: skip
             rates[label] = 64 / sec
-        dsec = cpu_best(lambda: taylor.solve(k4, (0, 4.0), Y, P, scales=scales), 3)
+        dsec = cpu_best(lambda k4=k4: taylor.solve(k4, (0, 4.0), Y, P, scales=scales), 3)
         print(f"   tol {tol:.1e}  mett, 4 lanes, with dense output (taylor.solve): "
               f"{64 / dsec:5.0f} runs/s")  # fmt: skip
         hey = {}
@@ -163,7 +163,9 @@ def main() -> None:
             print(line)
         if tol == 1e-12:
             heyoka_rate = hey
-    print("3. mett.sweep over the same grid at rtol 1e-12, end to end (validation, the run with its")
+    print(
+        "3. mett.sweep over the same grid at rtol 1e-12, end to end (validation, the run with its"
+    )
     print("   contact event, the θ = π/2 crossing, settled test, prediction, the table)")
     row = {}
     for backend in ("taylor", "compiled"):

@@ -634,9 +634,7 @@ class _IR:
             mid = self.op("fmul", v(a, k // 2), v(a, k // 2)) if k % 2 == 0 else self.c(0.0)
             L.append(f"{lhs} = fadd {T} {twice}, {mid}")
         elif op == "mul":
-            self.assign(
-                lhs, self.dot([(v(a, j), v(b, k - j)) for j in range(k + 1)])
-            )
+            self.assign(lhs, self.dot([(v(a, j), v(b, k - j)) for j in range(k + 1)]))
         elif op == "div" and self.scalar[b]:
             if k == 0:  # the value itself exactly as the model computes it
                 L.append(f"{lhs} = fdiv {T} {v(a, 0)}, {self.s(b)}")
