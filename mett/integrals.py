@@ -13,6 +13,7 @@ In the horizontal frame (x̂, ŷ, ẑ) of docs/theory/model.md#conventions, ω �
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -190,6 +191,13 @@ def jellett(top: TippeTop, state: State) -> np.ndarray:
     ω3 > 0 near θ = 0.
     """
     s = _arrays(top, state)
+    if s.theta.ndim == 0:  # one state: float arithmetic, no numpy error state to switch
+        th, phd, w3 = float(s.theta), float(s.phidot), float(s.omega3)
+        lam = _jellett(
+            math.sin(th), math.cos(th), phd, w3, top.R, top.R * top.alpha, top.I1, top.I3
+        )
+        if math.isfinite(lam):
+            return np.float64(lam)
     with np.errstate(over="ignore", invalid="ignore"):
         lam = jellett_of(s.theta, s.phidot, s.omega3, top.R, top.R * top.alpha, top.I1, top.I3)
     return _finite("the Jellett integral", lam, s)
