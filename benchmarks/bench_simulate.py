@@ -7,7 +7,8 @@
    All runs use simulate's tolerances, dense output and the contact event, so they take the same
    steps. Then where the time of a compiled run goes: integration, Trajectory, crossings.
 2. A 1000-trajectory sweep (``mett.sweep``, 25 μ × 40 ω3, thesis top, short runs) on a
-   ``ProcessPoolExecutor`` with 1 and 2 workers: trajectories per second.
+   ``ProcessPoolExecutor`` with 1 and 2 workers, on the default backend (compiled DOP853) and on
+   the Taylor backend (four points per SIMD batch): trajectories per second.
 3. Fresh interpreters: ``import mett`` against ``import numpy, scipy.integrate``, and the first
    ``simulate`` call (numba import + loading the compiled code from the cache), then the second.
 
@@ -153,16 +154,18 @@ def sweep(t_end: float) -> None:
     n = 25 * 40
     print(f"(2) sweep: {n} trajectories (rutstam2013, 25 mu x 40 omega3, t_end = {t_end:g} s, "
           f"rtol = {RTOL:g}), mett.sweep on a ProcessPoolExecutor")  # fmt: skip
-    for workers in (1, 2):
-        t0 = time.perf_counter()
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(_warm, range(2 * workers)))
-            t1 = time.perf_counter()
-            table = mett.sweep(top, grid, t_end=t_end, executor=pool)
-            t2 = time.perf_counter()
-        kinds = table["simulated"].value_counts().to_dict()
-        print(f"  {workers} worker(s): {n / (t2 - t1):7.1f} trajectories/s ({t2 - t1:.2f} s; "
-              f"pool start + warm-up {t1 - t0:.2f} s); end states {kinds}")  # fmt: skip
+    for backend in ("auto", "taylor"):  # the compiled DOP853 (default), then the Taylor batches
+        for workers in (1, 2):
+            t0 = time.perf_counter()
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                list(pool.map(_warm, range(2 * workers)))
+                mett.sweep(top, {"mu": [0.3]}, t_end=0.01, executor=pool, backend=backend)
+                t1 = time.perf_counter()
+                table = mett.sweep(top, grid, t_end=t_end, executor=pool, backend=backend)
+                t2 = time.perf_counter()
+            kinds = table["simulated"].value_counts().to_dict()
+            print(f"  backend {backend!r}, {workers} worker(s): {n / (t2 - t1):7.1f} trajectories/s "
+                  f"({t2 - t1:.2f} s; pool start + warm-up {t1 - t0:.2f} s); end states {kinds}")  # fmt: skip
 
 
 def _fresh(code: str, env: dict[str, str] | None = None) -> list[float]:

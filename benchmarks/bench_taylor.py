@@ -22,6 +22,7 @@ first run on a machine compiles the Taylor kernels (a few seconds each; cached o
 
 from __future__ import annotations
 
+import gc
 import math
 import time
 from collections.abc import Callable
@@ -36,11 +37,19 @@ T_HALF = 5.879749518045809  # converged first θ = π/2 of the thesis run (tests
 
 
 def cpu_best(fn: Callable[[], object], repeat: int) -> float:
+    """Best CPU time of ``repeat`` calls, with Python's garbage collector held off during each
+    (a collection of the many objects a benchmark process holds costs milliseconds and would
+    land on whichever call happens to trigger it)."""
     best = math.inf
     for _ in range(repeat):
-        t0 = time.thread_time()
-        fn()
-        best = min(best, time.thread_time() - t0)
+        gc.collect()
+        gc.disable()
+        try:
+            t0 = time.thread_time()
+            fn()
+            best = min(best, time.thread_time() - t0)
+        finally:
+            gc.enable()
     return best
 
 

@@ -65,7 +65,7 @@ def test_round_trip_is_exact_for_the_compiled_run(thesis, tmp_path):
     assert loaded.crossings(math.pi / 2)[0] == pytest.approx(5.8797, abs=1e-4)
     # derived analyses run on the loaded trajectory and agree with the original's
     assert np.array_equal(analysis.mett_residual(loaded), analysis.mett_residual(thesis))
-    tp_a, tp_b = analysis.turning_points(thesis), analysis.turning_points(loaded)
+    tp_a, tp_b = analysis.theta_extrema(thesis), analysis.theta_extrema(loaded)
     assert tp_a.t.size > 2 and np.array_equal(tp_a.t, tp_b.t)
 
 

@@ -209,7 +209,9 @@ class Model:
         ``initial(state, p) -> y0``: the model state of a scalar :class:`State`; raises
         ``ValueError`` for a state the model cannot represent.
     derive : callable
-        ``derive(Y, p) -> dict`` of the Trajectory series for states ``Y`` of shape (n, k).
+        ``derive(Y, p) -> dict`` of the Trajectory series for states ``Y`` of shape (n, k). A
+        model with ``cos_theta`` (run in batches) also takes parameters of one value per column
+        (each entry of ``p`` an array of shape (k,)), with the same result as column by column.
     theta : callable
         ``theta(Y, p) -> θ``, cheap, for crossings.
     scales : callable
