@@ -89,7 +89,7 @@ class ModelContract:
                         dot = abs(float(rate @ y[idx]))
                         assert dot <= 1e-13 * np.linalg.norm(rate) * np.linalg.norm(y[idx])
 
-    def test_derive_takes_one_parameter_set_per_column(self):
+    def test_derive_and_theta_take_one_parameter_set_per_column(self):
         # mett.dynamics.batch derives the series of many runs in one call, each column with its
         # own run's parameters: the result must equal the runs derived one by one, bit for bit
         model = self.model
@@ -104,10 +104,16 @@ class ModelContract:
                 cols.append(y0)
                 params.append(p)
                 single.append(model.derive(y0.reshape(-1, 1), p))
-        both = model.derive(np.array(cols).T, tuple(np.array(params, dtype=float).T))
+        columns = tuple(np.array(params, dtype=float).T)
+        both = model.derive(np.array(cols).T, columns)
         for key, series in both.items():
             want = np.concatenate([np.broadcast_to(s[key], (1,)) for s in single])
             np.testing.assert_array_equal(np.broadcast_to(series, want.shape), want, err_msg=key)
+        # and so does its cheap theta
+        want = [
+            float(model.theta(y.reshape(-1, 1), p)[0]) for y, p in zip(cols, params, strict=True)
+        ]
+        np.testing.assert_array_equal(model.theta(np.array(cols).T, columns), want)
 
     def test_state_round_trip(self):
         model, p = self.model, self.params()

@@ -61,8 +61,11 @@ class RunEnd(NamedTuple):
     window : ndarray
         Times (s) spread over the last ``window`` fraction of a completed run (empty for the
         others).
-    theta_window, E_window : ndarray
-        θ (rad) and the energy E (J) at those times.
+    theta_window : ndarray
+        θ (rad) at those times.
+    E_window : ndarray
+        The energy E (J) at the first and the last of those times (all that the settled test of
+        :func:`mett.sweep` compares; empty without a window).
     E0 : float
         The energy at the start (J).
     """
@@ -89,11 +92,12 @@ def end_of(traj: Any, *, window: float = 0.25, n_window: int = 101) -> RunEnd:
     # only a completed run has a window (whether it settled means nothing for the others)
     tw = _window(t0, t1, window, n_window if traj.status == "completed" else 0)
     late = lookup(traj.model).derive(traj.states_at(tw), traj.params)
+    energy = np.asarray(late["E"], dtype=float)
     cross = traj.crossings(math.pi / 2)
     return RunEnd(
         traj.status, traj.message, t1, float(traj.theta[-1]), float(traj.omega3[-1]),
         float(cross[0]) if cross.size else math.nan, tw, np.asarray(late["theta"], dtype=float),
-        np.asarray(late["E"], dtype=float), float(traj.E[0]),
+        energy[[0, -1]] if energy.size else energy, float(traj.E[0]),
     )  # fmt: skip
 
 
@@ -176,9 +180,10 @@ def _propagate_group(
         direction=[ev.direction for ev in events] + [0.0], max_step=max_step,
         max_steps=MAX_STEPS,
     )  # fmt: skip
-    # every run's start, end and window states as the columns of one array, each column with its
-    # run's parameters (Model.derive takes one value per column): one derive for the whole group
-    cols, ends = [], []
+    # One derive for the whole group (Model.derive takes one parameter set per column): of each
+    # run's start, its end and the two ends of its window (E there is all the settled test
+    # compares); θ over the window from the model's cheap theta, also in one call
+    cols, windows, ends = [], [], []
     for row, run in enumerate(runs):
         code, t_stop = int(res.status[row]), float(res.t[row])
         if code == taylor.COMPLETED:
@@ -190,22 +195,37 @@ def _propagate_group(
             status, message = "failed", taylor_failure(code, t_stop)
         # a run that stopped early has no window (only a completed run is judged settled)
         samples = res.samples[row] if status == "completed" else np.empty((0, run.y0.size))
-        cols.append(np.column_stack([run.y0, res.y[row], samples.T]))
+        cols.append(np.column_stack([run.y0, res.y[row], samples[[0, -1]].T if samples.size
+                                     else samples.T]))  # fmt: skip
+        windows.append(samples.T)
         ends.append((status, message, t_stop, samples.shape[0]))
-    sizes = [c.shape[1] for c in cols]
+    mdl = runs[0].mdl
     P = np.array([r.params for r in runs], dtype=float)
-    uniform = bool(np.all(P == P[0]))
-    params = tuple(P[0]) if uniform else tuple(np.repeat(P, sizes, axis=0).T)
-    series = runs[0].mdl.derive(np.concatenate(cols, axis=1), params)
+    series = mdl.derive(np.concatenate(cols, axis=1), _column_params(P, [c.shape[1] for c in cols]))
+    theta_w = np.asarray(
+        mdl.theta(
+            np.concatenate(windows, axis=1), _column_params(P, [w.shape[1] for w in windows])
+        ),
+        dtype=float,
+    )
     theta = np.asarray(series["theta"], dtype=float)
     omega3 = np.asarray(series["omega3"], dtype=float)
     energy = np.asarray(series["E"], dtype=float)
-    at = 0
+    at = at_w = 0
     for row, ((j, _), (status, message, t_stop, n_w)) in enumerate(zip(items, ends, strict=True)):
         t_cross = float(res.first[row, -1])
         out[j] = RunEnd(
             status, message, t_stop, float(theta[at + 1]), float(omega3[at + 1]),
-            t_cross if t_cross <= t_stop else math.nan, tw[:n_w], theta[at + 2 : at + 2 + n_w],
-            energy[at + 2 : at + 2 + n_w], float(energy[at]),
+            t_cross if t_cross <= t_stop else math.nan, tw[:n_w], theta_w[at_w : at_w + n_w],
+            energy[at + 2 : at + 4] if n_w else energy[:0], float(energy[at]),
         )  # fmt: skip
-        at += sizes[row]
+        at += cols[row].shape[1]
+        at_w += n_w
+
+
+def _column_params(P: np.ndarray, sizes: list[int]) -> tuple:
+    """The parameters of runs (rows of ``P``) for their columns (``sizes[i]`` of run i): one
+    tuple if all runs share them, else one array per parameter, a value per column."""
+    if bool(np.all(P == P[0])):
+        return tuple(P[0])
+    return tuple(np.repeat(P, sizes, axis=0).T)
