@@ -276,7 +276,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from .integrals import jellett
     from .thresholds import asymptotic_state
 
-    traj = simulate(top, state, args.t_end, model=args.model, rtol=args.rtol)
+    traj = simulate(top, state, args.t_end, model=args.model, rtol=args.rtol, backend=args.backend)
     written = []
     if out is not None:
         if out.suffix.lower() == ".npz":
@@ -452,6 +452,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         progress=_progress_enabled(args.progress), checkpoint=args.checkpoint,
         model=args.model, rtol=args.rtol,
     )  # fmt: skip
+    if args.backend != "auto":  # (as before otherwise: a checkpoint's signature is unchanged)
+        kw["backend"] = args.backend
     if args.scheduler is not None:
         try:
             from distributed import Client
@@ -541,13 +543,19 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help=json_help)
 
     from .dynamics import MODELS
+    from .dynamics.simulation import BACKENDS
 
+    backend_help = (
+        "integrator: auto (the compiled DOP853), compiled, scipy, or taylor (Taylor series; "
+        "sweeps run four points at a time on it, the fastest way through a grid)"
+    )
     p = add("simulate", "simulate a top; print the inversion time and end state", _cmd_simulate)
     _add_top_arguments(p)
     _add_state_arguments(p, required=True)
     p.add_argument("--t-end", type=_positive, required=True, help="simulated time [s]")
     p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
     p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
+    p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
     p.add_argument(
         "--out",
         default=None,
@@ -576,6 +584,7 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--omega3", type=_real, default=155.0, help="ω3(0) [rad/s]")
     p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
     p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
+    p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
     p.add_argument("--out", default="sweep.csv", help="output CSV")
     p.add_argument("--workers", type=_workers, default=1, help="processes on this machine")
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")

@@ -6,6 +6,8 @@ import json
 import subprocess
 import sys
 
+import numpy as np
+import pandas as pd
 import pytest
 
 
@@ -409,3 +411,23 @@ def test_traceback_option_shows_the_exception(capsys):
 
     with pytest.raises(ValueError, match="without --preset"):
         main(["--traceback", "info", "--m", "0.02"])
+
+
+def test_backend_option_of_simulate_and_sweep(tmp_path, capsys):
+    import mett
+    from mett.sweeps import sweep
+
+    code, out, err = call([*SIM[:-1], "7", "--json", "--backend", "taylor"], capsys)
+    assert code == 0, err
+    top = mett.presets.get("rutstam2013")
+    traj = mett.simulate(top, mett.State(theta=0.1, omega3=155.0), 7.0, backend="taylor")
+    assert json.loads(out)["t_invert"] == float(traj.crossings(np.pi / 2)[0])
+    # the sweep on the Taylor backend: the table of the library's sweep with the same arguments
+    path = tmp_path / "s.csv"
+    code, out, err = call([*SWEEP, "--backend", "taylor", "--out", path], capsys)
+    assert code == 0, err
+    want = sweep(top, {"mu": np.linspace(0.1, 0.3, 2)}, t_end=0.05, backend="taylor",
+                 progress=False)  # fmt: skip
+    got = pd.read_csv(path)
+    np.testing.assert_array_equal(got["theta_end"], want["theta_end"])
+    assert_error(call([*SIM, "--backend", "nope"], capsys), "invalid choice: 'nope'")

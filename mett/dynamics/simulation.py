@@ -40,7 +40,7 @@ from ..top import TippeTop
 from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
 from .trajectory import ConstantSolution, Trajectory
 
-__all__ = ["MAX_STEPS", "MODELS", "RATE_MAX", "simulate"]
+__all__ = ["BACKENDS", "MAX_STEPS", "MODELS", "RATE_MAX", "simulate"]
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
@@ -49,7 +49,8 @@ memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the glid
 plus the Trajectory's series, about 140 MB more. Measured on the thesis top (rtol = 1e-10; 1e6
 steps reach t = 74 000 s once the top has settled, about 3000 s while it still nutates fast): the
 process peaks at 0.96 GB RSS, of which 0.19 GB is the interpreter with numpy, scipy and numba."""
-_BACKENDS = ("auto", "compiled", "scipy", "taylor")
+BACKENDS = ("auto", "compiled", "scipy", "taylor")
+"""The values of ``simulate(..., backend=...)``."""
 
 
 def _check_state(state: Any) -> State:
@@ -450,8 +451,8 @@ def prepare_run(
         )
     if method not in _METHODS:
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
-    if backend not in _BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(_BACKENDS)}")
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(BACKENDS)}")
     if friction is not None:
         friction = _friction.check_law(friction)
         if isinstance(friction, _friction.Viscous):
