@@ -115,6 +115,8 @@ def finite_scalar(name: str, value: Any) -> float:
     Raises ``TypeError`` for non-numbers (strings, booleans, None, complex, arrays of several
     values) and ``ValueError`` for NaN or ±inf, naming ``name``.
     """
+    if type(value) is float and math.isfinite(value):  # the common case, checked in 0.1 µs
+        return value
     _reject_non_real(name, value)
     if isinstance(value, np.ndarray) and value.size != 1:
         raise TypeError(f"{name} must be a single real number; got an array of shape {value.shape}")

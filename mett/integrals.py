@@ -153,6 +153,11 @@ def _arrays(top: TippeTop, state: State) -> _Fields:
     A scalar State holds Python floats, whose ``**`` raises OverflowError; numpy float64 overflows
     to inf instead, which :func:`_finite` turns into a ValueError naming the state.
     """
+    _check_types(top, state)
+    return _Fields(*(np.asarray(getattr(state, n), dtype=float) for n in _FIELDS))
+
+
+def _check_types(top: TippeTop, state: State) -> None:
     from .state import State
     from .top import TippeTop
 
@@ -160,7 +165,6 @@ def _arrays(top: TippeTop, state: State) -> _Fields:
         raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
     if not isinstance(state, State):
         raise TypeError(f"state must be a State; got {type(state).__name__}")
-    return _Fields(*(np.asarray(getattr(state, n), dtype=float) for n in _FIELDS))
 
 
 _FIELDS = ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
@@ -190,14 +194,15 @@ def jellett(top: TippeTop, state: State) -> np.ndarray:
     Conserved for any contact force applied at the contact point. Positive for a top spun with
     ω3 > 0 near θ = 0.
     """
-    s = _arrays(top, state)
-    if s.theta.ndim == 0:  # one state: float arithmetic, no numpy error state to switch
-        th, phd, w3 = float(s.theta), float(s.phidot), float(s.omega3)
+    _check_types(top, state)
+    if type(state.theta) is float:  # one state: float arithmetic, no numpy error state to switch
+        th, phd, w3 = state.theta, float(state.phidot), float(state.omega3)
         lam = _jellett(
             math.sin(th), math.cos(th), phd, w3, top.R, top.R * top.alpha, top.I1, top.I3
         )
         if math.isfinite(lam):
             return np.float64(lam)
+    s = _arrays(top, state)
     with np.errstate(over="ignore", invalid="ignore"):
         lam = jellett_of(s.theta, s.phidot, s.omega3, top.R, top.R * top.alpha, top.I1, top.I3)
     return _finite("the Jellett integral", lam, s)

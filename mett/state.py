@@ -8,6 +8,7 @@ the angles φ, ψ are cyclic and not part of the state.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -47,6 +48,9 @@ class State:
     nu_y: ArrayLike = 0.0
 
     def __post_init__(self) -> None:
+        plain = [getattr(self, name) for name in _FIELDS]
+        if all(type(v) is float and math.isfinite(v) for v in plain) and 0.0 <= plain[0] <= math.pi:
+            return  # one state of valid Python floats: the common case, nothing to convert
         values = {name: getattr(self, name) for name in _FIELDS}
         values["theta"] = _validate.theta(values["theta"])
         for name in _FIELDS[1:]:

@@ -389,13 +389,14 @@ def _plain(value: Any) -> Any:
 def _probe_options(base: dict, points: list[dict]) -> None:
     """Let :func:`mett.simulate` check the options (model, rtol, atol, backend, …) before any run.
 
-    Runs a very short simulation at the first grid point whose top and state are valid, so
-    ``rtol=2.0`` or ``model="nope"`` is refused once, with simulate's own message, instead of
-    making every row "invalid". ``t_eval`` (which must fit the full ``t_end``) is checked here.
+    Makes simulate's own checks, without integrating (:func:`mett.dynamics.simulation.check_run`),
+    at the first grid point whose top and state are valid, so ``rtol=2.0`` or ``model="nope"``
+    is refused once, with simulate's own message, instead of making every row "invalid".
+    ``t_eval`` (which must fit the full ``t_end``) is checked here.
     """
     import numpy as np
 
-    from .dynamics import simulate
+    from .dynamics.simulation import check_run
     from .state import State
 
     kw = dict(base["simulate_kw"])
@@ -421,8 +422,8 @@ def _probe_options(base: dict, points: list[dict]) -> None:
             continue  # an invalid point: it becomes an "invalid" row; probe the next one
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # each run reports its own warnings
-            try:
-                simulate(top, state, min(base["t_end"], _PROBE_T_END), **kw)
+            try:  # what simulate checks before its first step, without integrating
+                check_run(top, state, min(base["t_end"], _PROBE_T_END), **kw)
             except (ValueError, TypeError) as exc:
                 raise type(exc)(f"invalid simulate option for the sweep: {exc}") from None
             except Exception:  # a run-time failure is the rows' business
@@ -430,7 +431,7 @@ def _probe_options(base: dict, points: list[dict]) -> None:
         return
 
 
-_PROBE_T_END = 1e-6  # s: a few steps, enough for simulate to have checked every option
+_PROBE_T_END = 1e-6  # s: short, since friction=Viscous(...) checks by running simulate itself
 
 
 def sweep(
@@ -480,7 +481,7 @@ def sweep(
         per SIMD batch (:func:`mett.dynamics.batch.run_ends`): the fastest way through a grid.
     **simulate_kw
         Passed to :func:`mett.simulate` (``model``, ``rtol``, …); checked once, before the first
-        run, by a microsecond-long simulation at the first valid grid point.
+        run, by simulate's own checks at the first valid grid point.
 
     Returns
     -------

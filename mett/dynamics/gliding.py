@@ -144,9 +144,10 @@ def _contact(t: float, y: Any, p: Any) -> Any:
 def _initial(state: Any, p: tuple) -> np.ndarray:
     m, R, l, I1, I3, mu, g = p
     v = lab_vectors(state, R, l)
-    e, w = v["e3"], v["omega"]
-    L = I1 * w + (I3 - I1) * np.dot(w, e) * e
-    return np.concatenate(([0.0, 0.0], v["v"][:2], L, e))
+    e, w, vel = v["e3"].tolist(), v["omega"].tolist(), v["v"].tolist()
+    c = (I3 - I1) * (w[0] * e[0] + w[1] * e[1] + w[2] * e[2])  # L = I1 ω + (I3 − I1)(ω·3̂) 3̂
+    L = [I1 * w[i] + c * e[i] for i in range(3)]
+    return np.array([0.0, 0.0, vel[0], vel[1], *L, *e])
 
 
 def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:

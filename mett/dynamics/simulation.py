@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import inspect
 import math
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
@@ -40,7 +41,15 @@ from ..top import TippeTop
 from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
 from .trajectory import ConstantSolution, Trajectory
 
-__all__ = ["BACKENDS", "MAX_STEPS", "MODELS", "RATE_MAX", "simulate"]
+__all__ = [
+    "BACKENDS",
+    "MAX_STEPS",
+    "MODELS",
+    "RATE_MAX",
+    "SIMULATE_DEFAULTS",
+    "check_run",
+    "simulate",
+]
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
@@ -375,6 +384,20 @@ def simulate(
     return run_prepared(prep)
 
 
+SIMULATE_DEFAULTS = {
+    k: v.default
+    for k, v in inspect.signature(simulate).parameters.items()
+    if v.kind is inspect.Parameter.KEYWORD_ONLY
+}
+"""The keyword arguments of :func:`simulate` and their defaults."""
+
+
+def check_run(top: TippeTop, state: Any, t_end: float, **simulate_kw: Any) -> None:
+    """Every check ``simulate(top, state, t_end, **simulate_kw)`` makes before its first step,
+    without integrating: bad input raises the ``ValueError``/``TypeError`` simulate would."""
+    prepare_run(top, state, t_end, **{**SIMULATE_DEFAULTS, **simulate_kw})
+
+
 def completed_message(t_end: float) -> str:
     """The message of a run that reached ``t_end``."""
     return f"reached t_end = {t_end:g} s"
@@ -486,7 +509,8 @@ def prepare_run(
         from .stickslip import stopping_band  # tied to rtol, as the integration error is
 
         model_options["stopping_band"] = stopping_band(top, state, rtol)
-    compilable = all(ph.rhs_into is not None for ph in mdl.phase_table())
+    phases = mdl.phase_table()
+    compilable = all(ph.rhs_into is not None for ph in phases)
     if backend == "auto":
         backend = "compiled" if method == "DOP853" and compilable else "scipy"
     elif backend in ("compiled", "taylor"):
@@ -517,8 +541,8 @@ def prepare_run(
     if atol_arr is None:
         atol_arr = rtol * scales
 
-    table = {ph.name: ph for ph in mdl.phase_table()}
-    phase = mdl.phase_table()[0]
+    table = {ph.name: ph for ph in phases}
+    phase = phases[0]
     if mdl.start_phase is not None:
         name = mdl.start_phase(y0, params)
         if name not in table:
