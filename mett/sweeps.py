@@ -582,9 +582,11 @@ def sweep(
             ckpt.close()
         if bar is not None:
             bar.close()
-    table = pd.DataFrame([results[i] for i in range(len(points))])
+    records = [results[i] for i in range(len(points))]
     results_first = ["t_invert", "status", "theta_end", "omega3_end", "lam", "lam_ratio",
                      "predicted", "simulated", "agree"]  # fmt: skip
     first = names + [c for c in results_first if c not in names]
-    rest = [c for c in table.columns if c not in first]
-    return table[first + rest]
+    # the other columns in the order the rows first name them (built in that order directly:
+    # reordering a finished table copies it)
+    rest = list(dict.fromkeys(c for row in records for c in row if c not in first))
+    return pd.DataFrame(records, columns=first + rest)
