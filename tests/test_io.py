@@ -293,3 +293,76 @@ def test_loading_does_not_import_pickle_payloads(thesis, tmp_path):
         zf.writestr("evil.npy", buf.getvalue())
     with pytest.raises(ValueError, match="not a readable mett trajectory"):
         Trajectory.load(path)
+
+
+# --- runs of hybrid models: phases, contact series, switches ----------------------------------
+
+_BALL = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=0.3)
+_NEAR_TOUCHDOWN = State(theta=2.15, thetadot=2.0, phidot=110.0, omega3=-76.0, nu_y=0.16)
+
+
+def _hybrid_runs():
+    from mett.friction import Coulomb
+
+    top = presets.get("rutstam2013")
+    stick_slip = State.with_cm_at_rest(top, 0.1, 155.0)  # slides, sticks twice, slides on
+    stemmed = _BALL.with_stem(radius=0.005, distance=0.016)
+    return {
+        "coulomb": (top, stick_slip, 0.8, {"friction": Coulomb(0.02)}),
+        "coulomb, Taylor": (top, stick_slip, 0.8, {"friction": Coulomb(0.02), "backend": "taylor"}),
+        "coulomb, scipy RK45": (top, stick_slip, 0.8, {"friction": Coulomb(0.02), "rtol": 1e-8,
+                                                       "backend": "scipy", "method": "RK45"}),
+        "stemmed": (stemmed, _NEAR_TOUCHDOWN, 1.0, {}),
+        "stemmed, Coulomb": (stemmed, _NEAR_TOUCHDOWN, 1.0, {"friction": Coulomb(0.3)}),
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(_hybrid_runs()))
+def test_a_hybrid_run_round_trips_with_its_phases_switches_and_contact_series(case, tmp_path):
+    # these runs could not be saved before format 2 (the sliding equations were evaluated at the
+    # rolling steps), or lost their phases, switches and touchdowns
+    top, state, t_end, kw = _hybrid_runs()[case]
+    traj = mett.simulate(top, state, t_end, **kw)
+    assert traj.status == "completed" and len(traj.switches) >= 3, traj.switches
+    loaded = Trajectory.load(traj.save(tmp_path / "h.npz"))
+    assert_same_run(traj, loaded)
+    assert loaded.extra == traj.extra
+    for name in ("phase", "contact", *traj.extra):
+        if name in traj.__dict__:
+            want, got = np.asarray(getattr(traj, name)), np.asarray(getattr(loaded, name))
+            nan = want.dtype.kind == "f"  # equal_nan works on numbers only (phase is text)
+            assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=nan), name
+    assert repr(loaded.switches) == repr(traj.switches)  # records (NaN margins compare by repr)
+    assert [type(s) for s in loaded.switches] == [type(s) for s in traj.switches]
+    assert len(loaded.jumps) == len(traj.jumps)
+    for (a0, a1), (b0, b1) in zip(traj.jumps, loaded.jumps, strict=True):
+        assert np.array_equal(a0, b0) and np.array_equal(a1, b1)
+    if "touchdowns" in traj.__dict__:
+        assert np.array_equal(loaded.touchdowns, traj.touchdowns) and traj.touchdowns.size
+    # the dense output phase by phase: equal bit for bit, or (RK45: Hermite) at the steps
+    tt = np.linspace(0.0, t_end, 1001)
+    if kw.get("method", "DOP853") == "DOP853":
+        assert np.array_equal(loaded.states_at(tt), traj.states_at(tt))
+        assert np.array_equal(loaded.crossings(1.0), traj.crossings(1.0))
+    else:
+        ts = np.asarray(traj._sol.ts)
+        np.testing.assert_allclose(loaded.states_at(ts), traj.states_at(ts), rtol=0, atol=1e-13)
+    # and saving the loaded run writes the same file content
+    again = Trajectory.load(loaded.save(tmp_path / "h2.npz"))
+    assert np.array_equal(again.states_at(tt), loaded.states_at(tt))
+    assert repr(again.switches) == repr(loaded.switches)
+
+
+def test_a_format_1_file_still_loads(thesis, tmp_path):
+    path = thesis.save(tmp_path / "v1.npz")
+    with np.load(path, allow_pickle=False) as data:
+        files = {k: np.array(data[k]) for k in data.files if not k.startswith("extra_")}
+    meta = json.loads(str(files["mett_trajectory"]))
+    for key in ("extra", "per_sample"):
+        meta.pop(key)
+    meta["format_version"] = 1
+    files["mett_trajectory"] = np.array(json.dumps(meta))
+    np.savez(path, **files)
+    loaded = Trajectory.load(path)
+    assert_same_run(thesis, loaded)
+    assert set(loaded.phase) == {"sliding"} and loaded.extra == ()

@@ -39,7 +39,7 @@ from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
 from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
-from .trajectory import ConstantSolution, Trajectory
+from .trajectory import ConstantSolution, SegmentedSolution, Trajectory
 
 __all__ = [
     "BACKENDS",
@@ -583,29 +583,6 @@ MAX_SWITCHES = 100_000
 """A hybrid model's run stops with status "failed" after this many phase switches."""
 
 
-class _Segments:
-    """The dense output of a hybrid run: one solution per phase, switched at their start times."""
-
-    def __init__(self, sols: list[Any]) -> None:
-        self._sols = sols
-        self._starts = np.array([float(s.t_min) for s in sols])
-        self.ts = np.concatenate([np.asarray(s.ts, dtype=float)[:-1] for s in sols[:-1]]
-                                 + [np.asarray(sols[-1].ts, dtype=float)])  # fmt: skip
-        self.t_min, self.t_max = float(sols[0].t_min), float(sols[-1].t_max)
-
-    def __call__(self, t: Any) -> np.ndarray:
-        t = np.asarray(t, dtype=float)
-        # at a switch time the later phase (the state after the switch) holds
-        k = np.clip(np.searchsorted(self._starts, t, side="right") - 1, 0, len(self._sols) - 1)
-        if t.ndim == 0:
-            return np.asarray(self._sols[int(k)](t), dtype=float)
-        out = np.empty((self._sols[0](self.t_min).size, t.size))
-        for j in np.unique(k):
-            sel = k == j
-            out[:, sel] = np.asarray(self._sols[j](t[sel]), dtype=float).reshape(-1, sel.sum())
-        return out
-
-
 def _solve_hybrid(
     run: _Run,
     solve: Callable,
@@ -625,6 +602,7 @@ def _solve_hybrid(
     mdl, params = run.mdl, run.params
     remaining = [term for _, term, _ in user]
     t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
+    seg_phases: list[str] = []
     switches: list[tuple[float, str, str]] = []
     jumps: list[tuple[np.ndarray, np.ndarray]] = []
     nfev = 0
@@ -638,6 +616,7 @@ def _solve_hybrid(
             if remaining[k]:  # a terminal event that reaches its count ends the run anyway
                 remaining[k] = max(remaining[k] - te.size, 1)
         sols.append(seg.sol)
+        seg_phases.append(run.phase.name)
         last = run.switch is None or len(switches) >= MAX_SWITCHES
         if not last:
             index, t_sw = run.switch
@@ -677,7 +656,7 @@ def _solve_hybrid(
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)
     run.collect, run.joining = False, True
-    traj = run.result(t_all, Y_all, _Segments(sols), status, message, **kw)
+    traj = run.result(t_all, Y_all, SegmentedSolution(sols, seg_phases), status, message, **kw)
     traj.phase = np.array(phases)
     traj.switches = switches
     traj.jumps = jumps

@@ -42,6 +42,7 @@ __all__ = [
     "STATUSES",
     "ConstantSolution",
     "DenseSolution",
+    "SegmentedSolution",
     "Trajectory",
 ]
 
@@ -66,9 +67,11 @@ SERIES = (
 )
 """Names of the sampled series of a :class:`Trajectory` (besides ``t``)."""
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 """Version of the file layout written by :meth:`Trajectory.save`; :meth:`Trajectory.load` reads
-this and every older version and refuses newer ones."""
+this and every older version and refuses newer ones. Version 2 added what a run sets beyond its
+states (a hybrid run's phases, contact series, switches and touchdowns) and the dense output of
+a hybrid run phase by phase."""
 
 _FORMAT_NAME = "mett.Trajectory"
 _META_KEY = "mett_trajectory"  # the JSON metadata entry of the .npz
@@ -93,6 +96,40 @@ class DenseSolution(Protocol):
     def __call__(self, t: Any) -> np.ndarray:
         """State(s) at ``t``: shape (n,) for a scalar time, (n, k) for k times."""
         ...
+
+
+class SegmentedSolution:
+    """Dense output of a hybrid run: one solution per phase, switched at their start times.
+
+    Made by :func:`mett.simulate` for a model with several phases (dry friction, the stem), and
+    by :meth:`Trajectory.load` for such a run.
+
+    Parameters
+    ----------
+    sols : list of DenseSolution
+        The solution of each phase, in time order (each with ``t_min``, ``t_max``).
+    phases : list of str
+        The phase of each.
+    """
+
+    def __init__(self, sols: list[Any], phases: list[str]) -> None:
+        self.sols, self.phases = list(sols), list(phases)
+        self._starts = np.array([float(s.t_min) for s in sols])
+        self.ts = np.concatenate([np.asarray(s.ts, dtype=float)[:-1] for s in sols[:-1]]
+                                 + [np.asarray(sols[-1].ts, dtype=float)])  # fmt: skip
+        self.t_min, self.t_max = float(sols[0].t_min), float(sols[-1].t_max)
+
+    def __call__(self, t: Any) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        # at a switch time the later phase (the state after the switch) holds
+        k = np.clip(np.searchsorted(self._starts, t, side="right") - 1, 0, len(self.sols) - 1)
+        if t.ndim == 0:
+            return np.asarray(self.sols[int(k)](t), dtype=float)
+        out = np.empty((self.sols[0](self.t_min).size, t.size))
+        for j in np.unique(k):
+            sel = k == j
+            out[:, sel] = np.asarray(self.sols[j](t[sel]), dtype=float).reshape(-1, sel.sum())
+        return out
 
 
 class ConstantSolution:
@@ -444,6 +481,10 @@ class Trajectory:
         ``format_version`` (:data:`FORMAT_VERSION`), ``mett_version``, ``model``, ``options``,
         ``params``, ``top`` (its class and all its fields), ``initial_state``, ``status``, ``message``,
         ``t_contact_lost``, ``nfev``, ``backend`` and ``dense`` (how the dense output is stored).
+        What a run sets beyond its states is kept too: the per-sample series ``extra_<name>`` (the
+        phase and contact of each sample, the friction force of a dry-friction run), and for a
+        hybrid run its ``switches`` (in the JSON), ``jumps_before``/``jumps_after`` and
+        ``touchdowns``; its dense output is stored phase by phase.
 
         The dense output of a DOP853 run (either backend, the default) is stored as the solver's own
         per-step interpolant coefficients, so :meth:`at` and :meth:`crossings` of the loaded
@@ -481,6 +522,25 @@ class Trajectory:
         arrays.update({f"t_events_{k}": np.asarray(te) for k, te in enumerate(self.t_events)})
         meta["dense"], dense = _encode_dense(self._sol, self._model, self.params)
         arrays.update({f"dense_{k}": v for k, v in dense.items()})
+        # what the run set beyond its states: per-sample contact series (the phase of each
+        # sample, the contact of a stemmed top, the friction force, ...), a hybrid run's switches,
+        # the states before and after each, and the stem's touchdowns
+        per_sample = [n for n in dict.fromkeys(("phase", "contact", *self.extra))
+                      if n in self.__dict__ and n not in SERIES]  # fmt: skip
+        arrays.update({f"extra_{n}": np.asarray(getattr(self, n)) for n in per_sample})
+        meta["extra"], meta["per_sample"] = list(self.extra), per_sample
+        if "switches" in self.__dict__:
+            meta["switches"] = [_encode_switch(sw) for sw in self.switches]
+        if "jumps" in self.__dict__:
+            meta["n_jumps"] = len(self.jumps)
+            for k, name in enumerate(("before", "after")):
+                arrays[f"jumps_{name}"] = np.array(
+                    [np.asarray(j[k], dtype=float) for j in self.jumps]
+                ).reshape(len(self.jumps), self.states.shape[0])
+        if "touchdowns" in self.__dict__:
+            arrays["touchdowns"] = np.asarray(self.touchdowns, dtype=float)
+        if "stopping_band" in self.__dict__:
+            meta["stopping_band"] = float(self.stopping_band)
         text = json.dumps(meta)
         # a fresh name next to the target (same file system, so the rename is atomic), opened
         # exclusively with the ordinary permissions of a new file
@@ -580,6 +640,22 @@ class Trajectory:
                 if arrays[key].shape != traj.t.shape:
                     raise ValueError(f"series {key!r} has shape {arrays[key].shape}")
                 setattr(traj, key, arrays[key])
+        # what the run set beyond its states (format 2; absent from files of format 1)
+        for key in meta.get("per_sample", []):
+            values = arrays[f"extra_{key}"]
+            if values.shape != traj.t.shape:
+                raise ValueError(f"series {key!r} has shape {values.shape}")
+            setattr(traj, key, values)
+        traj.extra = tuple(meta.get("extra", traj.extra))
+        if "switches" in meta:
+            traj.switches = [_decode_switch(item) for item in meta["switches"]]
+        if "n_jumps" in meta:
+            before, after = arrays["jumps_before"], arrays["jumps_after"]
+            traj.jumps = [(before[k], after[k]) for k in range(int(meta["n_jumps"]))]
+        if "touchdowns" in arrays:
+            traj.touchdowns = arrays["touchdowns"]
+        if "stopping_band" in meta:
+            traj.stopping_band = float(meta["stopping_band"])
         return traj
 
 
@@ -647,8 +723,9 @@ def _qualified_name(cls: type) -> str:
     return f"{cls.__module__}:{cls.__qualname__}"
 
 
-def _mett_class(name: str) -> type:
-    """The mett dataclass ``"module:QualName"`` (only mett's own: a file never names code to run)."""
+def _mett_class(name: str, *, record: bool = False) -> type:
+    """The mett dataclass ``"module:QualName"`` (only mett's own: a file never names code to run);
+    with ``record``, a mett NamedTuple (e.g. the switch records of a stick–slip run)."""
     import importlib
 
     module, _, qualname = str(name).partition(":")
@@ -660,9 +737,25 @@ def _mett_class(name: str) -> type:
             obj = getattr(obj, part)
     except (ImportError, AttributeError):
         raise ValueError(f"{name!r} does not exist in this mett") from None
+    if record and isinstance(obj, type) and issubclass(obj, tuple) and hasattr(obj, "_fields"):
+        return obj
     if not (isinstance(obj, type) and dataclasses.is_dataclass(obj)):
         raise ValueError(f"{name!r} is not a mett dataclass")
     return obj
+
+
+def _encode_switch(sw: Any) -> dict:
+    """A switch of a hybrid run (a (t, before, after) tuple or a mett record) as JSON."""
+    if hasattr(sw, "_asdict"):
+        fields = {k: (v if isinstance(v, str) else float(v)) for k, v in sw._asdict().items()}
+        return {"type": _qualified_name(type(sw)), "fields": fields}
+    return {"type": None, "values": [v if isinstance(v, str) else float(v) for v in sw]}
+
+
+def _decode_switch(item: dict) -> Any:
+    if item["type"] is None:
+        return tuple(item["values"])
+    return _mett_class(item["type"], record=True)(**item["fields"])
 
 
 def _check_meta(meta: Any, p: Path) -> None:
@@ -679,10 +772,21 @@ def _check_meta(meta: Any, p: Path) -> None:
         )
 
 
-def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str, np.ndarray]]:
-    """(description, arrays) of a dense output, for :meth:`Trajectory.save`."""
+def _encode_dense(
+    sol: Any, model: Model, params: tuple, phase: str | None = None
+) -> tuple[dict, dict[str, np.ndarray]]:
+    """(description, arrays) of a dense output, for :meth:`Trajectory.save`. The equations it
+    solves (those of ``phase`` of a hybrid ``model``) are needed only for a solution of another
+    scipy method, which is stored as states and slopes."""
     from .dop853 import DenseOutput
 
+    if isinstance(sol, SegmentedSolution):  # a hybrid run: each phase's own
+        parts, arrays = [], {}
+        for k, (part, name) in enumerate(zip(sol.sols, sol.phases, strict=True)):
+            desc, arr = _encode_dense(part, model, params, name)
+            parts.append(desc)
+            arrays.update({f"s{k}_{key}": v for key, v in arr.items()})
+        return {"kind": "segments", "phases": sol.phases, "parts": parts}, arrays
     if (
         isinstance(sol, ConstantSolution) or np.asarray(sol.ts).size == 1
     ):  # a run that never left t0
@@ -692,6 +796,8 @@ def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str
         return {"kind": "dop853"}, {"t": sol.t, "y": sol.y, "h": sol.h, "F": sol.F}
     if type(sol).__name__ == "TaylorDense":  # the Taylor backend: each step's polynomial
         return {"kind": "taylor"}, {"t": sol.t, "y": sol.y, "C": sol.C[:, : sol.n]}
+    if isinstance(sol, _Hermite):  # loaded from a file: as it was saved
+        return {"kind": "hermite"}, {"t": sol.ts, "y": sol.y, "dy": sol.dy}
     ts = np.asarray(sol.ts, dtype=float)
     interpolants = list(getattr(sol, "interpolants", []))
     if interpolants and all(type(i).__name__ == "Dop853DenseOutput" for i in interpolants):
@@ -701,8 +807,9 @@ def _encode_dense(sol: Any, model: Model, params: tuple) -> tuple[dict, dict[str
         F = np.array([i.F for i in interpolants], dtype=float)
         return {"kind": "dop853"}, {"t": ts, "y": y, "h": h, "F": F}
     # any other continuous solution: its states and slopes at the steps (cubic Hermite on load)
+    rhs = {ph.name: ph.rhs for ph in model.phase_table()}.get(phase, model.rhs)
     Y = np.asarray(sol(ts), dtype=float).reshape(-1, ts.size)
-    dY = np.column_stack([np.asarray(model.rhs(t, Y[:, k], params)) for k, t in enumerate(ts)])
+    dY = np.column_stack([np.asarray(rhs(t, Y[:, k], params)) for k, t in enumerate(ts)])
     return {"kind": "hermite"}, {"t": ts, "y": Y.T, "dy": dY.T}
 
 
@@ -712,27 +819,33 @@ class _Hermite:
     def __init__(self, t: np.ndarray, y: np.ndarray, dy: np.ndarray) -> None:
         from scipy.interpolate import CubicHermiteSpline
 
-        self.ts = t
+        self.ts, self.y, self.dy = t, y, dy
+        self.t_min, self.t_max = float(t[0]), float(t[-1])
         self._spline = CubicHermiteSpline(t, y, dy, axis=0)
 
     def __call__(self, t: Any) -> np.ndarray:
         return np.asarray(self._spline(t)).T
 
 
-def _decode_dense(desc: dict, arrays: dict[str, np.ndarray]) -> Any:
+def _decode_dense(desc: dict, arrays: dict[str, np.ndarray], prefix: str = "dense_") -> Any:
     from .dop853 import DenseOutput
 
     kind = desc["kind"]
+
+    def arr(name: str) -> np.ndarray:
+        return arrays[prefix + name]
+
+    if kind == "segments":
+        parts = [_decode_dense(d, arrays, f"{prefix}s{k}_") for k, d in enumerate(desc["parts"])]
+        return SegmentedSolution(parts, [str(p) for p in desc["phases"]])
     if kind == "constant":
-        return ConstantSolution(float(arrays["dense_t"][0]), arrays["dense_y"])
+        return ConstantSolution(float(arr("t")[0]), arr("y"))
     if kind == "dop853":
-        return DenseOutput(
-            arrays["dense_t"], arrays["dense_y"], arrays["dense_h"], arrays["dense_F"]
-        )
+        return DenseOutput(arr("t"), arr("y"), arr("h"), arr("F"))
     if kind == "hermite":
-        return _Hermite(arrays["dense_t"], arrays["dense_y"], arrays["dense_dy"])
+        return _Hermite(arr("t"), arr("y"), arr("dy"))
     if kind == "taylor":
         from .taylor import TaylorDense
 
-        return TaylorDense(arrays["dense_t"], arrays["dense_y"], arrays["dense_C"])
+        return TaylorDense(arr("t"), arr("y"), arr("C"))
     raise ValueError(f"unknown dense output kind {kind!r}")
