@@ -34,9 +34,8 @@ from .simulation import (
 __all__ = ["LANES", "RunEnd", "end_of", "run_ends"]
 
 LANES = 4
-"""Trajectories per SIMD batch: four doubles fill an AVX2 register (measured on the thesis top,
-before the jet got its present form: 0.77 µs per trajectory-step with 4 lanes, 0.89 with 8, 2.8
-with 1; now 0.45 with 4 and 1.6 with 1)."""
+"""Trajectories per SIMD batch: four doubles fill an AVX2 register (measured on the thesis top:
+0.45 µs per trajectory-step with 4 lanes, 1.6 µs with 1; 8 lanes were slower than 4)."""
 
 
 class RunEnd(NamedTuple):
@@ -123,7 +122,8 @@ def run_ends(
     their steps, end states and crossing times are those of ``simulate`` with the same
     arguments (the same jet, step rule and event location), up to the rounding of SIMD lanes.
     The others run one by one. ``window``: the fraction of each run over which ``n_window``
-    samples of θ and E are returned (for judging whether it settled).
+    samples of θ are returned, with E at the first and last of them (for judging whether it
+    settled).
     """
     kw = {**SIMULATE_DEFAULTS, **simulate_kw}
     out: list[Any] = [None] * len(jobs)
@@ -167,8 +167,9 @@ def _propagate_group(
     runs = [prep.run for _, prep in items]
     events = runs[0].phase.events
     tw = _window(0.0, t_end, window, n_window)
+    P = np.array([r.params for r in runs], dtype=float)
     res = taylor.propagate(
-        k, (0.0, t_end), np.array([r.y0 for r in runs]), np.array([r.params for r in runs]),
+        k, (0.0, t_end), np.array([r.y0 for r in runs]), P,
         t_eval=tw, terminal=[True] * len(events) + [False],
         scales=np.array([prep.atol_arr / prep.rtol for _, prep in items]),
         direction=[ev.direction for ev in events] + [0.0], max_step=max_step,
@@ -194,7 +195,6 @@ def _propagate_group(
         windows.append(samples.T)
         ends.append((status, message, t_stop, samples.shape[0]))
     mdl = runs[0].mdl
-    P = np.array([r.params for r in runs], dtype=float)
     series = mdl.derive(np.concatenate(cols, axis=1), _column_params(P, [c.shape[1] for c in cols]))
     theta_w = np.asarray(
         mdl.theta(

@@ -34,7 +34,6 @@ from ._model import (
     axis_theta,
     euler_from_vectors,
     lab_vectors,
-    plain,
     scales_from_state,
     tippe_params,
     unit_axis,
@@ -179,7 +178,8 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     m, R, l, I1, I3, mu, g = p
-    w = gliding_core(plain(np.asarray(y0, dtype=float)), p)[11]
+    # one state as a list of floats: plain arithmetic on floats is 3x faster than on numpy scalars
+    w = gliding_core(np.asarray(y0, dtype=float).tolist(), p)[11]
     sc = scales_from_state(w, y0[2:4], R, l, I1, I3, g)
     # Axis scale 0.1, not 1: near the upright start the horizontal components of 3̂ are O(θ) ≪ 1.
     # Measured on the thesis run at rtol = 1e-10: pointwise θ error 1.3e-6 → 1.7e-7 for 15 % more

@@ -14,8 +14,8 @@ Zou 2005, §2):
     y_{k+1} = f_k / (k + 1),
 
 unrolled into straight-line LLVM IR (each sum of products one chain of fused multiply-adds) and
-compiled to machine code with llvmlite, which numba already depends on. The machine code is cached on disk, keyed by the IR, the CPU and llvmlite's version. The
-integration loop is numba code compiled once for every model (``cache=True``); it calls the
+compiled to machine code with llvmlite, which numba already depends on. The machine code is
+cached on disk, keyed by the IR, the CPU and llvmlite's version. The integration loop is numba code compiled once for every model (``cache=True``); it calls the
 model's jet through a function pointer, as :mod:`.dop853` calls its right-hand sides.
 
 Why not numba for the jet too: the recurrences written out for the gliding top at order 15 are
@@ -1207,6 +1207,11 @@ class TaylorSolution:
         return self.dense.C.shape[0]
 
 
+def _step_factor(order: int) -> float:
+    """h/ρ of Jorba & Zou's step for order p: exp(−2) exp(−0.7/(p − 1)) (module docstring)."""
+    return math.exp(-0.7 / (order - 1)) / math.e**2
+
+
 def _batch_inputs(k: TaylorKernel, t_span, y0, params, scales, direction) -> tuple:
     """(t0, t_end, y0 (m, n), params (m, n_p), scales (m, n), directions) of a batch, checked."""
     t0, t_end = float(t_span[0]), float(t_span[1])
@@ -1252,7 +1257,7 @@ def solve(
     t0, t_end, Y0, P, SC, ev_dir = _batch_inputs(k, t_span, y0, params, scales, direction)
     m, n = Y0.shape
     if tol is None:
-        tol_scale, fac = 1.0, math.exp(-0.7 / (k.order - 1)) / math.e**2
+        tol_scale, fac = 1.0, _step_factor(k.order)
     else:
         tol_scale, fac = tol, safety
     W, width, rows = k.lanes, k.order + 1, n + k.n_events
@@ -1374,7 +1379,7 @@ def propagate(
         raise ValueError("t_eval must be finite and increasing")
     t0, t_end, Y0, P, SC, ev_dir = _batch_inputs(k, t_span, y0, params, scales, direction)
     m, n = Y0.shape
-    fac = math.exp(-0.7 / (k.order - 1)) / math.e**2
+    fac = _step_factor(k.order)
     W, rows = k.lanes, n + k.n_events
     out = TaylorBatch(
         np.empty(m), np.empty((m, n)), np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
