@@ -147,6 +147,11 @@ def test_the_file_is_a_plain_npz_readable_without_mett(thesis, tmp_path):
     assert meta["initial_state"]["omega3"] == 155.0 and meta["model"] == "gliding"
 
 
+def _read_meta(path) -> dict:
+    with np.load(path, allow_pickle=False) as data:
+        return json.loads(str(data["mett_trajectory"]))
+
+
 def _rewrite_meta(path, **changes) -> None:
     with np.load(path, allow_pickle=False) as data:
         files = {k: np.array(data[k]) for k in data.files}
@@ -195,22 +200,36 @@ def test_load_refuses_what_is_not_a_trajectory(thesis, tmp_path):
         Trajectory.load(unknown)
 
 
-def test_mett_dataclass_options_round_trip_and_foreign_classes_are_refused(thesis, tmp_path):
-    # a model option that is a mett dataclass (e.g. a friction law object) is stored by name
-    thesis.options = {"law": State(theta=0.2, omega3=3.0), "n": [1, 2.5, None]}
-    try:
-        path = thesis.save(tmp_path / "opt.npz")
-    finally:
-        thesis.options = {}
+def test_friction_law_options_round_trip_and_foreign_classes_are_refused(top, tmp_path):
+    # a model option that is a friction law is stored by its name in a fixed table of mett's types
+    from mett.friction import RegularisedCoulomb
+
+    law = RegularisedCoulomb(0.3, 1e-3)
+    traj = mett.simulate(top, State(theta=0.5, omega3=120.0), 0.02, friction=law)
+    path = traj.save(tmp_path / "opt.npz")
     loaded = Trajectory.load(path)
-    assert loaded.options == {"law": State(theta=0.2, omega3=3.0), "n": [1, 2.5, None]}
-    # a file can only name mett's own classes: nothing else is imported or called
-    _rewrite_meta(path, top={"type": "os:system", "command": "true"})
-    with pytest.raises(ValueError, match="refusing to rebuild 'os:system'"):
-        Trajectory.load(path)
-    _rewrite_meta(path, top={"type": "mett.top:NoSuchTop"})
-    with pytest.raises(ValueError, match="does not exist in this mett"):
-        Trajectory.load(path)
+    assert loaded.options == {"friction": law} and type(loaded.options["friction"]) is type(law)
+    assert_same_run(traj, loaded)
+    # a file can only name types of that table: nothing else is imported, walked or called
+    good = json.loads(json.dumps(_read_meta(path)))
+    for name in (
+        "os:system",
+        "mett.top:NoSuchTop",
+        "mett.__main__:TippeTop",
+        "mett.sweeps:pd.NamedAgg",
+    ):
+        _rewrite_meta(path, top={**good["top"], "type": name})
+        with pytest.raises(ValueError, match=f"refusing to rebuild '{name}' as a top"):
+            Trajectory.load(path)
+        friction = {"__dataclass__": name, "fields": {"mu": 0.3}}
+        _rewrite_meta(path, top=good["top"], options={"friction": friction})
+        with pytest.raises(ValueError, match=f"refusing to rebuild '{name}' as an option"):
+            Trajectory.load(path)
+    # and only those types are saved (a file that load would refuse is never written)
+    traj.options = {"friction": State(theta=0.2, omega3=3.0)}
+    with pytest.raises(TypeError, match="option 'friction' must be a plain value"):
+        traj.save(tmp_path / "state.npz")
+    assert not (tmp_path / "state.npz").exists()
 
 
 def test_save_validates_the_path_before_writing(thesis, tmp_path):
@@ -283,7 +302,7 @@ def test_initial_state_of_a_trajectory_built_without_it(top):
 
 
 def test_loading_does_not_import_pickle_payloads(thesis, tmp_path):
-    """A file with an object array is refused (allow_pickle=False), not executed."""
+    """A file with an object array is refused unread (not an entry of the format), not executed."""
     path = thesis.save(tmp_path / "p.npz")
     with zipfile.ZipFile(path, "a") as zf:
         import io
@@ -291,8 +310,15 @@ def test_loading_does_not_import_pickle_payloads(thesis, tmp_path):
         buf = io.BytesIO()
         np.save(buf, np.array([{"a": 1}], dtype=object), allow_pickle=True)
         zf.writestr("evil.npy", buf.getvalue())
-    with pytest.raises(ValueError, match="not a readable mett trajectory"):
+    with pytest.raises(ValueError, match="damaged mett trajectory file: entry 'evil' is not part"):
         Trajectory.load(path)
+    # and an object array in place of an entry of the format is refused by its dtype
+    with np.load(thesis.save(tmp_path / "q.npz"), allow_pickle=False) as data:
+        files = {k: np.array(data[k]) for k in data.files}
+    files["theta"] = np.array([{"a": 1}] * thesis.t.size, dtype=object)
+    np.savez(tmp_path / "q.npz", **files)
+    with pytest.raises(ValueError, match="entry 'theta' must hold float64; got object"):
+        Trajectory.load(tmp_path / "q.npz")
 
 
 # --- runs of hybrid models: phases, contact series, switches ----------------------------------

@@ -16,9 +16,12 @@ import dataclasses
 import json
 import math
 import os
-import uuid
+import secrets
+import stat
+import typing
 import warnings
 import zipfile
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -454,23 +457,25 @@ class Trajectory:
         Parameters
         ----------
         path : str or path-like
-            Target file; must end in ``.npz`` and its directory must exist. An existing file is
-            replaced atomically (the new file is written next to it and renamed), so a failed save
-            never leaves a damaged file behind.
+            Target file; must end in ``.npz`` and its directory must exist and be writable. An
+            existing file is replaced atomically (the new file is written next to it and renamed),
+            so a failed save never leaves a damaged file behind; it keeps its permission bits. A
+            symbolic link is followed: the file it points to is replaced, the link stays.
 
         Returns
         -------
         pathlib.Path
-            The path written.
+            The path written (as given, not the link's target).
 
         Raises
         ------
         ValueError
-            If the path does not end in ``.npz``, is a directory, or its directory does not exist
-            (checked before anything is written).
+            If the path does not end in ``.npz``, is a directory, its directory does not exist or
+            is not writable, or the file exists and is not writable (checked before anything is
+            written).
         TypeError
             If a model option is not a plain value (number, string, bool, None, list, dict or a
-            dataclass of :mod:`mett`), so that it cannot be stored as JSON.
+            friction law of :mod:`mett.friction`), so that it cannot be stored as JSON.
 
         Notes
         -----
@@ -494,8 +499,14 @@ class Trajectory:
         interpolates between the steps with cubic Hermite polynomials: equal at the steps (to
         rounding), and between them within the interpolation error O(h⁴) of the step size h
         (at most 7e-8 rad in θ for the thesis run with RK45 at rtol = 1e-10).
+
+        The file is first written to a temporary file ``.mett-<random>.tmp`` in the same directory
+        (a short name, so any legal target name works), flushed to disk and renamed over the
+        target; on any error the temporary file is removed. Only a process killed outright
+        (SIGKILL, power loss) during a save can leave such a ``.tmp`` file behind, never a
+        damaged target; it is safe to delete once no save is running.
         """
-        target = _check_save_path(path)
+        given, target = _check_save_path(path)
         meta = {
             "format": _FORMAT_NAME,
             "format_version": FORMAT_VERSION,
@@ -503,7 +514,7 @@ class Trajectory:
             "model": self.model,
             "options": {k: _encode_option(k, v) for k, v in self.options.items()},
             "params": [_encode_param(i, v) for i, v in enumerate(self.params)],
-            "top": {"type": _qualified_name(type(self.top)), **dataclasses.asdict(self.top)},
+            "top": {"type": _class_name(type(self.top), "top"), **dataclasses.asdict(self.top)},
             "initial_state": (
                 None
                 if self.initial_state is None
@@ -542,21 +553,17 @@ class Trajectory:
         if "stopping_band" in self.__dict__:
             meta["stopping_band"] = float(self.stopping_band)
         text = json.dumps(meta)
-        # a fresh name next to the target (same file system, so the rename is atomic), opened
-        # exclusively with the ordinary permissions of a new file
-        tmp = target.with_name(f".{target.name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp")
-        try:
-            with open(tmp, "xb") as fh:
-                np.savez_compressed(fh, **{_META_KEY: np.array(text)}, **arrays)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return target
+        entries = {_META_KEY: np.array(text), **arrays}
+        _write_atomically(target, lambda fh: np.savez_compressed(fh, **entries))
+        return given
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Trajectory:
         """Read a trajectory written by :meth:`save`.
+
+        The file may come from anywhere: it is checked in full before anything is built from it,
+        it never names code to run, and a damaged or crafted file is a ``ValueError``
+        (docs/reliability.md, "Saved files").
 
         Parameters
         ----------
@@ -573,89 +580,165 @@ class Trajectory:
         Raises
         ------
         ValueError
-            If the file does not exist, is not a mett trajectory, is damaged, was written by a
-            newer mett (a ``format_version`` above :data:`FORMAT_VERSION`), or names a model this
-            mett does not know.
+            Naming the file, if it does not exist, is not a mett trajectory, is damaged or
+            inconsistent (an array of the wrong shape, type or length, non-finite numbers, times
+            out of order, a field of the wrong type, a class that is not one of mett's saved
+            types, an entry the format does not define, arrays that would take far more memory
+            than the file's size explains), was written by a newer mett (a ``format_version``
+            above :data:`FORMAT_VERSION`), or names a model this mett does not know.
         """
         p = Path(os.fspath(path))
         if not p.is_file():
             raise ValueError(f"path must be an existing trajectory file (.npz); got {str(p)!r}")
         try:
-            with np.load(p, allow_pickle=False) as data:
-                files = {k: np.array(data[k]) for k in data.files}
-            text = str(files.pop(_META_KEY))
-            meta = json.loads(text)
-        except KeyError:
-            raise ValueError(
-                f"{p} is not a mett trajectory file (no {_META_KEY!r} entry)"
-            ) from None
-        except (OSError, EOFError, ValueError, zipfile.BadZipFile) as exc:
-            # (json.JSONDecodeError is a ValueError)
+            with _Archive(p) as archive:
+                meta = archive.meta()
+                _check_meta(meta, p)
+                return cls._from_saved(meta, archive)
+        except _Refused as exc:
+            raise ValueError(f"{p} is a damaged mett trajectory file: {exc}") from None
+        except _Named:
+            raise
+        except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
             raise ValueError(f"{p} is not a readable mett trajectory file: {exc}") from None
-        _check_meta(meta, p)
-        arrays = files
-        from .simulation import MODELS
-
-        name = meta.get("model")
-        if name not in MODELS:
-            raise ValueError(
-                f"{p} holds a run of model {name!r}, which this mett does not know "
-                f"(known models: {', '.join(MODELS)})"
-            )
-        try:
-            return cls._from_saved(meta, arrays)
-        except (KeyError, TypeError, IndexError, ValueError) as exc:
+        except (ValueError, TypeError, ArithmeticError, LookupError, AttributeError,
+                RecursionError) as exc:  # fmt: skip
+            # not expected after the checks; still an error about the file, never a raw one
             raise ValueError(f"{p} is a damaged mett trajectory file: {exc!r}") from None
 
     @classmethod
-    def _from_saved(cls, meta: dict, arrays: dict[str, np.ndarray]) -> Trajectory:
-        from .simulation import MODELS
+    def _from_saved(cls, meta: dict, archive: _Archive) -> Trajectory:
+        """The trajectory of a file's checked metadata ``meta`` and its entries. Every field and
+        array is checked against the format and against each other before it is used (raising
+        :class:`_Refused`): nothing unchecked reaches compiled code."""
+        from .simulation import BACKENDS, MAX_SWITCHES
+        from .simulation import MODELS as models
 
-        name = meta["model"]
-        top_fields = {k: v for k, v in meta["top"].items() if k != "type"}
-        top_cls = _mett_class(meta["top"].get("type", "mett.top:TippeTop"))
+        model = models[meta["model"]]
+        status = _choice(meta.get("status"), "status", STATUSES)
+        message = _text(meta.get("message"), "message")
+        backend = _choice(meta.get("backend"), "backend", tuple(b for b in BACKENDS if b != "auto"))
+        nfev = _integer(meta.get("nfev"), "nfev", 0, 2**62)
+        if "mett_version" in meta:
+            _text(meta["mett_version"], "mett_version", 100)
+        t_lost = meta.get("t_contact_lost")
+        t_lost = None if t_lost is None else _number(t_lost, "t_contact_lost")
+        series = _names(meta.get("series", []), "series", SERIES)
+        per_sample = _names(meta.get("per_sample", []), "per_sample", tuple(_PER_SAMPLE))
+        extra = _names(meta.get("extra", []), "extra", (*_PER_SAMPLE, *SERIES))
+        n_events = _integer(meta.get("n_events"), "n_events", 0, 10_000)
+        switches_meta = meta.get("switches")
+        if switches_meta is not None and (
+            not isinstance(switches_meta, list) or len(switches_meta) > MAX_SWITCHES
+        ):
+            raise _Refused(f"switches must be a list of at most {MAX_SWITCHES} records")
+        n_jumps = None
+        if "n_jumps" in meta:
+            n_jumps = _integer(meta["n_jumps"], "n_jumps", 0, MAX_SWITCHES)
+            if switches_meta is not None and n_jumps != len(switches_meta):
+                raise _Refused(f"{n_jumps} jumps for {len(switches_meta)} switches")
+        band = None
+        if "stopping_band" in meta:
+            band = _number(meta["stopping_band"], "stopping_band")
+            if band < 0.0:
+                raise _Refused(f"stopping_band must be >= 0; got {band!r}")
+
+        # the top, the options and the parameters: mett's own classes, validated as on creation,
+        # and the parameters those of the top and options (to rounding)
         with warnings.catch_warnings():  # the top was accepted (and warned about) when it was made
             warnings.simplefilter("ignore", _validate.MettWarning)
-            top = top_cls(**top_fields)
-        init = meta["initial_state"]
+            top = _decode_top(meta.get("top"))
+            options = _decode_options(meta.get("options"))
+            try:
+                expected = tuple(model.parameters(top, **options))
+            except (TypeError, ValueError, ArithmeticError) as exc:
+                raise _Refused(f"the options do not fit model {model.name!r}: {exc}") from None
+            params = _decode_params(meta.get("params"), expected)
+            init = _decode_state(meta.get("initial_state"))
+            try:
+                n_state = int(np.asarray(model.initial(init, params), dtype=float).size)
+            except (TypeError, ValueError, ArithmeticError) as exc:
+                raise _Refused(f"initial_state does not fit model {model.name!r}: {exc}") from None
+
+        # the entries: exactly those this metadata implies (others are refused unread)
+        phase_names = tuple(ph.name for ph in model.phase_table())
+        dense_meta = meta.get("dense")
+        dense_entries = _dense_entries(dense_meta, phase_names, MAX_SWITCHES)
+        required = {"t", "states", *series, *(f"t_events_{k}" for k in range(n_events))}
+        required |= {f"extra_{name}" for name in per_sample} | set(dense_entries)
+        if n_jumps is not None:
+            required |= {"jumps_before", "jumps_after"}
+        archive.expect(required, optional={"touchdowns"})
+
+        # the samples: times first (their count fixes the other arrays' shapes)
+        t = archive.array("t", (None,))
+        if t.size == 0:
+            raise _Refused("t must hold at least one sample")
+        _check_times(t, "t")
+        states = archive.array("states", (n_state, t.size))
+        trajectory_series = {name: archive.array(name, (t.size,)) for name in series}
+        extras = {name: archive.array(f"extra_{name}", (t.size,), kind=_PER_SAMPLE[name][0],
+                                      labels=_PER_SAMPLE[name][1]) for name in per_sample}  # fmt: skip
+        t_events = [archive.array(f"t_events_{k}", (None,)) for k in range(n_events)]
+        t0, t1 = float(t[0]), float(t[-1])
+        solution = _decode_dense(dense_meta, archive, n_state)
+        if not (solution.t_min <= t0 and t1 <= solution.t_max):
+            raise _Refused(
+                f"the dense output covers [{solution.t_min!r}, {solution.t_max!r}] s, not the "
+                f"samples' [{t0!r}, {t1!r}] s"
+            )
+        if t_lost is not None and not t0 <= t_lost <= t1:
+            raise _Refused(f"t_contact_lost = {t_lost!r} s lies outside the run")
+        lo, hi = solution.t_min, solution.t_max
+        switches = None
+        if switches_meta is not None:
+            switches = [_decode_switch(item, phase_names, (lo, hi)) for item in switches_meta]
+            times = [float(sw[0]) for sw in switches]
+            if times != sorted(times):
+                raise _Refused("the switch times must be in order")
+        jumps = None
+        if n_jumps is not None:
+            before = archive.array("jumps_before", (n_jumps, n_state))
+            after = archive.array("jumps_after", (n_jumps, n_state))
+            jumps = [(before[k], after[k]) for k in range(n_jumps)]
+        touchdowns = None
+        if archive.has("touchdowns"):
+            touchdowns = archive.array("touchdowns", (None,))
+            if touchdowns.size and not (lo <= touchdowns.min() and touchdowns.max() <= hi):
+                raise _Refused("a touchdown lies outside the run")
+
         traj = cls(
-            t=arrays["t"],
-            states=arrays["states"],
-            model=MODELS[name],
+            t=t,
+            states=states,
+            model=model,
             top=top,
-            params=tuple(meta["params"]),
-            solution=_decode_dense(meta["dense"], arrays),
-            status=meta["status"],
-            message=meta["message"],
-            t_contact_lost=meta["t_contact_lost"],
-            t_events=[arrays[f"t_events_{k}"] for k in range(int(meta["n_events"]))],
-            nfev=int(meta["nfev"]),
-            backend=meta["backend"],
-            initial_state=None if init is None else State(**init),
-            options={k: _decode_option(v) for k, v in meta["options"].items()},
+            params=params,
+            solution=solution,
+            status=status,
+            message=message,
+            t_contact_lost=t_lost,
+            t_events=t_events,
+            nfev=nfev,
+            backend=backend,
+            initial_state=init,
+            options=options,
         )
         # the series exactly as saved (a later mett may derive them in other rounding)
-        for key in meta["series"]:
-            if key in arrays:
-                if arrays[key].shape != traj.t.shape:
-                    raise ValueError(f"series {key!r} has shape {arrays[key].shape}")
-                setattr(traj, key, arrays[key])
-        # what the run set beyond its states (format 2; absent from files of format 1)
-        for key in meta.get("per_sample", []):
-            values = arrays[f"extra_{key}"]
-            if values.shape != traj.t.shape:
-                raise ValueError(f"series {key!r} has shape {values.shape}")
+        for key, values in trajectory_series.items():
             setattr(traj, key, values)
-        traj.extra = tuple(meta.get("extra", traj.extra))
-        if "switches" in meta:
-            traj.switches = [_decode_switch(item) for item in meta["switches"]]
-        if "n_jumps" in meta:
-            before, after = arrays["jumps_before"], arrays["jumps_after"]
-            traj.jumps = [(before[k], after[k]) for k in range(int(meta["n_jumps"]))]
-        if "touchdowns" in arrays:
-            traj.touchdowns = arrays["touchdowns"]
-        if "stopping_band" in meta:
-            traj.stopping_band = float(meta["stopping_band"])
+        # what the run set beyond its states (format 2; absent from files of format 1)
+        for key, values in extras.items():
+            setattr(traj, key, values)
+        if "extra" in meta:
+            traj.extra = tuple(extra)
+        if switches is not None:
+            traj.switches = switches
+        if jumps is not None:
+            traj.jumps = jumps
+        if touchdowns is not None:
+            traj.touchdowns = touchdowns
+        if band is not None:
+            traj.stopping_band = band
         return traj
 
 
@@ -666,18 +749,62 @@ def _mett_version() -> str:
     return __version__
 
 
-def _check_save_path(path: Any) -> Path:
-    if not isinstance(path, (str, os.PathLike)):
+def _check_save_path(path: Any) -> tuple[Path, Path]:
+    """The path as given and the file to write (a symbolic link resolved to the file it points
+    to), checked before any work."""
+    if not isinstance(path, (str, os.PathLike)) or isinstance(path, bytes):
         raise TypeError(f"path must be a str or path-like; got {type(path).__name__}")
     p = Path(os.fspath(path))
     if p.suffix != ".npz":
         raise ValueError(f"path must end in .npz; got {str(p)!r}")
     if p.is_dir():
         raise ValueError(f"path must be a file, not a directory; got {str(p)!r}")
-    parent = p.parent if str(p.parent) else Path(".")
+    # a link is written through: the file it points to is replaced, the link stays a link
+    real = Path(os.path.realpath(p)) if p.is_symlink() else p
+    if real.is_dir():
+        raise ValueError(f"path must be a file, not a directory; got {str(p)!r} -> {str(real)!r}")
+    parent = real.parent if str(real.parent) else Path(".")
     if not parent.is_dir():
         raise ValueError(f"the directory of path must exist; got {str(p)!r}")
-    return p
+    if not os.access(parent, os.W_OK | os.X_OK) or (real.exists() and not os.access(real, os.W_OK)):
+        raise ValueError(f"path must be writable; got {str(p)!r}")
+    return p, real
+
+
+def _write_atomically(target: Path, write: Any) -> None:
+    """``write(file)`` into a fresh temporary file next to ``target``, then renamed over it.
+
+    The temporary name is short (``.mett-<12 hex>.tmp``), so that any legal target name works.
+    It is created exclusively with the permissions of the file it replaces (or those of a new
+    file under the umask), never wider; it is removed on any error.
+    """
+    parent = target.parent if str(target.parent) else Path(".")
+    try:
+        mode = stat.S_IMODE(target.stat().st_mode) & 0o777
+    except FileNotFoundError:
+        mode = None
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    for _ in range(100):
+        tmp = parent / f".mett-{secrets.token_hex(6)}.tmp"
+        try:
+            # created with the target's bits (or 0o666) under the umask: never wider than either
+            fd = os.open(tmp, flags, 0o666 if mode is None else mode)
+            break
+        except FileExistsError:
+            continue
+    else:  # pragma: no cover - 100 collisions of 48 random bits
+        raise FileExistsError(f"cannot create a temporary file in {str(parent)!r}")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            if mode is not None and hasattr(os, "fchmod"):
+                os.fchmod(fh.fileno(), mode)  # exactly the replaced file's bits (umask aside)
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _encode_param(i: int, v: Any) -> float:
@@ -695,81 +822,502 @@ def _encode_option(name: str, v: Any) -> Any:
         return [_encode_option(name, x) for x in v]
     if isinstance(v, Mapping):
         return {str(k): _encode_option(name, x) for k, x in v.items()}
-    if dataclasses.is_dataclass(v) and not isinstance(v, type):
-        cls = type(v)
-        if cls.__module__.split(".")[0] == "mett":
-            fields = {
-                f.name: _encode_option(name, getattr(v, f.name)) for f in dataclasses.fields(v)
-            }
-            return {"__dataclass__": _qualified_name(cls), "fields": fields}
+    if type(v) in _saved_classes()["option"].values():
+        fields = {f.name: _encode_option(name, getattr(v, f.name)) for f in dataclasses.fields(v)}
+        return {"__dataclass__": _qualified_name(type(v)), "fields": fields}
     raise TypeError(
-        f"option {name!r} must be a plain value (number, string, bool, None, list, dict or a mett "
-        f"dataclass) to be saved; got {type(v).__name__}"
+        f"option {name!r} must be a plain value (number, string, bool, None, list, dict or a "
+        f"friction law of mett.friction) to be saved; got {type(v).__name__}"
     )
-
-
-def _decode_option(v: Any) -> Any:
-    if isinstance(v, list):
-        return [_decode_option(x) for x in v]
-    if isinstance(v, dict):
-        if "__dataclass__" in v:
-            cls = _mett_class(v["__dataclass__"])
-            return cls(**{k: _decode_option(x) for k, x in v["fields"].items()})
-        return {k: _decode_option(x) for k, x in v.items()}
-    return v
 
 
 def _qualified_name(cls: type) -> str:
     return f"{cls.__module__}:{cls.__qualname__}"
 
 
-def _mett_class(name: str, *, record: bool = False) -> type:
-    """The mett dataclass ``"module:QualName"`` (only mett's own: a file never names code to run);
-    with ``record``, a mett NamedTuple (e.g. the switch records of a stick–slip run)."""
-    import importlib
+def _saved_classes() -> dict[str, dict[str, type]]:
+    """The only classes a trajectory file can name, by the name it uses: a file never chooses
+    code to import or to call (no import by name, no attribute walk)."""
+    from ..friction import Coulomb, RegularisedCoulomb, Viscous
+    from ..stem import StemContactTop
+    from ..top import TippeTop
+    from .stickslip import Switch
 
-    module, _, qualname = str(name).partition(":")
-    if module.split(".")[0] != "mett" or not qualname:
-        raise ValueError(f"refusing to rebuild {name!r}: not a mett class")
-    try:
-        obj: Any = importlib.import_module(module)
-        for part in qualname.split("."):
-            obj = getattr(obj, part)
-    except (ImportError, AttributeError):
-        raise ValueError(f"{name!r} does not exist in this mett") from None
-    if record and isinstance(obj, type) and issubclass(obj, tuple) and hasattr(obj, "_fields"):
-        return obj
-    if not (isinstance(obj, type) and dataclasses.is_dataclass(obj)):
-        raise ValueError(f"{name!r} is not a mett dataclass")
-    return obj
+    def table(*classes: type) -> dict[str, type]:
+        return {_qualified_name(c): c for c in classes}
+
+    return {
+        "top": table(TippeTop, StemContactTop),
+        "option": table(Viscous, Coulomb, RegularisedCoulomb),
+        "record": table(Switch),
+    }
+
+
+def _class_name(cls: type, what: str) -> str:
+    """The saved name of ``cls``, one of the classes a file may name as a ``what``."""
+    name = _qualified_name(cls)
+    if _saved_classes()[what].get(name) is not cls:
+        raise TypeError(
+            f"a {what} of type {cls.__name__} cannot be saved (not one of mett's types)"
+        )
+    return name
+
+
+def _saved_class(name: Any, what: str) -> type:
+    table = _saved_classes()[what]
+    if not isinstance(name, str) or name not in table:
+        raise _Refused(
+            f"refusing to rebuild {_short(name)} as {'an' if what[0] in 'aeiou' else 'a'} {what}: not one of the types a trajectory "
+            f"file may name ({', '.join(table)})"
+        )
+    return table[name]
 
 
 def _encode_switch(sw: Any) -> dict:
     """A switch of a hybrid run (a (t, before, after) tuple or a mett record) as JSON."""
     if hasattr(sw, "_asdict"):
         fields = {k: (v if isinstance(v, str) else float(v)) for k, v in sw._asdict().items()}
-        return {"type": _qualified_name(type(sw)), "fields": fields}
+        return {"type": _class_name(type(sw), "record"), "fields": fields}
     return {"type": None, "values": [v if isinstance(v, str) else float(v) for v in sw]}
 
 
-def _decode_switch(item: dict) -> Any:
-    if item["type"] is None:
-        return tuple(item["values"])
-    return _mett_class(item["type"], record=True)(**item["fields"])
-
-
 def _check_meta(meta: Any, p: Path) -> None:
+    from .simulation import MODELS
+
     if not isinstance(meta, dict) or meta.get("format") != _FORMAT_NAME:
-        raise ValueError(f"{p} is not a mett trajectory file")
+        raise _Named(f"{p} is not a mett trajectory file")
     version = meta.get("format_version")
     if not isinstance(version, int) or isinstance(version, bool) or version < 1:
-        raise ValueError(f"{p} has an invalid format_version {version!r}")
+        raise _Named(f"{p} has an invalid format_version {_short(version)}")
     if version > FORMAT_VERSION:
-        raise ValueError(
+        raise _Named(
             f"{p} was written in trajectory format version {version} (by mett "
-            f"{meta.get('mett_version', '?')}); this mett reads versions up to {FORMAT_VERSION}: "
-            "upgrade mett to read it"
+            f"{_short(meta.get('mett_version', '?'))}); this mett reads versions up to "
+            f"{FORMAT_VERSION}: upgrade mett to read it"
         )
+    name = meta.get("model")
+    if not isinstance(name, str) or name not in MODELS:
+        raise _Named(
+            f"{p} holds a run of model {_short(name)}, which this mett does not know "
+            f"(known models: {', '.join(MODELS)})"
+        )
+
+
+# --- reading a file: every entry and field checked before use ----------------------------------
+class _Refused(Exception):
+    """Why a trajectory file is refused (:meth:`Trajectory.load` raises it as a ValueError
+    naming the file)."""
+
+
+class _Named(ValueError):
+    """A ValueError whose message already names the file."""
+
+
+_LOAD_FLOOR = 64 * 2**20
+_LOAD_RATIO = 256
+"""A file whose entries declare more than ``max(_LOAD_FLOOR, _LOAD_RATIO × its size)`` bytes
+uncompressed is refused before anything is decompressed (a zip bomb). The arrays of a real run
+compress by 1.1–3 (floats of a motion); the most compressible real file, a motionless run sampled
+at integer ``t_eval``, by about 200. Deflate can reach 1032."""
+
+_META_MAX_CHARS = 2**24
+"""Longest metadata text (characters): 10⁵ switch records (MAX_SWITCHES) of ~150 characters."""
+
+_MAX_DEPTH = 16
+"""Deepest nesting of an option value (a friction law in a dict in a list ...)."""
+
+_MAX_TEXT = 100_000
+"""Longest message or other text field (characters)."""
+
+_MAX_TAYLOR_TERMS = 64
+"""Most Taylor coefficients per component and step (the Taylor backend's order is at most ~20)."""
+
+_PER_SAMPLE = {
+    "phase": ("U", ("sliding", "rolling", "ball", "stem")),
+    "contact": ("U", ("ball", "stem")),
+    "F_x": ("f", ()),
+    "F_y": ("f", ()),
+    "M_n": ("f", ()),
+    "margin": ("f", ()),
+}
+"""The per-sample series a run may set beyond :data:`SERIES` (name: dtype kind, allowed labels)."""
+
+_DENSE_ARRAYS = {
+    "dop853": ("t", "y", "h", "F"),
+    "taylor": ("t", "y", "C"),
+    "hermite": ("t", "y", "dy"),
+    "constant": ("t", "y"),
+}
+
+
+class _Archive:
+    """The entries of a ``.npz`` file, read one by one with their sizes checked first.
+
+    Only the entries the format defines are ever decompressed; each ``.npy`` header (dtype,
+    shape) is checked against the shape the metadata and the other entries fix, and against
+    the entry's declared size, before its data is read, and the data is read to exactly that
+    size (a CRC error or a short entry is refused).
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.zf = zipfile.ZipFile(path)
+        try:
+            infos = self.zf.infolist()
+            names = [info.filename for info in infos]
+            if len(set(names)) != len(names):
+                raise _Refused("two entries have the same name")
+            total = sum(info.file_size for info in infos)
+            budget = max(_LOAD_FLOOR, _LOAD_RATIO * path.stat().st_size)
+            if total > budget:
+                raise _Refused(
+                    f"its entries declare {total} bytes uncompressed, more than {budget} for a "
+                    f"file of {path.stat().st_size} bytes (refused unread as a zip bomb)"
+                )
+            self.infos: dict[str, zipfile.ZipInfo] = {}
+            for info in infos:
+                name = info.filename
+                if not name.endswith(".npy") or info.is_dir():
+                    raise _Refused(f"entry {_short(name)} is not part of the format")
+                if info.flag_bits & 0x1 or info.compress_type not in (
+                    zipfile.ZIP_STORED,
+                    zipfile.ZIP_DEFLATED,
+                ):
+                    raise _Refused(f"entry {_short(name)} is encrypted or compressed unusually")
+                self.infos[name[: -len(".npy")]] = info
+        except BaseException:
+            self.zf.close()
+            raise
+
+    def __enter__(self) -> _Archive:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.zf.close()
+
+    def has(self, key: str) -> bool:
+        return key in self.infos
+
+    def expect(self, required: set[str], optional: set[str]) -> None:
+        """Refuse a file without one of ``required`` or with an entry not in either set."""
+        keys = set(self.infos) - {_META_KEY}
+        if missing := sorted(required - keys):
+            raise _Refused(f"entry {missing[0]!r} is missing")
+        if unknown := sorted(keys - required - optional):
+            raise _Refused(f"entry {_short(unknown[0])} is not part of this file's format")
+
+    def meta(self) -> Any:
+        """The JSON metadata (a bounded text; deep nesting refused)."""
+        if _META_KEY not in self.infos:
+            raise _Named(f"{self.path} is not a mett trajectory file (no {_META_KEY!r} entry)")
+        arr = self.array(_META_KEY, (), kind="U", max_chars=_META_MAX_CHARS)
+        try:
+            return json.loads(str(arr[()]))
+        except RecursionError:
+            raise _Refused("its metadata is nested too deeply") from None
+        except ValueError as exc:  # json.JSONDecodeError; an integer of too many digits
+            raise _Refused(f"its metadata is not JSON: {exc}") from None
+
+    def array(
+        self,
+        key: str,
+        shape: tuple[int | None, ...],
+        *,
+        kind: str = "f",
+        labels: tuple[str, ...] = (),
+        max_chars: int = 64,
+    ) -> np.ndarray:
+        """Entry ``key`` as a native array of ``shape`` (None: any length) and dtype ``kind``
+        ("f": float64, finite; "U": text of at most ``max_chars`` characters, in ``labels`` if
+        given)."""
+        info = self.infos.get(key)
+        if info is None:
+            raise _Refused(f"entry {key!r} is missing")
+        with self.zf.open(info) as fp:
+            try:
+                version = np.lib.format.read_magic(fp)
+                if version == (1, 0):
+                    found, fortran, dtype = np.lib.format.read_array_header_1_0(fp)
+                elif version == (2, 0):
+                    found, fortran, dtype = np.lib.format.read_array_header_2_0(fp)
+                else:
+                    raise _Refused(f"entry {key!r} has .npy version {version}")
+            except (ValueError, TypeError, SyntaxError) as exc:
+                raise _Refused(f"entry {key!r} has no valid .npy header: {exc}") from None
+            if not (isinstance(dtype, np.dtype) and dtype.names is None and dtype.shape == ()):
+                raise _Refused(f"entry {key!r} has dtype {dtype}")
+            if kind == "f" and not (dtype.kind == "f" and dtype.itemsize == 8):
+                raise _Refused(f"entry {key!r} must hold float64; got {dtype}")
+            if kind == "U" and not (dtype.kind == "U" and dtype.itemsize <= 4 * max_chars):
+                raise _Refused(
+                    f"entry {key!r} must hold text of <= {max_chars} characters; got {dtype}"
+                )
+            if (
+                len(found) != len(shape)
+                or any(d < 0 for d in found)
+                or any(
+                    want is not None and got != want for got, want in zip(found, shape, strict=True)
+                )
+            ):
+                want_text = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+                raise _Refused(f"entry {key!r} has shape {found}, not {want_text}")
+            count = math.prod(found)
+            nbytes = count * dtype.itemsize
+            if info.file_size != fp.tell() + nbytes:
+                raise _Refused(
+                    f"entry {key!r} declares {info.file_size} bytes for {nbytes} of data"
+                )
+            flat = np.empty(count, dtype=dtype)
+            view = memoryview(flat.view(np.uint8))
+            pos = 0
+            while pos < nbytes:
+                chunk = fp.read(min(2**20, nbytes - pos))
+                if not chunk:
+                    raise _Refused(f"entry {key!r} is truncated")
+                view[pos : pos + len(chunk)] = chunk
+                pos += len(chunk)
+            if fp.read(1):  # (and at its end the entry's CRC is checked)
+                raise _Refused(f"entry {key!r} is longer than its header says")
+        arr = flat.reshape(found, order="F" if fortran else "C")
+        arr = arr.astype(dtype.newbyteorder("="), order="C", copy=False)
+        if kind == "f" and not np.all(np.isfinite(arr)):
+            raise _Refused(f"entry {key!r} holds non-finite numbers")
+        if labels and arr.size and not set(np.unique(arr).tolist()) <= set(labels):
+            bad = sorted(set(np.unique(arr).tolist()) - set(labels))[0]
+            raise _Refused(f"entry {key!r} holds {_short(bad)}, not one of {labels}")
+        return arr
+
+
+def _short(value: Any) -> str:
+    """``repr(value)`` cut to a readable length (a crafted field may be huge)."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _number(v: Any, what: str, *, finite: bool = True) -> float:
+    if not _is_number(v):
+        raise _Refused(f"{what} must be a number; got {_short(v)}")
+    try:
+        x = float(v)
+    except OverflowError:
+        raise _Refused(f"{what} must be a float; got an integer of {len(str(v))} digits") from None
+    if finite and not math.isfinite(x):
+        raise _Refused(f"{what} must be finite; got {x!r}")
+    return x
+
+
+def _integer(v: Any, what: str, lo: int, hi: int) -> int:
+    if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
+        raise _Refused(f"{what} must be an integer in [{lo}, {hi}]; got {_short(v)}")
+    return v
+
+
+def _text(v: Any, what: str, max_len: int = _MAX_TEXT) -> str:
+    if not isinstance(v, str) or len(v) > max_len:
+        raise _Refused(f"{what} must be a str of at most {max_len} characters; got {_short(v)}")
+    return v
+
+
+def _choice(v: Any, what: str, allowed: tuple[str, ...]) -> str:
+    if not isinstance(v, str) or v not in allowed:
+        raise _Refused(f"{what} must be one of {allowed}; got {_short(v)}")
+    return v
+
+
+def _names(v: Any, what: str, allowed: tuple[str, ...]) -> list[str]:
+    """A list of distinct names from ``allowed``."""
+    if not isinstance(v, list) or len(v) > len(allowed):
+        raise _Refused(f"{what} must be a list of names from {allowed}; got {_short(v)}")
+    for name in v:
+        _choice(name, f"an entry of {what}", allowed)
+    if len(set(v)) != len(v):
+        raise _Refused(f"{what} names a series twice: {_short(v)}")
+    return list(v)
+
+
+def _fields(v: Any, what: str, cls: type) -> dict[str, float]:
+    """Keyword arguments of the dataclass ``cls`` from a JSON object of numbers."""
+    names = {f.name for f in dataclasses.fields(cls) if f.init}
+    if not isinstance(v, dict) or not set(v) <= names:
+        raise _Refused(
+            f"{what} must be an object with fields from {sorted(names)}; got {_short(v)}"
+        )
+    return {k: _number(x, f"{what} field {k!r}", finite=False) for k, x in v.items()}
+
+
+def _build(cls: type, kwargs: dict, what: str) -> Any:
+    try:
+        return cls(**kwargs)
+    except (TypeError, ValueError, ArithmeticError) as exc:
+        raise _Refused(f"{what}: {exc}") from None
+
+
+def _decode_top(v: Any) -> Any:
+    if not isinstance(v, dict):
+        raise _Refused(f"top must be an object; got {_short(v)}")
+    fields = dict(v)
+    cls = _saved_class(fields.pop("type", "mett.top:TippeTop"), "top")
+    return _build(cls, _fields(fields, "top", cls), "top")
+
+
+def _decode_options(v: Any) -> dict[str, Any]:
+    if not isinstance(v, dict):
+        raise _Refused(f"options must be an object; got {_short(v)}")
+    return {k: _decode_option(x, f"option {k!r}", 0) for k, x in v.items()}
+
+
+def _decode_option(v: Any, what: str, depth: int) -> Any:
+    if depth > _MAX_DEPTH:
+        raise _Refused(f"{what} is nested more than {_MAX_DEPTH} levels deep")
+    if v is None or isinstance(v, (bool, int, float)):
+        return v
+    if isinstance(v, str):
+        return _text(v, what)
+    if isinstance(v, list):
+        return [_decode_option(x, what, depth + 1) for x in v]
+    if isinstance(v, dict):
+        if "__dataclass__" in v:
+            if set(v) != {"__dataclass__", "fields"}:
+                raise _Refused(f"{what} must be {{'__dataclass__': name, 'fields': {{...}}}}")
+            cls = _saved_class(v["__dataclass__"], "option")
+            return _build(cls, _fields(v["fields"], what, cls), what)
+        return {k: _decode_option(x, what, depth + 1) for k, x in v.items()}
+    raise _Refused(f"{what} has a value of type {type(v).__name__}")  # pragma: no cover
+
+
+def _decode_params(v: Any, expected: tuple) -> tuple:
+    """The saved parameters, which must be those of the saved top and options (to rounding)."""
+    if not isinstance(v, list) or len(v) != len(expected):
+        raise _Refused(f"params must be a list of {len(expected)} numbers; got {_short(v)}")
+    params = tuple(_number(x, f"params[{i}]") for i, x in enumerate(v))
+    for i, (got, want) in enumerate(zip(params, expected, strict=True)):
+        want = float(want)
+        if not abs(got - want) <= 1e-12 * abs(want):  # (a later mett may round differently)
+            raise _Refused(f"params[{i}] = {got!r} is not that of the top and options ({want!r})")
+    return params
+
+
+def _decode_state(v: Any) -> State:
+    if not isinstance(v, dict) or set(v) != set(_STATE_FIELDS):
+        raise _Refused(
+            f"initial_state must be an object with fields {_STATE_FIELDS}; got {_short(v)}"
+        )
+    values = {k: _number(v[k], f"initial_state field {k!r}") for k in _STATE_FIELDS}
+    return _build(State, values, "initial_state")
+
+
+def _decode_switch(item: Any, phases: tuple[str, ...], span: tuple[float, float]) -> Any:
+    """A switch record: a (t, before, after) tuple or a :class:`~mett.dynamics.stickslip.Switch`."""
+    if not isinstance(item, dict) or "type" not in item:
+        raise _Refused(f"a switch must be an object with a type; got {_short(item)}")
+    if item["type"] is None:
+        values = item.get("values")
+        if not isinstance(values, list) or len(values) != 3 or set(item) != {"type", "values"}:
+            raise _Refused(f"a switch must be [t, before, after]; got {_short(item)}")
+        record: tuple = (_number(values[0], "a switch time"), values[1], values[2])
+    else:
+        cls = _saved_class(item["type"], "record")
+        fields = item.get("fields")
+        if not isinstance(fields, dict) or set(fields) != set(cls._fields):
+            raise _Refused(
+                f"a switch record must have the fields {cls._fields}; got {_short(item)}"
+            )
+        hints = typing.get_type_hints(cls)
+        kwargs = {
+            k: _text(x, f"switch field {k!r}", 64) if hints[k] is str
+            else _number(x, f"switch field {k!r}", finite=k == "t")
+            for k, x in fields.items()
+        }  # fmt: skip
+        record = cls(**kwargs)
+    t, before, after = record[0], record[1], record[2]
+    for name in (before, after):
+        _choice(name, "a switch's phase", phases)
+    if not span[0] <= t <= span[1]:
+        raise _Refused(f"a switch at t = {t!r} s lies outside the run")
+    return record
+
+
+def _check_times(t: np.ndarray, what: str, *, strict: bool = False) -> None:
+    """Finite (checked on reading) and in order, as the dense output's search needs."""
+    steps = np.diff(t)
+    if np.any(steps <= 0.0) if strict else np.any(steps < 0.0):
+        raise _Refused(f"the times {what} must be {'increasing' if strict else 'in order'}")
+
+
+def _dense_entries(desc: Any, phases: tuple[str, ...], max_parts: int) -> list[str]:
+    """The entry names of a dense-output description (checked: known kinds, one level of
+    segments, their phases those of the model)."""
+    if not isinstance(desc, dict):
+        raise _Refused(f"dense must be an object; got {_short(desc)}")
+    kind = desc.get("kind")
+    if kind == "segments":
+        parts, names = desc.get("parts"), desc.get("phases")
+        if not (isinstance(parts, list) and isinstance(names, list)
+                and 1 <= len(parts) == len(names) <= max_parts + 1):  # fmt: skip
+            raise _Refused("dense segments must be lists of parts and phases of one length")
+        for name in names:
+            _choice(name, "a dense segment's phase", phases)
+        out = []
+        for k, part in enumerate(parts):
+            if not isinstance(part, dict) or part.get("kind") not in _DENSE_ARRAYS:
+                raise _Refused(f"dense segment {k} must be one of {tuple(_DENSE_ARRAYS)}")
+            out += [f"dense_s{k}_{a}" for a in _DENSE_ARRAYS[part["kind"]]]
+        return out
+    if kind not in _DENSE_ARRAYS:
+        raise _Refused(
+            f"dense kind must be one of {(*_DENSE_ARRAYS, 'segments')}; got {_short(kind)}"
+        )
+    return [f"dense_{a}" for a in _DENSE_ARRAYS[kind]]
+
+
+def _decode_dense(desc: dict, archive: _Archive, n: int) -> Any:
+    """The dense output (checked by :func:`_dense_entries`) with every array's shape fixed by
+    its times and the state size ``n``, its times in order and its steps positive."""
+    if desc["kind"] != "segments":
+        return _decode_part(desc["kind"], archive, "dense_", n)
+    parts = [
+        _decode_part(d["kind"], archive, f"dense_s{k}_", n) for k, d in enumerate(desc["parts"])
+    ]
+    for k in range(1, len(parts)):
+        if parts[k].t_min != parts[k - 1].t_max:
+            raise _Refused(f"dense segment {k} does not start where segment {k - 1} ends")
+    return SegmentedSolution(parts, list(desc["phases"]))
+
+
+def _decode_part(kind: str, archive: _Archive, prefix: str, n: int) -> Any:
+    from .dop853 import DenseOutput
+    from .taylor import TaylorDense
+
+    if kind == "constant":
+        t = archive.array(prefix + "t", (1,))
+        return ConstantSolution(float(t[0]), archive.array(prefix + "y", (n,)))
+    t = archive.array(prefix + "t", (None,))
+    if t.size == 0:
+        raise _Refused(f"entry {prefix + 't'!r} is empty")
+    m = t.size - 1
+    y = archive.array(prefix + "y", (m + 1, n))
+    if kind == "hermite":
+        _check_times(t, prefix + "t", strict=True)
+        return _Hermite(t, y, archive.array(prefix + "dy", (m + 1, n)))
+    _check_times(t, prefix + "t")
+    if kind == "taylor":
+        C = archive.array(prefix + "C", (m, n, None))
+        if not 1 <= C.shape[2] <= _MAX_TAYLOR_TERMS:
+            raise _Refused(f"entry {prefix + 'C'!r} has {C.shape[2]} Taylor coefficients")
+        return TaylorDense(t, y, C)
+    h = archive.array(prefix + "h", (m,))
+    F = archive.array(prefix + "F", (m, 7, n))
+    # each step's interpolant spans its segment: t[i+1] = t[i] + h[i] to rounding, the last
+    # step possibly cut short by a terminal event
+    steps = np.diff(t)
+    slack = 4.0 * np.finfo(float).eps * np.maximum(np.abs(t[:-1]), np.abs(t[1:]))
+    if np.any(h <= 0.0) or np.any(steps > h + slack) or np.any(np.abs(steps - h)[:-1] > slack[:-1]):
+        raise _Refused(f"the step sizes {prefix + 'h'!r} do not match the times {prefix + 't'!r}")
+    return DenseOutput(t, y, h, F)
 
 
 def _encode_dense(
@@ -825,27 +1373,3 @@ class _Hermite:
 
     def __call__(self, t: Any) -> np.ndarray:
         return np.asarray(self._spline(t)).T
-
-
-def _decode_dense(desc: dict, arrays: dict[str, np.ndarray], prefix: str = "dense_") -> Any:
-    from .dop853 import DenseOutput
-
-    kind = desc["kind"]
-
-    def arr(name: str) -> np.ndarray:
-        return arrays[prefix + name]
-
-    if kind == "segments":
-        parts = [_decode_dense(d, arrays, f"{prefix}s{k}_") for k, d in enumerate(desc["parts"])]
-        return SegmentedSolution(parts, [str(p) for p in desc["phases"]])
-    if kind == "constant":
-        return ConstantSolution(float(arr("t")[0]), arr("y"))
-    if kind == "dop853":
-        return DenseOutput(arr("t"), arr("y"), arr("h"), arr("F"))
-    if kind == "hermite":
-        return _Hermite(arr("t"), arr("y"), arr("dy"))
-    if kind == "taylor":
-        from .taylor import TaylorDense
-
-        return TaylorDense(arr("t"), arr("y"), arr("C"))
-    raise ValueError(f"unknown dense output kind {kind!r}")
