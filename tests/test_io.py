@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 import zipfile
 
 import numpy as np
@@ -392,3 +394,79 @@ def test_a_format_1_file_still_loads(thesis, tmp_path):
     loaded = Trajectory.load(path)
     assert_same_run(thesis, loaded)
     assert set(loaded.phase) == {"sliding"} and loaded.extra == ()
+
+
+# --- where and how a file is written -----------------------------------------------------------
+
+
+def test_save_takes_the_longest_legal_file_name(thesis, tmp_path):
+    # the temporary name is short, so a target name of the file system's limit works
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    path = tmp_path / ("a" * (limit - len(".npz")) + ".npz")
+    assert len(path.name.encode()) == limit
+    assert thesis.save(path) == path
+    assert_same_run(thesis, Trajectory.load(path))
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary left behind
+
+
+@pytest.mark.parametrize("mode", [0o600, 0o640, 0o444 | 0o200])
+def test_a_replaced_file_keeps_its_permission_bits(thesis, tmp_path, mode):
+    path = thesis.save(tmp_path / "private.npz")
+    path.chmod(mode)
+    thesis.save(path)
+    assert stat.S_IMODE(path.stat().st_mode) == mode
+    # a new file gets the ordinary bits of a new file (0o666 under the umask)
+    umask = os.umask(0)
+    os.umask(umask)
+    fresh = thesis.save(tmp_path / "fresh.npz")
+    assert stat.S_IMODE(fresh.stat().st_mode) == 0o666 & ~umask
+
+
+def test_save_through_a_symbolic_link_replaces_the_file_it_points_to(thesis, top, tmp_path):
+    (tmp_path / "data").mkdir()
+    real = thesis.save(tmp_path / "data" / "run.npz")
+    link = tmp_path / "latest.npz"
+    link.symlink_to(real)
+    other = mett.simulate(top, State(theta=0.3, omega3=140.0), 0.1)
+    assert other.save(link) == link
+    assert link.is_symlink() and os.readlink(link) == str(real)  # still the same link
+    assert_same_run(other, Trajectory.load(real))  # the file it points to was written
+    assert sorted(p.name for p in (tmp_path / "data").iterdir()) == ["run.npz"]
+    # a dangling link: the file is created where it points
+    (tmp_path / "later.npz").symlink_to(tmp_path / "data" / "new.npz")
+    other.save(tmp_path / "later.npz")
+    assert_same_run(other, Trajectory.load(tmp_path / "data" / "new.npz"))
+
+
+@pytest.mark.parametrize("where", ["writing", "renaming"])
+def test_a_save_failing_midway_removes_its_temporary_file(thesis, tmp_path, monkeypatch, where):
+    path = thesis.save(tmp_path / "keep.npz")
+    before = path.read_bytes()
+
+    def fail(*args, **kwargs):
+        if where == "writing":
+            args[0].write(b"PK partial")  # some bytes are on disk when it fails
+        raise OSError(28, "No space left on device")
+
+    if where == "writing":
+        monkeypatch.setattr(np, "savez_compressed", fail)
+    else:
+        monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OSError, match="No space left"):
+        thesis.save(path)
+    monkeypatch.undo()
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.npz"]
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs a non-root POSIX user")
+def test_save_refuses_a_read_only_directory_before_any_work(thesis, tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        with pytest.raises(ValueError, match="must be writable"):
+            thesis.save(locked / "x.npz")
+    finally:
+        locked.chmod(0o700)
+    assert list(locked.iterdir()) == []
