@@ -674,7 +674,7 @@ class Trajectory:
         t = archive.array("t", (None,))
         if t.size == 0:
             raise _Refused("t must hold at least one sample")
-        _check_times(t, "t")
+        _check_times(t, "t", strict=True)
         states = archive.array("states", (n_state, t.size))
         trajectory_series = {name: archive.array(name, (t.size,)) for name in series}
         extras = {name: archive.array(f"extra_{name}", (t.size,), kind=_PER_SAMPLE[name][0],
@@ -687,6 +687,7 @@ class Trajectory:
                 f"the dense output covers [{solution.t_min!r}, {solution.t_max!r}] s, not the "
                 f"samples' [{t0!r}, {t1!r}] s"
             )
+        _check_dense_values(solution, t, states)
         if t_lost is not None and not t0 <= t_lost <= t1:
             raise _Refused(f"t_contact_lost = {t_lost!r} s lies outside the run")
         lo, hi = solution.t_min, solution.t_max
@@ -704,8 +705,10 @@ class Trajectory:
         touchdowns = None
         if archive.has("touchdowns"):
             touchdowns = archive.array("touchdowns", (None,))
-            if touchdowns.size and not (lo <= touchdowns.min() and touchdowns.max() <= hi):
-                raise _Refused("a touchdown lies outside the run")
+            # the times the stem touched down: those of the switches from ball to stem
+            down = [sw[0] for sw in switches or () if sw[1][:4] == "ball" and sw[2][:4] == "stem"]
+            if not np.array_equal(touchdowns, down):
+                raise _Refused("the touchdowns are not the switches from ball to stem")
 
         traj = cls(
             t=t,
@@ -1042,8 +1045,10 @@ class _Archive:
                     found, fortran, dtype = np.lib.format.read_array_header_2_0(fp)
                 else:
                     raise _Refused(f"entry {key!r} has .npy version {version}")
-            except (ValueError, TypeError, SyntaxError) as exc:
-                raise _Refused(f"entry {key!r} has no valid .npy header: {exc}") from None
+            except _Refused:
+                raise
+            except Exception as exc:  # numpy parses the header's text: any failure is a bad one
+                raise _Refused(f"entry {key!r} has no valid .npy header: {exc!r}") from None
             if not (isinstance(dtype, np.dtype) and dtype.names is None and dtype.shape == ()):
                 raise _Refused(f"entry {key!r} has dtype {dtype}")
             if kind == "f" and not (dtype.kind == "f" and dtype.itemsize == 8):
@@ -1318,6 +1323,62 @@ def _decode_part(kind: str, archive: _Archive, prefix: str, n: int) -> Any:
     if np.any(h <= 0.0) or np.any(steps > h + slack) or np.any(np.abs(steps - h)[:-1] > slack[:-1]):
         raise _Refused(f"the step sizes {prefix + 'h'!r} do not match the times {prefix + 't'!r}")
     return DenseOutput(t, y, h, F)
+
+
+_EXACT = 16 * np.finfo(float).eps
+"""Agreement (relative to each component's magnitude) of the states a dense output stores at
+its steps with the samples there and with its own polynomials at the step ends: a run stores
+the very numbers (measured: 0 for DOP853 and constants, 1 ulp for Hermite data, 6 ulps for the
+Taylor polynomials summed at a step's end)."""
+
+_BOUNDED = 1e6
+"""Largest sum of a step's polynomial terms over the component's magnitude (+ 1): a run's are
+below ~1 (its dense output moves a component by at most its range within a step); far larger
+ones could overflow what :meth:`Trajectory.at` derives from them."""
+
+
+def _check_dense_values(solution: Any, t: np.ndarray, states: np.ndarray) -> None:
+    """The dense output's polynomials join at their steps with bounded terms, and pass through
+    the stored samples: what :meth:`Trajectory.at` gives agrees with the samples and stays
+    finite."""
+    from .dop853 import DenseOutput
+    from .taylor import TaylorDense
+
+    parts = solution.sols if isinstance(solution, SegmentedSolution) else [solution]
+    ys = [np.atleast_2d(p._y0 if isinstance(p, ConstantSolution) else p.y) for p in parts]
+    scale = np.max(np.abs(np.vstack([states.T, *ys])), axis=0)
+    tol = _EXACT * scale
+    with np.errstate(over="ignore", invalid="ignore"):  # (what overflows is refused)
+        for k, part in enumerate(parts):
+            if isinstance(part, DenseOutput):  # each step ends where the next starts
+                inner = np.abs(part.y[:-2] + part.F[:-1, 0] - part.y[1:-1]) > tol
+                terms = np.abs(part.F).sum(axis=1)
+            elif isinstance(part, TaylorDense):  # (the sum at a step's end: a few ulps)
+                powers = np.diff(part.t)[:, None] ** np.arange(part.C.shape[2])
+                ends = np.einsum("ick,ik->ic", part.C, powers)
+                inner = np.vstack(
+                    [np.abs(part.C[:, :, 0] - part.y[:-1]) > tol,
+                     np.abs(ends[:-1] - part.y[1:-1]) > 4 * tol]
+                )  # fmt: skip
+                terms = np.einsum("ick,ik->ic", np.abs(part.C[:, :, 1:]), powers[:, 1:])
+            elif isinstance(part, _Hermite):
+                inner = np.zeros(0, dtype=bool)
+                terms = np.abs(part.dy[:-1]) * np.diff(part.ts)[:, None]
+            else:
+                continue
+            if np.any(inner):
+                raise _Refused(f"the dense output (part {k}) does not join at its steps")
+            if np.any(~np.isfinite(terms) | (terms > _BOUNDED * (scale + 1.0))):
+                raise _Refused(f"the dense output (part {k}) has coefficients out of scale")
+        Y = np.asarray(solution(t), dtype=float).reshape(states.shape)
+        off = np.any(~(np.abs(Y - states).T <= tol), axis=1)
+    # Hermite data (other scipy methods) interpolate between their steps: compared there only
+    for part in parts:
+        if isinstance(part, _Hermite):
+            off &= ~((t >= part.t_min) & (t <= part.t_max) & ~np.isin(t, part.ts))
+    if off.any():
+        k = int(np.flatnonzero(off)[0])
+        raise _Refused(f"the dense output does not pass through sample {k} (t = {t[k]!r} s)")
 
 
 def _encode_dense(
