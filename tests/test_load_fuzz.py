@@ -1,8 +1,8 @@
-"""Trajectory.load over crafted and damaged files (docs/reliability.md, "Saved files").
+"""Trajectory.load over crafted and damaged files (docs/reliability.md#saved-files).
 
-Legitimate files of short runs (viscous gliding with a user event, a Coulomb stick–slip run with
-its switches, a Taylor run, an RK45 run stored as Hermite data, a run that failed at t = 0) are
-mutated entry by entry and field by field: arrays of the wrong length, shape or dtype, NaN and
+Legitimate files of short runs (viscous gliding with a user event, a stemmed top under Coulomb
+friction with its switch records, a Taylor run, an RK45 run stored as Hermite data, a run that
+failed at t = 0) are mutated entry by entry and field by field: arrays of the wrong length, shape or dtype, NaN and
 inf, times out of order, zero steps, missing entries; metadata fields of the wrong type, missing
 or nested deeply; class names pointing at other code; huge compressed entries; truncated zips;
 random bytes and random JSON values (hypothesis, a bounded number of examples).

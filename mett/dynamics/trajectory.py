@@ -563,7 +563,7 @@ class Trajectory:
 
         The file may come from anywhere: it is checked in full before anything is built from it,
         it never names code to run, and a damaged or crafted file is a ``ValueError``
-        (docs/reliability.md, "Saved files").
+        (docs/reliability.md#saved-files).
 
         Parameters
         ----------
@@ -625,7 +625,7 @@ class Trajectory:
         t_lost = None if t_lost is None else _number(t_lost, "t_contact_lost")
         series = _names(meta.get("series", []), "series", SERIES)
         per_sample = _names(meta.get("per_sample", []), "per_sample", tuple(_PER_SAMPLE))
-        extra = _names(meta.get("extra", []), "extra", (*_PER_SAMPLE, *SERIES))
+        extra = _names(meta.get("extra", []), "extra", (*per_sample, *SERIES))
         n_events = _integer(meta.get("n_events"), "n_events", 0, 10_000)
         switches_meta = meta.get("switches")
         if switches_meta is not None and (
