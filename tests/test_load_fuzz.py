@@ -2,10 +2,10 @@
 
 Legitimate files of short runs (viscous gliding with a user event, a stemmed top under Coulomb
 friction with its switch records, a Taylor run, an RK45 run stored as Hermite data, a run that
-failed at t = 0) are mutated entry by entry and field by field: arrays of the wrong length, shape or dtype, NaN and
-inf, times out of order, zero steps, missing entries; metadata fields of the wrong type, missing
-or nested deeply; class names pointing at other code; huge compressed entries; truncated zips;
-random bytes and random JSON values (hypothesis, a bounded number of examples).
+failed at t = 0) are mutated entry by entry and field by field: arrays of the wrong length, shape
+or dtype, NaN and inf, times out of order, zero steps, missing entries; metadata fields of the
+wrong type, missing or nested deeply; class names pointing at other code; huge compressed entries;
+truncated zips; random bytes and random JSON values (hypothesis, a bounded number of examples).
 
 Every case must either load a self-consistent Trajectory (finite samples, its dense output
 through its states, ``at`` and ``crossings`` working) or raise a ValueError naming the file. The
