@@ -16,6 +16,7 @@ import dataclasses
 import json
 import math
 import os
+import reprlib
 import secrets
 import stat
 import typing
@@ -1093,10 +1094,14 @@ class _Archive:
         return arr
 
 
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother = 3, 4, 4, 60, 60
+
+
 def _short(value: Any) -> str:
-    """``repr(value)`` cut to a readable length (a crafted field may be huge)."""
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
+    """``repr(value)`` of bounded length and cost (a crafted field may be huge or deep)."""
+    text = _REPR.repr(value)
+    return text if len(text) <= 100 else text[:97] + "..."
 
 
 def _is_number(v: Any) -> bool:
