@@ -956,6 +956,15 @@ def order_for(tol: float) -> int:
     return max(math.ceil(-0.5 * math.log(tol)) + 1, 6)
 
 
+def _kernel_source(
+    tr: _Traced, order: int, label: str, lanes: int, vectors: tuple
+) -> tuple[str, str]:
+    """The symbol name and the LLVM IR of a kernel (``vectors`` normalised by _norm_groups)."""
+    digest = hashlib.sha256(repr((tr, order, lanes, vectors)).encode()).hexdigest()[:16]
+    name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
+    return name, _IR(tr, order, name, lanes, vectors).text()
+
+
 class TaylorKernel:
     """The compiled jet of one model at one order, callable from the numba integration loop."""
 
@@ -965,9 +974,7 @@ class TaylorKernel:
         self.traced, self.order, self.lanes = tr, order, lanes
         self.n_state, self.n_events = tr.n_state, len(tr.events)
         self.vectors = _norm_groups(vectors, tr.n_state)
-        digest = hashlib.sha256(repr((tr, order, lanes, self.vectors)).encode()).hexdigest()[:16]
-        self.name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
-        ir = _IR(tr, order, self.name, lanes, self.vectors).text()
+        self.name, ir = _kernel_source(tr, order, label, lanes, self.vectors)
         self.address = _native(ir, self.name)
         self.function = _JetAddress(self.address[0], _JET_SIG)
         self.update = _JetAddress(self.address[1], _UPDATE_SIG)
