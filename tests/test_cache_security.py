@@ -13,11 +13,14 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+import numba
+import numpy as np
 import pytest
 
 from mett.dynamics import taylor
@@ -360,3 +363,108 @@ def test_two_processes_building_one_kernel_at_once(tmp_path):
     for run in third["runs"]:
         _correct(run)
         assert run["source"] == "loaded"
+
+
+# --- numba's own cache of mett's functions --------------------------------------------------------
+
+
+def _numba_file(tmp: Path, monkeypatch, mett_owned: bool):
+    from numba.core.caching import IndexDataCacheFile
+
+    from mett import _numba_cache
+
+    taylor._check_numba_cache()  # installed by every module with cache=True functions
+    d = tmp / "__pycache__"
+    d.mkdir()
+    monkeypatch.setattr(_numba_cache, "_is_mett", lambda f: mett_owned and Path(f._cache_path) == d)
+    return IndexDataCacheFile(cache_path=str(d), filename_base="f-1.py311", source_stamp=(1.0, 2))
+
+
+def test_the_cache_files_of_mett_functions_are_recognised():
+    from mett import _numba_cache
+
+    taylor._dense_many(np.zeros(2), np.zeros((1, 1, 2)), 1, np.zeros(1), np.empty((1, 1)))
+    assert _numba_cache._is_mett(taylor._dense_many._cache._cache_file)
+    outside = numba.njit(cache=True)(_osc)  # a function of other code: numba's own rules
+    assert not _numba_cache._is_mett(outside._cache._cache_file)
+
+
+@pytest.mark.parametrize("which", ["index", "data"])
+@pytest.mark.parametrize("mode", ["truncated", "empty", "random", "bitflip"])
+def test_a_damaged_numba_cache_file_of_mett_is_a_miss(tmp_path, monkeypatch, which, mode):
+    f = _numba_file(tmp_path, monkeypatch, mett_owned=True)
+    payload = ("machine code", bytes(range(256)) * 64)
+    f.save("key", payload)
+    assert f.load("key") == payload
+    path = Path(f._index_path) if which == "index" else next(tmp_path.rglob("*.nbc"))
+    data = path.read_bytes()
+    mid = len(data) // 2
+    damaged = {
+        "truncated": data[: len(data) // 2],
+        "empty": b"",
+        "random": os.urandom(len(data)),
+        "bitflip": data[:mid] + bytes(b ^ 0x10 for b in data[mid : mid + 8]) + data[mid + 8 :],
+    }[mode]
+    path.write_bytes(damaged)
+    assert f.load("key") is None  # a miss: numba compiles the function again ...
+    f.save("key", payload)  # ... and rewrites its files
+    assert f.load("key") == payload
+
+
+def test_numba_cache_files_of_other_code_keep_numba_behaviour(tmp_path, monkeypatch):
+    import pickle
+
+    f = _numba_file(tmp_path, monkeypatch, mett_owned=False)
+    f.save("key", ("x", 1))
+    next(tmp_path.rglob("*.nbc")).write_bytes(b"garbage")
+    with pytest.raises(pickle.UnpicklingError):
+        f.load("key")
+
+
+@pytest.mark.parametrize("mode", ["index-random", "data-bitflip", "data-truncated"])
+def test_mett_runs_with_a_damaged_numba_cache(tmp_path, mode):
+    # a copy of the package with its warm cache; one compiled function's files damaged, then used
+    import mett
+
+    taylor._dense_many(np.zeros(2), np.zeros((1, 1, 2)), 1, np.zeros(1), np.empty((1, 1)))
+    src = Path(mett.__file__).parent
+    index = Path(taylor._dense_many._cache._cache_file._index_path)
+    if src not in index.parents:
+        pytest.skip("numba caches outside the package here (NUMBA_CACHE_DIR)")
+    shutil.copytree(src, tmp_path / "mett")  # copy2: the sources' times, so the cache stays valid
+    index = tmp_path / "mett" / index.relative_to(src)
+    datas = sorted(index.parent.glob(index.name[: -len(".nbi")] + ".*.nbc"))
+    assert datas
+    if mode == "index-random":
+        index.write_bytes(os.urandom(index.stat().st_size))
+    for p in datas if mode.startswith("data") else []:
+        data = p.read_bytes()
+        if mode == "data-truncated":
+            p.write_bytes(data[:1000])
+        else:  # inside the object code, the size unchanged
+            mid = len(data) // 2
+            p.write_bytes(
+                data[:mid] + bytes(b ^ 0xFF for b in data[mid : mid + 64]) + data[mid + 64 :]
+            )
+    script = textwrap.dedent(
+        """
+        import numpy as np
+        from mett.dynamics import taylor
+        C = np.array([[[1.0, 2.0, 3.0]]])  # 1 + 2x + 3x²
+        d = taylor.TaylorDense(np.array([0.0, 1.0]), np.zeros((2, 1)), C)
+        print(taylor.__file__, float(d(0.5)[0]))
+        """
+    )
+    env = dict(os.environ, PYTHONPATH=str(tmp_path))
+    proc = subprocess.run(
+        [sys.executable, "-c", script],
+        env=env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, f"rc {proc.returncode}\n{proc.stderr[-3000:]}"
+    where, value = proc.stdout.split()
+    assert Path(where).parent.parent == tmp_path / "mett"
+    assert float(value) == 2.75
