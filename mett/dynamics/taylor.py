@@ -18,7 +18,8 @@ compiled to machine code with llvmlite, which numba already depends on. The mach
 cached in the user's own cache directory (:func:`cache_dir`), keyed by the IR, llvmlite's version,
 the target and the CPU with its features, and loaded only after its owner, permissions and sha256
 are checked (:func:`_native`). The integration loop is numba code compiled once for every model
-(``cache=True``); it calls the model's jet through a function pointer, as :mod:`.dop853` calls its right-hand sides.
+(``cache=True``); it calls the model's jet through a function pointer, as :mod:`.dop853` calls
+its right-hand sides.
 
 Why not numba for the jet too: the recurrences written out for the gliding top at order 15 are
 ~1 800 statements; numba took ~100 s to compile them (LLVM: ~3 s), and the same recurrences as
@@ -581,7 +582,7 @@ class _IR:
         eps2 = self.op("fmul", eps, eps)
         n1 = n2 = self.c(0.0)
 
-        def maxnum(a: str, b: str) -> str:
+        def nanmax(a: str, b: str) -> str:
             """max(a, b), NaN if either is NaN. llvm.maxnum alone ignores a NaN operand, so NaN
             coefficients gave a finite norm and one step to t_end that kept a NaN state; the
             explicit unordered test makes a NaN norm, which the integrator reports as a
@@ -601,12 +602,12 @@ class _IR:
         for group in self.vectors:
             sg = self.load("%sig", group[0])
             for i in group[1:]:
-                sg = maxnum(sg, self.load("%sig", i))
-            w2 = maxnum(self.op("fmul", sg, sg), self.op("fmul", eps2, square_length(group, 0)))
+                sg = nanmax(sg, self.load("%sig", i))
+            w2 = nanmax(self.op("fmul", sg, sg), self.op("fmul", eps2, square_length(group, 0)))
             inv = self.tmp()
             L.append(f"{inv} = fdiv {T} {self.c(1.0)}, {w2}")
-            n1 = maxnum(n1, self.op("fmul", square_length(group, p - 1), inv))
-            n2 = maxnum(n2, self.op("fmul", square_length(group, p), inv))
+            n1 = nanmax(n1, self.op("fmul", square_length(group, p - 1), inv))
+            n2 = nanmax(n2, self.op("fmul", square_length(group, p), inv))
         for idx, val in ((0, n1), (1, n2)):
             r = self.tmp()
             L.append(f"{r} = {self.call('sqrt', val)}")
@@ -749,7 +750,10 @@ def cache_dir() -> Path:
 
 
 def _unsafe(st: os.stat_result) -> str | None:
-    """Why a cache entry with this ``stat`` may not be trusted, or None."""
+    """Why a cache entry with this ``stat`` may not be trusted, or None (POSIX owner and mode;
+    on Windows, where neither means this, the user's profile directory is private by its ACL)."""
+    if not hasattr(os, "geteuid"):  # pragma: no cover - Windows
+        return None
     if st.st_uid != os.geteuid():
         return f"owned by uid {st.st_uid}, not by the current user ({os.geteuid()})"
     if st.st_mode & 0o022:
@@ -794,7 +798,11 @@ def _read_private(path: Path, limit: int) -> bytes | None:
     and at most ``limit`` bytes; None if it does not exist or cannot be read. Raises
     ``PermissionError`` with the reason if the file is not trustworthy."""
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0))
+        # O_NOFOLLOW: a symbolic link fails (ELOOP); O_NONBLOCK: a FIFO cannot block the open
+        flags = os.O_RDONLY | sum(
+            getattr(os, f, 0) for f in ("O_NONBLOCK", "O_NOFOLLOW", "O_CLOEXEC")
+        )
+        fd = os.open(path, flags)
     except OSError:  # missing, a symbolic link (ELOOP), unreadable
         return None
     try:
