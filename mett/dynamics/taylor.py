@@ -736,10 +736,21 @@ _SOURCES: dict[str, str] = {}  # kernel name -> "loaded", "written" or "memory" 
 def cache_dir() -> Path:
     """The directory of the on-disk cache of compiled Taylor kernels.
 
-    ``$METT_CACHE_DIR/taylor`` if ``METT_CACHE_DIR`` is set, else ``$XDG_CACHE_HOME/mett/taylor``
-    (an absolute ``XDG_CACHE_HOME`` only, as the XDG specification says), else
-    ``~/.cache/mett/taylor``. Never a shared directory: if this one cannot be created or written,
-    kernels are compiled in memory for the process and not cached.
+    Returns
+    -------
+    Path
+        ``$METT_CACHE_DIR/taylor`` if ``METT_CACHE_DIR`` is set, else
+        ``$XDG_CACHE_HOME/mett/taylor`` (an absolute ``XDG_CACHE_HOME`` only, as the XDG
+        specification says), else ``~/.cache/mett/taylor``.
+
+    Notes
+    -----
+    Never a shared directory: if this one cannot be created or written, kernels are compiled in
+    memory for the process and not cached. mett creates it with mode 0700 and reads a kernel
+    from it only if the directory and the file belong to the current user, nobody else can
+    write them, and the file's sha256 and build record match (docs: reliability, "Caches and
+    compiled code"); otherwise it compiles in memory and warns with
+    :class:`UnsafeCacheWarning`.
     """
     base = os.environ.get("METT_CACHE_DIR")
     if base:
