@@ -11,8 +11,9 @@ follows (the files of any other code are left to numba's own behaviour):
   only if it matches; anything else (damaged, truncated, written without the digest) is a miss,
   so the function is compiled again and its files are rewritten.
 
-The methods are wrapped in place, so functions decorated before :func:`install` are covered too;
-it is called by every mett module that defines ``cache=True`` functions, after importing numba.
+:func:`install` puts a subclass of numba's cache file class in its place (numba's own hooks,
+overridden); it is called by every mett module that defines ``cache=True`` functions, after
+importing numba and before decorating them.
 """
 
 from __future__ import annotations
@@ -49,79 +50,87 @@ def _verified(raw: bytes) -> bytes | None:
     return body
 
 
-def _is_mett(cache_file: object) -> bool:
-    path = os.path.abspath(getattr(cache_file, "_cache_path", ""))
+def _is_mett_path(cache_path: str) -> bool:
+    path = os.path.abspath(cache_path)
     pycache, hashed = _mett_cache_dirs()
     return path in pycache or os.path.basename(path) in hashed
 
 
+def _checked_class(base: type) -> type:
+    """numba's cache file class, with the checks of this module for mett's own files."""
+
+    class CheckedCacheFile(base):
+        mett_checked = True
+
+        def _is_mett(self) -> bool:
+            return _is_mett_path(self._cache_path)
+
+        def _load_index(self):
+            if not self._is_mett():
+                return super()._load_index()
+            try:
+                with open(self._index_path, "rb") as f:
+                    body = _verified(f.read())
+                if body is None:  # damaged, or written without the digest: no entries
+                    return {}
+                stream = io.BytesIO(body)
+                if pickle.load(stream) != self._version:  # numba's own rules from here on
+                    return {}
+                stamp, overloads = pickle.loads(stream.read())
+            except Exception:  # missing or unreadable: no entries; the next save writes anew
+                return {}
+            ok = stamp == self._source_stamp and isinstance(overloads, dict)
+            return overloads if ok else {}
+
+        def _save_index(self, overloads):
+            if not self._is_mett():
+                return super()._save_index(overloads)
+            body = pickle.dumps(self._version, protocol=-1)
+            body += self._dump((self._source_stamp, overloads))
+            with self._open_for_write(self._index_path) as f:
+                f.write(_MAGIC + hashlib.sha256(body).digest() + body)
+
+        def _load_data(self, name):
+            if not self._is_mett():
+                return super()._load_data(name)
+            path = self._data_path(name)
+            with open(path, "rb") as f:  # OSError: numba's load() treats it as a miss
+                body = _verified(f.read())
+            if body is None:
+                raise OSError(f"damaged or unverified numba cache file {path}")
+            try:
+                return pickle.loads(body)
+            except Exception as exc:  # a valid digest of a pickle this numba cannot read
+                raise OSError(f"unreadable numba cache file {path}") from exc
+
+        def _save_data(self, name, data):
+            if not self._is_mett():
+                return super()._save_data(name, data)
+            body = self._dump(data)
+            with self._open_for_write(self._data_path(name)) as f:
+                f.write(_MAGIC + hashlib.sha256(body).digest() + body)
+
+    return CheckedCacheFile
+
+
+_HOOKS = ("_load_index", "_save_index", "_load_data", "_save_data", "_data_path", "_dump")
+
+
 def install() -> None:
-    """Wrap numba's cache file methods for mett's functions (idempotent; a numba without these
-    methods is left as it is)."""
+    """Make numba create its cache files with the checks of this module (idempotent).
+
+    numba's ``Cache`` builds its file object from the module-level ``IndexDataCacheFile`` when a
+    ``cache=True`` function is decorated, so this is called before mett's modules decorate
+    theirs. It relies on numba's cache-file hooks (present in numba 0.5x-0.68); a numba without
+    them keeps its own behaviour.
+    """
     try:
-        from numba.core.caching import IndexDataCacheFile as F
+        from numba.core import caching
     except ImportError:  # pragma: no cover - another numba layout: its own behaviour
         return
-    if getattr(F, "_mett_checked", False):
+    base = getattr(caching, "IndexDataCacheFile", None)
+    if base is None or getattr(base, "mett_checked", False):
         return
-    names = (
-        "_load_index",
-        "_save_index",
-        "_load_data",
-        "_save_data",
-        "_data_path",
-        "_dump",
-        "_open_for_write",
-    )
-    if not all(hasattr(F, n) for n in names):  # pragma: no cover - another numba
+    if not all(hasattr(base, n) for n in (*_HOOKS, "_open_for_write")):  # pragma: no cover
         return
-    load_index, save_index = F._load_index, F._save_index
-    load_data, save_data = F._load_data, F._save_data
-
-    def _load_index(self):
-        if not _is_mett(self):
-            return load_index(self)
-        try:
-            with open(self._index_path, "rb") as f:
-                body = _verified(f.read())
-            if body is None:  # damaged, or written without the digest: no entries
-                return {}
-            stream = io.BytesIO(body)
-            if pickle.load(stream) != self._version:  # numba's own rules from here on
-                return {}
-            stamp, overloads = pickle.loads(stream.read())
-        except Exception:  # missing or unreadable: no entries; the next save writes a new one
-            return {}
-        return overloads if stamp == self._source_stamp and isinstance(overloads, dict) else {}
-
-    def _save_index(self, overloads):
-        if not _is_mett(self):
-            return save_index(self, overloads)
-        body = pickle.dumps(self._version, protocol=-1)
-        body += self._dump((self._source_stamp, overloads))
-        with self._open_for_write(self._index_path) as f:
-            f.write(_MAGIC + hashlib.sha256(body).digest() + body)
-
-    def _load_data(self, name):
-        if not _is_mett(self):
-            return load_data(self, name)
-        path = self._data_path(name)
-        with open(path, "rb") as f:  # OSError: numba's load() treats it as a miss
-            body = _verified(f.read())
-        if body is None:
-            raise OSError(f"damaged or unverified numba cache file {path}")
-        try:
-            return pickle.loads(body)
-        except Exception as exc:  # a valid digest of a pickle this numba cannot read
-            raise OSError(f"unreadable numba cache file {path}") from exc
-
-    def _save_data(self, name, data):
-        if not _is_mett(self):
-            return save_data(self, name, data)
-        body = self._dump(data)
-        with self._open_for_write(self._data_path(name)) as f:
-            f.write(_MAGIC + hashlib.sha256(body).digest() + body)
-
-    F._load_index, F._save_index = _load_index, _save_index
-    F._load_data, F._save_data = _load_data, _save_data
-    F._mett_checked = True
+    caching.IndexDataCacheFile = _checked_class(base)

@@ -376,17 +376,16 @@ def _numba_file(tmp: Path, monkeypatch, mett_owned: bool):
     taylor._check_numba_cache()  # installed by every module with cache=True functions
     d = tmp / "__pycache__"
     d.mkdir()
-    monkeypatch.setattr(_numba_cache, "_is_mett", lambda f: mett_owned and Path(f._cache_path) == d)
+    monkeypatch.setattr(_numba_cache, "_is_mett_path", lambda path: mett_owned and Path(path) == d)
     return IndexDataCacheFile(cache_path=str(d), filename_base="f-1.py311", source_stamp=(1.0, 2))
 
 
 def test_the_cache_files_of_mett_functions_are_recognised():
-    from mett import _numba_cache
-
     taylor._dense_many(np.zeros(2), np.zeros((1, 1, 2)), 1, np.zeros(1), np.empty((1, 1)))
-    assert _numba_cache._is_mett(taylor._dense_many._cache._cache_file)
+    own = taylor._dense_many._cache._cache_file
+    assert type(own).mett_checked and own._is_mett()
     outside = numba.njit(cache=True)(_osc)  # a function of other code: numba's own rules
-    assert not _numba_cache._is_mett(outside._cache._cache_file)
+    assert not outside._cache._cache_file._is_mett()
 
 
 @pytest.mark.parametrize("which", ["index", "data"])
