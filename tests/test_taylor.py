@@ -411,3 +411,82 @@ def test_propagate_checks_its_arguments():
         taylor.propagate(k, (0.0, 1.0), [1.0], [1.0], t_eval=[0.5, 0.2])
     with pytest.raises(ValueError, match="entry per event"):
         taylor.propagate(k, (0.0, 1.0), [1.0], [1.0], terminal=[True])
+
+
+# --- a NaN in the jet ends the run at its last finite step (reliability: Caches and compiled code)
+
+DBL_MAX = float(np.finfo(float).max)
+_BIG = 1e154
+
+
+def _overflow_into(t, y, p, out):
+    # y0 = t and y1' = a² − a² with a = p y0: exactly 0 while the coefficients of a² are finite.
+    # (a²)_1 = 2 p² t overflows for t > t* = DBL_MAX / (2 p²), and inf − inf makes the jet NaN
+    # while the state stays finite: the case a max that ignores NaN turned into a step to t_end
+    a = p[0] * y[0]
+    out[0] = 1.0
+    out[1] = a * a - a * a
+
+
+def _check_stopped_after_overflow(t, y, p, max_step):
+    t_star = DBL_MAX / p / p / 2.0  # (2 p² itself overflows)
+    # the last kept state is the first step start beyond t* (its jet is the first non-finite)
+    assert t_star < t[-1] <= t_star + max_step * (1 + 1e-12)
+    assert np.isfinite(y).all()
+    np.testing.assert_array_equal(y[:, 0], t)  # y0 = t: y0 + 1·h is the same sum as t + h
+    assert (y[:, 1] == 0.0).all()
+
+
+def test_a_nan_jet_stops_solve_at_the_last_finite_step():
+    k = taylor.kernel(_overflow_into, [], 2, 1, 8, "overflow")
+    sol = taylor.solve(k, (0.0, 2.0), [0.0, 0.0], [_BIG], max_step=0.1)[0]
+    assert sol.status == taylor.NON_FINITE
+    _check_stopped_after_overflow(sol.dense.t, sol.dense.y, _BIG, 0.1)
+    assert np.isfinite(sol.dense.C).all()  # the failed step's polynomial is not kept
+
+
+def test_a_nan_jet_stops_propagate_at_the_last_finite_step():
+    # the batch path (SIMD lanes, no dense output): one lane overflows, the other completes
+    k = taylor.kernel(_overflow_into, [], 2, 1, 8, "overflow", lanes=2)
+    tt = np.array([0.5, 0.95, 1.5])
+    b = taylor.propagate(k, (0.0, 2.0), np.zeros((2, 2)), [[_BIG], [1.0]], t_eval=tt,
+                         max_step=0.1)  # fmt: skip
+    assert b.status.tolist() == [taylor.NON_FINITE, taylor.COMPLETED]
+    _check_stopped_after_overflow(b.t[:1], b.y[:1], _BIG, 0.1)
+    np.testing.assert_allclose(b.samples[0, 0], [0.5, 0.0], rtol=1e-15)
+    assert np.isnan(b.samples[0, 1:]).all()  # after the stop: no samples
+    np.testing.assert_allclose(b.samples[1], np.column_stack([tt, 0 * tt]), rtol=1e-15)
+    assert b.t[1] == 2.0
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["mu=1e50", "omega3", "thetadot", "phidot"],
+)
+def test_non_finite_taylor_runs_keep_only_finite_states(case):
+    # μ = 1e50 or a rate at 0.999 RATE_MAX overflow the jet's high-order coefficients: a failure
+    # before t_end with only finite samples, as the compiled backend stops early with finite ones
+    from mett.dynamics.simulation import RATE_MAX
+
+    top, kw = TOP, {"theta": 0.1, "omega3": 155.0}
+    if case == "mu=1e50":
+        top = TOP.replace(mu=1e50)
+    else:
+        kw[case] = 0.999 * RATE_MAX
+    t_end = 0.5
+    for backend in ("taylor", "compiled"):
+        tr = simulate(top, mett.State(**kw), t_end, backend=backend)
+        assert tr.status in ("failed", "contact_lost"), (backend, tr.message)
+        assert tr.t[-1] < t_end and np.isfinite(tr.states).all(), (backend, tr.message)
+        if backend == "taylor":
+            assert tr.status == "failed" and "non-finite" in tr.message
+            assert f"t = {tr.t[-1]:.9g} s" in tr.message  # the failure where the run stopped
+
+
+def test_non_finite_taylor_runs_in_a_batch_stop_before_t_end():
+    from mett.dynamics.batch import run_ends
+
+    ends = run_ends([(TOP.replace(mu=1e50), THESIS), (TOP, THESIS)], 0.5, backend="taylor")
+    bad, good = ends
+    assert bad.status == "failed" and bad.t_stop < 0.5 and math.isfinite(bad.theta_end)
+    assert good.status == "completed" and good.t_stop == 0.5

@@ -30,7 +30,10 @@ from collections.abc import Callable
 import numba
 from numba.core.dispatcher import Dispatcher
 
+from .._numba_cache import install as _check_numba_cache
 from .registry import Model, lookup
+
+_check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
 
 __all__ = ["compiled", "get"]
 

@@ -52,7 +52,10 @@ import numpy as np
 from numba import types
 from numpy.typing import ArrayLike
 
+from .._numba_cache import install as _check_numba_cache
 from .._validate import ToleranceWarning
+
+_check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
 
 __all__ = [
     "COMPLETED",

@@ -15,8 +15,11 @@ Zou 2005, §2):
 
 unrolled into straight-line LLVM IR (each sum of products one chain of fused multiply-adds) and
 compiled to machine code with llvmlite, which numba already depends on. The machine code is
-cached on disk, keyed by the IR, the CPU and llvmlite's version. The integration loop is numba code compiled once for every model (``cache=True``); it calls the
-model's jet through a function pointer, as :mod:`.dop853` calls its right-hand sides.
+cached in the user's own cache directory (:func:`cache_dir`), keyed by the IR, llvmlite's version,
+the target and the CPU with its features, and loaded only after its owner, permissions and sha256
+are checked (:func:`_native`). The integration loop is numba code compiled once for every model
+(``cache=True``); it calls the model's jet through a function pointer, as :mod:`.dop853` calls
+its right-hand sides.
 
 Why not numba for the jet too: the recurrences written out for the gliding top at order 15 are
 ~1 800 statements; numba took ~100 s to compile them (LLVM: ~3 s), and the same recurrences as
@@ -40,9 +43,12 @@ refined by safeguarded Newton iteration on that polynomial.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import json
 import math
 import os
+import stat
 import tempfile
 import threading
 from collections.abc import Callable, Sequence
@@ -53,12 +59,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .._validate import MettWarning, warn
+
 __all__ = [
     "STATUS_MESSAGES",
     "TaylorBatch",
     "TaylorDense",
     "TaylorKernel",
     "TaylorSolution",
+    "UnsafeCacheWarning",
+    "cache_dir",
     "kernel",
     "order_for",
     "propagate",
@@ -572,10 +582,19 @@ class _IR:
         eps2 = self.op("fmul", eps, eps)
         n1 = n2 = self.c(0.0)
 
-        def maxnum(a: str, b: str) -> str:
-            m = self.tmp()
+        def nanmax(a: str, b: str) -> str:
+            """max(a, b), NaN if either is NaN. llvm.maxnum alone ignores a NaN operand, so NaN
+            coefficients gave a finite norm and one step to t_end that kept a NaN state; the
+            explicit unordered test makes a NaN norm, which the integrator reports as a
+            non-finite solution at the last finite step (llvm.maximum does the same, but older
+            LLVMs cannot lower it for vectors on x86)."""
+            m, nan, either, out = self.tmp(), self.tmp(), self.tmp(), self.tmp()
+            B = "i1" if self.W == 1 else f"<{self.W} x i1>"
             L.append(f"{m} = call {T} @llvm.maxnum.{self.suffix}({T} {a}, {T} {b})")
-            return m
+            L.append(f"{nan} = fadd {T} {a}, {b}")  # NaN if either is
+            L.append(f"{either} = fcmp uno {T} {a}, {b}")
+            L.append(f"{out} = select {B} {either}, {T} {nan}, {T} {m}")
+            return out
 
         def square_length(group: tuple[int, ...], k: int) -> str:
             return self.sum([self.op("fmul", f"%y{i}_{k}", f"%y{i}_{k}") for i in group])
@@ -583,12 +602,12 @@ class _IR:
         for group in self.vectors:
             sg = self.load("%sig", group[0])
             for i in group[1:]:
-                sg = maxnum(sg, self.load("%sig", i))
-            w2 = maxnum(self.op("fmul", sg, sg), self.op("fmul", eps2, square_length(group, 0)))
+                sg = nanmax(sg, self.load("%sig", i))
+            w2 = nanmax(self.op("fmul", sg, sg), self.op("fmul", eps2, square_length(group, 0)))
             inv = self.tmp()
             L.append(f"{inv} = fdiv {T} {self.c(1.0)}, {w2}")
-            n1 = maxnum(n1, self.op("fmul", square_length(group, p - 1), inv))
-            n2 = maxnum(n2, self.op("fmul", square_length(group, p), inv))
+            n1 = nanmax(n1, self.op("fmul", square_length(group, p - 1), inv))
+            n2 = nanmax(n2, self.op("fmul", square_length(group, p), inv))
         for idx, val in ((0, n1), (1, n2)):
             r = self.tmp()
             L.append(f"{r} = {self.call('sqrt', val)}")
@@ -698,12 +717,187 @@ _ENGINES: list[Any] = []  # execution engines must outlive every pointer into th
 _ADDRESSES: dict[str, tuple[int, int]] = {}
 
 
-def _cache_dir() -> Path:
+class UnsafeCacheWarning(MettWarning):
+    """The on-disk cache of compiled Taylor kernels is owned by another user or writable by
+    others; mett did not use it (the kernel was compiled in memory) and wrote nothing there."""
+
+
+# The cache holds machine code that is linked into the process and called, so it is read only
+# from the user's own directory, only if that directory and the file belong to the user and
+# nobody else can write them, and only after the object's sha256 and the build it was made for
+# (IR, llvmlite, target, CPU and its features) match what this process would compile.
+_CACHE_FORMAT = 1
+_MAX_OBJECT_BYTES = 256 << 20  # far above any kernel (~0.1-2 MB); bounds what a bad file costs
+_MAX_META_BYTES = 64 << 10
+_UNSAFE_WARNED: set[str] = set()
+_SOURCES: dict[str, str] = {}  # kernel name -> "loaded", "written" or "memory" (for tests)
+
+
+def cache_dir() -> Path:
+    """The directory of the on-disk cache of compiled Taylor kernels.
+
+    Returns
+    -------
+    Path
+        ``$METT_CACHE_DIR/taylor`` if ``METT_CACHE_DIR`` is set, else
+        ``$XDG_CACHE_HOME/mett/taylor`` (an absolute ``XDG_CACHE_HOME`` only, as the XDG
+        specification says), else ``~/.cache/mett/taylor``.
+
+    Notes
+    -----
+    Never a shared directory: if this one cannot be created or written, kernels are compiled in
+    memory for the process and not cached. mett creates it with mode 0700 and reads a kernel
+    from it only if the directory and the file belong to the current user, nobody else can
+    write them, and the file's sha256 and build record match (docs: reliability, "Caches and
+    compiled code"); otherwise it compiles in memory and warns with
+    :class:`UnsafeCacheWarning`.
+    """
     base = os.environ.get("METT_CACHE_DIR")
     if base:
         return Path(base) / "taylor"
     xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "mett" / "taylor"
+    root = Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
+    return root / "mett" / "taylor"
+
+
+def _unsafe(st: os.stat_result) -> str | None:
+    """Why a cache entry with this ``stat`` may not be trusted, or None (POSIX owner and mode;
+    on Windows, where neither means this, the user's profile directory is private by its ACL)."""
+    if not hasattr(os, "geteuid"):  # pragma: no cover - Windows
+        return None
+    if st.st_uid != os.geteuid():
+        return f"owned by uid {st.st_uid}, not by the current user ({os.geteuid()})"
+    if st.st_mode & 0o022:
+        return f"writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
+    return None
+
+
+def _warn_unsafe(path: Path, why: str) -> None:
+    if str(path) in _UNSAFE_WARNED:
+        return
+    _UNSAFE_WARNED.add(str(path))
+    warn(
+        f"not using the Taylor kernel cache {path}: it is {why}; compiling in memory instead "
+        "(make the directory yours with mode 0700, or set METT_CACHE_DIR to a private one)",
+        UnsafeCacheWarning,
+    )
+
+
+def _private_dir(d: Path) -> bool | None:
+    """Create the cache directory ``d`` (and its parent ``mett`` directory) with mode 0700 if
+    missing. True: ``d`` is safe to use; False: it exists but is unsafe (warned); None: it cannot
+    be created (a read-only home: no cache, silently)."""
+    try:
+        d.parent.parent.mkdir(parents=True, exist_ok=True)
+        for part in (d.parent, d):
+            part.mkdir(mode=0o700, exist_ok=True)
+        st = os.stat(d)
+    except OSError:
+        return None
+    if not stat.S_ISDIR(st.st_mode):
+        return None
+    why = _unsafe(st)
+    if why:
+        _warn_unsafe(d, why)
+        return False
+    return True
+
+
+def _read_private(path: Path, limit: int) -> bytes | None:
+    """The bytes of ``path`` if it is a regular file of the current user that nobody else can
+    write (checked on the open descriptor, so the file cannot be swapped between check and read)
+    and at most ``limit`` bytes; None if it does not exist or cannot be read. Raises
+    ``PermissionError`` with the reason if the file is not trustworthy."""
+    try:
+        # O_NOFOLLOW: a symbolic link fails (ELOOP); O_NONBLOCK: a FIFO cannot block the open
+        flags = os.O_RDONLY | sum(
+            getattr(os, f, 0) for f in ("O_NONBLOCK", "O_NOFOLLOW", "O_CLOEXEC")
+        )
+        fd = os.open(path, flags)
+    except OSError:  # missing, a symbolic link (ELOOP), unreadable
+        return None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            return None
+        why = _unsafe(st)
+        if why:
+            raise PermissionError(why)
+        if st.st_size > limit:
+            return None
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            return f.read(limit + 1)
+    except PermissionError:
+        raise
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a new file of mode 0600 in the same directory
+    (``O_EXCL``), fsynced, then renamed over ``path``; a reader sees the old file or the new
+    one, never part of one. Raises ``OSError``; leaves no temporary file behind."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    with contextlib.suppress(OSError):  # make the rename itself durable (ext4: else an empty file)
+        dfd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+
+
+def _build_id(ir: str, tm: Any) -> dict[str, Any]:
+    """What the machine code of ``ir`` depends on besides the IR itself: recorded beside each
+    cached object and compared before it is loaded (the CPU features too: virtual machines with
+    the same CPU name can mask different instruction sets)."""
+    import llvmlite
+    import llvmlite.binding as llvm
+
+    return {
+        "format": _CACHE_FORMAT,
+        "ir_sha256": hashlib.sha256(ir.encode()).hexdigest(),
+        "llvmlite": llvmlite.__version__,
+        "triple": tm.triple,
+        "cpu": llvm.get_host_cpu_name(),
+        "features": llvm.get_host_cpu_features().flatten(),
+    }
+
+
+def _cache_paths(name: str, build: dict[str, Any]) -> tuple[Path, Path]:
+    """The object file of kernel ``name`` for ``build`` (:func:`_build_id`) and its record."""
+    key = hashlib.sha256(json.dumps(build, sort_keys=True).encode()).hexdigest()[:24]
+    obj = cache_dir() / f"{name}-{key}.o"
+    return obj, obj.with_name(obj.name + ".json")
+
+
+def _cached_object(obj_path: Path, meta_path: Path, build: dict[str, Any]) -> bytes | None:
+    """The cached object if its record matches ``build`` and the object's sha256; None if it is
+    missing, damaged or stale (to be rebuilt). Raises ``PermissionError`` if not trustworthy."""
+    raw_meta = _read_private(meta_path, _MAX_META_BYTES)
+    if raw_meta is None:
+        return None
+    try:
+        meta = json.loads(raw_meta)
+    except ValueError:
+        return None
+    if not isinstance(meta, dict) or any(meta.get(k) != v for k, v in build.items()):
+        return None
+    obj = _read_private(obj_path, _MAX_OBJECT_BYTES)
+    if obj is None or hashlib.sha256(obj).hexdigest() != meta.get("sha256"):
+        return None
+    return obj
 
 
 def _target_machine() -> Any:
@@ -721,57 +915,73 @@ def _target_machine() -> Any:
     )
 
 
+def _compile(ir: str, tm: Any) -> bytes:
+    import llvmlite.binding as llvm
+
+    mod = llvm.parse_assembly(ir)
+    mod.verify()
+    # llvmlite leaves the SLP vectorizer off; on: no faster here, and 10-100x the compile
+    # time (80 s for the rolling top's jet)
+    pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=3))
+    pb.getModulePassManager().run(mod, pb)
+    return tm.emit_object(mod)
+
+
 def _native(ir: str, name: str) -> tuple[int, int]:
-    """Addresses of ``name`` and ``name_update`` compiled from ``ir`` (machine code cached on
-    disk)."""
-    import llvmlite
+    """Addresses of ``name`` and ``name_update`` compiled from ``ir`` (machine code cached in the
+    user's :func:`cache_dir`, verified before it is loaded)."""
     import llvmlite.binding as llvm
 
     with _LOCK:
         if name in _ADDRESSES:
             return _ADDRESSES[name]
         tm = _target_machine()
-        key = hashlib.sha256(
-            "\0".join([ir, llvm.get_host_cpu_name(), tm.triple, llvmlite.__version__]).encode()
-        ).hexdigest()[:24]
+        build = _build_id(ir, tm)
+        obj_path, meta_path = _cache_paths(name, build)
+        usable = _private_dir(obj_path.parent)
         obj = None
-        dirs = [_cache_dir(), Path(tempfile.gettempdir()) / "mett-cache" / "taylor"]
-        for d in dirs:
-            path = d / f"{name}-{key}.o"
-            if path.exists():
-                obj = path.read_bytes()
-                break
+        if usable:
+            try:
+                obj = _cached_object(obj_path, meta_path, build)
+            except PermissionError as exc:  # a planted or foreign file: neither used nor replaced
+                _warn_unsafe(obj_path, str(exc))
+                usable = False
+        source = "loaded"
         if obj is None:
-            mod = llvm.parse_assembly(ir)
-            mod.verify()
-            # llvmlite leaves the SLP vectorizer off; on: no faster here, and 10-100x the compile
-            # time (80 s for the rolling top's jet)
-            pb = llvm.create_pass_builder(tm, llvm.create_pipeline_tuning_options(speed_level=3))
-            pb.getModulePassManager().run(mod, pb)
-            obj = tm.emit_object(mod)
-            for d in dirs:  # best effort: a read-only home only costs a recompile
+            obj = _compile(ir, tm)
+            source = "memory"
+            if usable:  # a damaged or stale entry is replaced; a failed write costs nothing
+                meta = {**build, "name": name, "sha256": hashlib.sha256(obj).hexdigest()}
                 try:
-                    d.mkdir(parents=True, exist_ok=True)
-                    tmp = d / f"{name}-{key}.{os.getpid()}.tmp"
-                    tmp.write_bytes(obj)
-                    os.replace(tmp, d / f"{name}-{key}.o")
-                    break
+                    _write_atomic(obj_path, obj)  # the object first: its record vouches for it
+                    _write_atomic(meta_path, json.dumps(meta, sort_keys=True).encode())
+                    source = "written"
                 except OSError:
-                    continue
+                    pass
         ee = llvm.create_mcjit_compiler(llvm.parse_assembly(""), tm)
         ee.add_object_file(llvm.ObjectFileRef.from_data(obj))
         ee.finalize_object()
         addr = (ee.get_function_address(name), ee.get_function_address(f"{name}_update"))
-        if not all(addr):  # pragma: no cover - a broken object file
+        if not all(addr):  # pragma: no cover - an object without the kernel's symbols
             raise RuntimeError(f"compiled Taylor kernel {name} has no entry point")
         _ENGINES.append(ee)
         _ADDRESSES[name] = addr
+        _SOURCES[name] = source
         return addr
 
 
 def order_for(tol: float) -> int:
     """Taylor order p = ⌈−½ ln ε⌉ + 1 for a tolerance ε (Jorba & Zou 2005, §3.3), at least 6."""
     return max(math.ceil(-0.5 * math.log(tol)) + 1, 6)
+
+
+def _kernel_source(
+    tr: _Traced, order: int, label: str, lanes: int, vectors: tuple
+) -> tuple[str, str]:
+    """The symbol name and the LLVM IR of a kernel (``vectors`` normalised by _norm_groups)."""
+    digest = hashlib.sha256(repr((tr, order, lanes, vectors)).encode()).hexdigest()[:16]
+    name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
+    return name, _IR(tr, order, name, lanes, vectors).text()
 
 
 class TaylorKernel:
@@ -783,9 +993,7 @@ class TaylorKernel:
         self.traced, self.order, self.lanes = tr, order, lanes
         self.n_state, self.n_events = tr.n_state, len(tr.events)
         self.vectors = _norm_groups(vectors, tr.n_state)
-        digest = hashlib.sha256(repr((tr, order, lanes, self.vectors)).encode()).hexdigest()[:16]
-        self.name = f"mett_jet_{label}_{order}x{lanes}_{digest}".replace("-", "_")
-        ir = _IR(tr, order, self.name, lanes, self.vectors).text()
+        self.name, ir = _kernel_source(tr, order, label, lanes, self.vectors)
         self.address = _native(ir, self.name)
         self.function = _JetAddress(self.address[0], _JET_SIG)
         self.update = _JetAddress(self.address[1], _UPDATE_SIG)
@@ -846,6 +1054,10 @@ def kernel(
 import numba  # noqa: E402  (only the integrator needs numba; tracing does not)
 from numba import types  # noqa: E402
 
+from .._numba_cache import install as _check_numba_cache  # noqa: E402
+
+_check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
+
 _F8P = types.CPointer(types.float64)
 _JET_SIG = types.void(_F8P, _F8P, _F8P, _F8P, _F8P, _F8P)
 _JET_TYPE = types.FunctionType(_JET_SIG)
@@ -870,7 +1082,7 @@ COMPLETED, TERMINAL_EVENT, NON_FINITE, STEP_TOO_SMALL, MAX_STEPS = 0, 1, -1, -2,
 STATUS_MESSAGES = {
     COMPLETED: "the end of the interval was reached",
     TERMINAL_EVENT: "a terminal event occurred",
-    NON_FINITE: "the solution became non-finite",
+    NON_FINITE: "the solution or its Taylor coefficients became non-finite",
     STEP_TOO_SMALL: "the step size fell below the resolution of t",
     MAX_STEPS: "the maximum number of steps was reached",
 }
@@ -972,6 +1184,7 @@ def _integrate(
     last_of = np.zeros(W, dtype=np.bool_)
     active = np.ones(W, dtype=np.bool_)
     next_sample = np.zeros(W, dtype=np.int64)
+    sample_from = np.zeros(W, dtype=np.int64)
     bound = np.empty((n_ev, W))
     for lane in range(W):
         T[0, lane] = t0[lane]
@@ -1081,6 +1294,7 @@ def _integrate(
             hit_of[lane] = hit
             last_of[lane] = last
             # the samples in this step, from its polynomial
+            sample_from[lane] = next_sample[lane]
             t_stop = t_end if last else t[lane] + hl
             while next_sample[lane] < n_tt and tt[next_sample[lane]] <= t_stop:
                 x = tt[next_sample[lane]] - t[lane]
@@ -1096,15 +1310,23 @@ def _integrate(
             for i in range(n):
                 v = y_new[i, lane]
                 finite = finite and (v - v == 0.0)
-                y[i, lane] = v
-                Y[slot, i, lane] = v
+            if not finite:
+                # the step is not kept: the run ends at its last finite state, and the samples
+                # taken from this step's polynomial are dropped (as after any stop)
+                info[lane, 2] = NON_FINITE
+                active[lane] = False
+                while next_sample[lane] > sample_from[lane]:
+                    next_sample[lane] -= 1
+                    for i in range(n):
+                        S[next_sample[lane], i, lane] = math.nan
+                continue
+            for i in range(n):
+                y[i, lane] = y_new[i, lane]
+                Y[slot, i, lane] = y_new[i, lane]
             info[lane, 0] = it + 1
             t[lane] = t_end if last_of[lane] else t[lane] + h[lane]
             T[slot, lane] = t[lane]
-            if not finite:
-                info[lane, 2] = NON_FINITE
-                active[lane] = False
-            elif hit_of[lane] >= 0:
+            if hit_of[lane] >= 0:
                 info[lane, 1] = hit_of[lane]
                 info[lane, 2] = TERMINAL_EVENT
                 active[lane] = False
