@@ -250,7 +250,6 @@ def _unstable_spin(top: TippeTop, model: str, kw: dict, lam: float, pole: str, e
 
     from .dynamics import MODELS
     from .friction import Viscous
-    from .stability import spin_eigenvalues
 
     if pole not in _SPIN_MODELS.get(model, ()):
         return ""
@@ -268,18 +267,42 @@ def _unstable_spin(top: TippeTop, model: str, kw: dict, lam: float, pole: str, e
     eig_top = top if mu == top.mu else dataclasses.replace(top, mu=mu)
     if not lam > 0.0:  # no spin: upright rests on the ball's bottom (stable), inverted falls
         return "" if pole == "upright" else f"θ ends near the {pole} pole without spin (unstable)"
+    # Whether the spin is unstable, remembered per (top without mu, mu > 0, λ, pole): with
+    # friction, the thresholds λ_0, λ_thres that decide it do not depend on mu
+    # (docs/theory/thresholds.md#thresholds; a test checks the eigenvalues' signs), so a sweep over
+    # friction computes the eigenvalues once.
+    key = (*(getattr(top, f) for f in _PREDICTION_KEY), mu > 0.0, lam, pole)
+    unstable = _UNSTABLE.get(key)
     try:
-        ev = spin_eigenvalues(eig_top, lam, pole)
+        if unstable is None:
+            unstable = _growth_rate(eig_top, lam, pole) > 0.0
+            if len(_UNSTABLE) >= 4096:  # bounded, as _PREDICTED
+                _UNSTABLE.clear()
+            _UNSTABLE[key] = unstable
+        if not unstable:
+            return ""
+        rate = f" (growth rate {_growth_rate(eig_top, lam, pole):.3g} 1/s)" if viscous else ""
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         return f"the stability of the {pole} spin could not be decided ({exc})"
-    sigma = float(ev.real.max())
-    if not sigma > _UNSTABLE_REL * float(np.abs(ev).max()):
-        return ""
-    rate = f" (growth rate {sigma:.3g} 1/s)" if viscous else ""
     return (
         f"θ ends near the {pole} spin, which is unstable at this λ{rate}: the top is still "
         "escaping from it; run longer"
     )
+
+
+_UNSTABLE: dict[tuple, bool] = {}
+
+
+def _growth_rate(top: TippeTop, lam: float, pole: str) -> float:
+    """The largest real part σ (1/s) of the spin's eigenvalues, or 0 where it is 0 to rounding
+    (a frictionless, neutral spin)."""
+    import numpy as np
+
+    from .stability import spin_eigenvalues
+
+    ev = spin_eigenvalues(top, lam, pole)
+    sigma = float(ev.real.max())
+    return sigma if sigma > _UNSTABLE_REL * float(np.abs(ev).max()) else 0.0
 
 
 def _row(row: dict, point: dict, job: tuple, end: Any) -> dict:

@@ -550,3 +550,17 @@ def test_a_full_disk_is_one_error_naming_the_checkpoint_and_resumes(tmp_path, mo
     monkeypatch.setattr(mett.sweeps.os, "fsync", real)  # space freed
     resumed = sweep(TOP, grid, t_end=0.01, progress=False, checkpoint=path)
     pd.testing.assert_frame_equal(resumed, sweep(TOP, grid, t_end=0.01, progress=False))
+
+
+def test_the_spin_stability_a_sweep_remembers_does_not_depend_on_friction():
+    # mett.sweep remembers whether a spin is unstable by the top without mu (and mu > 0): the sign
+    # of the eigenvalues' largest real part must not depend on mu, on either side of λ_0 and λ_thres
+    from mett.stability import spin_eigenvalues
+
+    for top in (TOP, TOP.replace(I1=0.9 * TOP.I3), TOP.replace(I1=1.1 * TOP.I3)):
+        for lam in np.geomspace(0.05, 20.0, 24) * top.lambda_thres:  # not at a threshold
+            for pole, threshold in (("upright", top.lambda_0), ("inverted", top.lambda_thres)):
+                want = (lam > threshold) if pole == "upright" else (lam < threshold)
+                for mu in (1e-4, 0.3, 40.0):
+                    sigma = spin_eigenvalues(top.replace(mu=mu), lam, pole).real.max()
+                    assert (sigma > 0) == want, (lam / top.lambda_thres, pole, mu)
