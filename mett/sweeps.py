@@ -452,21 +452,19 @@ def _checkpoint_path(value: Any) -> Path:
     open, a device or /dev/stdout cannot be read back)."""
     import stat
 
-    path = _validate.output_path("checkpoint", value)
-    where = os.path.abspath(path)
-    for p in (where, os.path.realpath(path)):
-        if p == "/dev" or p.startswith(("/dev/", "/proc/")):
-            raise ValueError(f"checkpoint must be a regular file; got {str(path)!r}")
-    try:
-        mode = path.stat().st_mode
-    except FileNotFoundError:
-        return path
-    except OSError as exc:
-        raise ValueError(f"checkpoint: cannot inspect {str(path)!r} ({exc.strerror})") from None
-    if not stat.S_ISREG(mode):
-        kind = "a FIFO" if stat.S_ISFIFO(mode) else "not a regular file"
-        raise ValueError(f"checkpoint must be a regular file; {str(path)!r} is {kind}")
-    return path
+    if isinstance(value, (str, os.PathLike)) and not isinstance(value, bytes) and os.fspath(value):
+        path = Path(value)
+        for p in (os.path.abspath(path), os.path.realpath(path)):
+            if p == "/dev" or p.startswith(("/dev/", "/proc/")):
+                raise ValueError(f"checkpoint must be a regular file; got {str(path)!r}")
+        try:
+            mode = path.stat().st_mode
+        except OSError:  # missing (or unreadable: output_path says so)
+            mode = None
+        if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+            kind = "a FIFO" if stat.S_ISFIFO(mode) else "not a regular file"
+            raise ValueError(f"checkpoint must be a regular file; {str(path)!r} is {kind}")
+    return _validate.output_path("checkpoint", value)
 
 
 class _Checkpoint:
@@ -492,9 +490,13 @@ class _Checkpoint:
                 "signature": _signature(base, grid), "args": summary,
             }  # fmt: skip
             # "x": a file created by someone else since the check is not overwritten
-            with open(path, "w" if path.exists() else "x", encoding="utf-8") as fh:
+            fh = open(path, "w" if path.exists() else "x", encoding="utf-8")
+            try:
                 self._guard(lambda: (fh.write(json.dumps(header) + "\n"), fh.flush(),
                                      os.fsync(fh.fileno())))  # fmt: skip
+            finally:
+                self._fh = fh
+                self.close()
         self._fh = open(path, "a", encoding="utf-8")
 
     def _damaged(self, lineno: int, line: bytes, why: str) -> ValueError:

@@ -528,7 +528,8 @@ def test_a_fifo_or_a_device_is_refused_as_checkpoint_without_blocking(tmp_path):
             sweep(TOP, {"mu": [0.3]}, t_end=0.01, progress=False, checkpoint=dev)
 
 
-def test_a_full_disk_is_one_error_naming_the_checkpoint_and_resumes(tmp_path, monkeypatch):
+@pytest.mark.parametrize("room", [0, 2])  # the disk fills at the header, or after one record
+def test_a_full_disk_is_one_error_naming_the_checkpoint_and_resumes(tmp_path, monkeypatch, room):
     import errno
 
     path = tmp_path / "c.jsonl"
@@ -536,9 +537,9 @@ def test_a_full_disk_is_one_error_naming_the_checkpoint_and_resumes(tmp_path, mo
     real = os.fsync
     calls = []
 
-    def fsync(fd):  # the header and one record fit; then the disk is full
+    def fsync(fd):  # `room` writes fit; then the disk is full
         calls.append(fd)
-        if len(calls) > 2:
+        if len(calls) > room:
             raise OSError(errno.ENOSPC, "No space left on device")
         real(fd)
 
