@@ -692,6 +692,11 @@ def _friction_option(friction: Any, contensou_radius: Any, names: list[str]) -> 
                 "contensou_radius= is for a law given by name; a Coulomb law given whole carries "
                 "its own contensou_radius"
             )
+        if out.get("friction") != "coulomb" and "friction" not in names:
+            raise ValueError(
+                "contensou_radius= applies to the Coulomb law: give friction='coulomb' (or a "
+                f"grid axis 'friction'); got friction={friction!r}"
+            )
         out["contensou_radius"] = _validate.positive_scalar(
             "contensou_radius", contensou_radius, allow_zero=True
         )

@@ -466,6 +466,7 @@ def test_a_run_that_does_not_complete_exits_1_with_its_results(tmp_path, capsys)
     assert code == 1 and json.loads(out)["status"] == "contact_lost"
 
 
+@pytest.mark.slow  # the run fails only after its step budget: half a minute
 def test_the_issue_s_failed_run_exits_1():
     out = run("simulate", *THESIS, "--theta0", "0.1", "--omega3", "155", "--t-end", "1e9", "--json")
     assert out.returncode == 1, out.stderr

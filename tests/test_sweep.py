@@ -332,6 +332,11 @@ def test_no_prediction_for_a_negative_lambda_says_why():
         ({"contensou_radius": [0.0]}, {"contensou_radius": 0.001, "friction": "coulomb"},
          "contensou_radius= and a grid axis"),
         ({"mu": [0.3]}, {"friction": "dry"}, "friction must be one of"),
+        ({"mu": [0.3]}, {"contensou_radius": 1e-3}, "contensou_radius= applies to the Coulomb"),
+        ({"mu": [0.3]}, {"contensou_radius": 1e-3, "friction": "viscous"},
+         "contensou_radius= applies to the Coulomb"),
+        ({"omega3": [155.0]}, {"contensou_radius": 1e-3, "friction": mett.friction.Coulomb(0.3)},
+         "carries its own contensou_radius"),
     ],
 )  # fmt: skip
 def test_options_the_grid_overrides_are_refused(grid, kw, needle):
