@@ -558,3 +558,11 @@ def test_the_repository_figure_index_is_the_one_mett_writes():
     paths = [root / f"{n}.png" for n in gallery.FIGURES] + [root / "deforming_potential.gif"]
     assert (root / gallery.INDEX_NAME).read_text() == gallery.index_markdown(paths)
     assert all(p.exists() for p in paths)
+
+
+def test_a_grid_product_over_the_maximum_is_one_line(tmp_path, capsys):
+    # each axis within the per-axis cap, the product 10¹⁰ points: refused before any point
+    argv = ["sweep", *THESIS, "--grid", "mu=0:1:100000", "--grid", "lam_ratio=0.5:2:100000",
+            "--t-end", "1", "--out", tmp_path / "s.csv"]  # fmt: skip
+    assert_error(call(argv, capsys), "100000 x 100000 = 10000000000 points; at most MAX_POINTS")
+    assert list(tmp_path.iterdir()) == []
