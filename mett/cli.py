@@ -454,7 +454,7 @@ def _parse_grid(specs: list[str]) -> dict:
     grid = {}
     for spec in specs:
         name, sep, rng = spec.partition("=")
-        parts = rng.split(":")
+        parts = [p.strip() for p in rng.split(":")]
         if not sep or len(parts) != 3:
             raise ValueError(f"--grid takes name=start:stop:num; got {spec!r}")
         if not (_FLOAT.fullmatch(parts[0]) and _FLOAT.fullmatch(parts[1])
