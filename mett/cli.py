@@ -6,6 +6,13 @@ shows it for a bug report. Arguments, paths and options are checked before any c
 write. Warnings are printed one line each (``mett: warning: ...``) after a successful command and
 dropped when the command fails. Progress bars (tqdm, on stderr) are shown by default only when
 stderr is a terminal, so logs never receive carriage-return animations.
+
+Exit status (:data:`EXIT_STATUS`): 0 success; 1 ``mett simulate`` ran but its run did not complete
+(status "failed" or "contact_lost": the partial results are printed and written as asked); 2 bad
+input, a file that cannot be written, or nothing to print to (stdout closed); 70 an internal error
+(a bug: rerun with ``--traceback``); 130 interrupted (Ctrl-C); 141 stdout is a closed pipe
+(``mett info | head -1``: quietly, as other Unix tools). ``mett sweep`` exits 0 once its table is
+written, whatever the statuses of its rows (they are data, counted in its summary).
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import warnings
 from collections.abc import Callable, Sequence
@@ -23,7 +31,18 @@ from typing import Any
 from . import __version__, presets
 from .top import TippeTop
 
-__all__ = ["main"]
+__all__ = ["EXIT_STATUS", "main"]
+
+EXIT_STATUS = {
+    0: "success",
+    1: "mett simulate: the run did not complete (failed or contact_lost); partial results kept",
+    2: "bad input or options, a file that cannot be written or read, stdout closed",
+    70: "internal error (a bug: rerun with --traceback and report it)",
+    130: "interrupted (Ctrl-C)",
+    141: "stdout is a closed pipe (e.g. mett info | head -1)",
+}
+"""What each exit status of ``mett`` means (printed by ``mett --help``)."""
+_INCOMPLETE, _USAGE, _INTERNAL, _INTERRUPTED, _BROKEN_PIPE = 1, 2, 70, 130, 141
 
 _FIELDS = ("m", "R", "alpha", "I1", "I3", "mu", "g")
 _UNITS = {"m": "kg", "R": "m", "alpha": "1", "I1": "kg m^2", "I3": "kg m^2", "mu": "s/m",
@@ -32,7 +51,15 @@ _UNITS = {"m": "kg", "R": "m", "alpha": "1", "I1": "kg m^2", "I3": "kg m^2", "mu
 _SCHEDULER_TIMEOUT = 5.0
 
 
+# A negative number as an option's value: argparse alone takes "-1e20" for an option.
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.I)
+
+
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER  # argparse's hook for "is a number"
+
     def error(self, message: str) -> None:  # one line, exit 2
         self.exit(2, f"mett: error: {_one_line(message)}\n")
 
@@ -47,11 +74,16 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 # --- argument types: checked by argparse, so a bad value is a one-line usage error -------------
+# Numbers as written in C, Python or a shell script, in ASCII: float() alone also takes "1_000"
+# and digits of other scripts ("١٥٥").
+_FLOAT = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(inf|infinity|nan)", re.I | re.A)
+_INT = re.compile(r"[+-]?\d+", re.A)
+
+
 def _real(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid float value: {text!r}") from None
+    if not _FLOAT.fullmatch(text.strip()):
+        raise argparse.ArgumentTypeError(f"invalid float value: {text!r}")
+    x = float(text)
     if not math.isfinite(x):
         raise argparse.ArgumentTypeError(f"must be a finite number; got {text!r}")
     return x
@@ -79,10 +111,9 @@ def _theta(text: str) -> float:
 
 
 def _workers(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not _INT.fullmatch(text.strip()):
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}")
+    n = int(text)
     if not 1 <= n <= 4096:
         raise argparse.ArgumentTypeError(f"must lie in [1, 4096]; got {text!r}")
     return n
@@ -305,6 +336,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             pred = asymptotic_state(top, lam)
         except (ValueError, ArithmeticError, RuntimeError) as exc:  # the run's results stand
             pred_error = _one_line(str(exc))
+    else:  # the end-state theory is for λ > 0 (a mirror image spins with −λ)
+        pred_error = f"lambda = {lam:.6g} <= 0: the end-state prediction needs lambda > 0"
+    status = 0 if traj.status == "completed" else _INCOMPLETE
     if args.json:
         _print_json(
             {
@@ -320,7 +354,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                 "units": {"lambda": "kg m^3/s", "t": "s", "theta": "rad", "omega3": "rad/s"},
             }
         )  # fmt: skip
-        return 0
+        return status
     rows = [
         ("status", traj.status + (f" ({traj.message})" if traj.message else "")),
         ("lambda / lambda_thres", _fmt(lam / top.lambda_thres)),
@@ -339,7 +373,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         rows.append(("predicted end state", f"unavailable ({pred_error})"))
     rows += [("wrote", str(p)) for p in written]
     _print_rows(rows)
-    return 0
+    return status
 
 
 def _cmd_period(args: argparse.Namespace) -> int:
@@ -406,8 +440,11 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
     progress = _progress_enabled(False if args.quiet else args.progress)
     paths = gallery.generate(out, animation=not args.no_animation, progress=progress, **kw)
-    (out / "README.md").write_text(gallery.index_markdown(paths), encoding="utf-8")
-    _print_rows([("wrote", str(p)) for p in paths])
+    # under mett's own name: `--out .` must not replace a README.md of the user's
+    index = out / gallery.INDEX_NAME
+    left_out = gallery.skipped(kw.get("top"))
+    index.write_text(gallery.index_markdown(paths, left_out=left_out), encoding="utf-8")
+    _print_rows([("wrote", str(p)) for p in [*paths, index]])
     return 0
 
 
@@ -417,15 +454,13 @@ def _parse_grid(specs: list[str]) -> dict:
     grid = {}
     for spec in specs:
         name, sep, rng = spec.partition("=")
-        parts = rng.split(":")
+        parts = [p.strip() for p in rng.split(":")]
         if not sep or len(parts) != 3:
             raise ValueError(f"--grid takes name=start:stop:num; got {spec!r}")
-        try:
-            start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
-        except ValueError:
-            raise ValueError(
-                f"--grid takes name=start:stop:num with numbers; got {spec!r}"
-            ) from None
+        if not (_FLOAT.fullmatch(parts[0]) and _FLOAT.fullmatch(parts[1])
+                and _INT.fullmatch(parts[2])):  # fmt: skip
+            raise ValueError(f"--grid takes name=start:stop:num with numbers; got {spec!r}")
+        start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
         if not (math.isfinite(start) and math.isfinite(stop)):
             raise ValueError(f"--grid start and stop must be finite; got {spec!r}")
         if not 1 <= num <= 1_000_000:
@@ -443,15 +478,28 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         if ckpt.resolve() == out.resolve():
             raise ValueError("--checkpoint and --out must be different files")
     grid = _parse_grid(args.grid)
+    # an option the grid overrides would be silently ignored
+    overrides = {name: [name] for name in (*_FIELDS, "theta0", "omega3")}
+    overrides["omega3"].append("lam_ratio")  # lam_ratio sets ω3 at every point
+    overrides["I1"].append("gamma")  # gamma sets I1 = γ I3
+    for option, axes in overrides.items():
+        hit = [a for a in axes if a in grid]
+        if getattr(args, option) is not None and hit:
+            raise ValueError(
+                f"--{option} is ignored when --grid varies {hit[0]} (it sets {option} at every "
+                f"point); leave --{option} out"
+            )
     top = _top_from_args(args)
 
     from .sweeps import sweep
 
     kw = dict(
-        t_end=args.t_end, theta0=args.theta0, omega3=args.omega3,
-        progress=_progress_enabled(args.progress), checkpoint=args.checkpoint,
+        t_end=args.t_end, progress=_progress_enabled(args.progress), checkpoint=args.checkpoint,
         model=args.model, rtol=args.rtol,
     )  # fmt: skip
+    for name in ("theta0", "omega3"):  # the library's defaults unless given
+        if getattr(args, name) is not None:
+            kw[name] = getattr(args, name)
     if args.backend != "auto":  # (as before otherwise: a checkpoint's signature is unchanged)
         kw["backend"] = args.backend
     if args.scheduler is not None:
@@ -520,6 +568,7 @@ def _build_parser() -> argparse.ArgumentParser:
         prog="mett",
         description="Tippe-top dynamics around the METT.",
         formatter_class=_Formatter,
+        epilog="exit status: " + "; ".join(f"{k} {v}" for k, v in EXIT_STATUS.items()),
     )
     parser.add_argument("--version", action="version", version=f"mett {__version__}")
     parser.add_argument(
@@ -580,8 +629,11 @@ def _build_parser() -> argparse.ArgumentParser:
         "gamma or lam_ratio",
     )  # fmt: skip
     p.add_argument("--t-end", type=_positive, required=True, help="simulated time per run [s]")
-    p.add_argument("--theta0", type=_theta, default=0.1, help="θ(0) [rad]")
-    p.add_argument("--omega3", type=_real, default=155.0, help="ω3(0) [rad/s]")
+    p.add_argument("--theta0", type=_theta, default=None, help="θ(0) [rad] (default: 0.1)")
+    p.add_argument(
+        "--omega3", type=_real, default=None,
+        help="ω3(0) [rad/s] (default: 155; not with a lam_ratio grid, which sets it)",
+    )  # fmt: skip
     p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
     p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
     p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
@@ -602,7 +654,11 @@ def _build_parser() -> argparse.ArgumentParser:
     p = add("figures", "regenerate every published figure (of the thesis top or another)",
             _cmd_figures)  # fmt: skip
     _add_top_arguments(p)
-    p.add_argument("--out", default="figures", help="output directory")
+    p.add_argument(
+        "--out", default="figures",
+        help="output directory: the PNGs, the GIF and an index mett-figures.md (mett's own file "
+        "names only; nothing else there is touched)",
+    )  # fmt: skip
     p.add_argument("--no-animation", action="store_true", help="skip the GIF")
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help=progress_help
@@ -623,24 +679,44 @@ def _error(exc: BaseException) -> str:
     return _one_line(str(exc)) or type(exc).__name__
 
 
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null: its reader is gone, and the interpreter's own flush at exit
+    must not print a second error."""
+    try:
+        fd = sys.stdout.fileno()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, fd)
+        os.close(devnull)
+    except (AttributeError, OSError, ValueError):  # not a real file (a test's capture)
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``mett`` command with ``argv`` (default: ``sys.argv[1:]``); return the exit status.
 
     Usage errors raise ``SystemExit(2)`` from argparse (``--help`` and ``--version``:
-    ``SystemExit(0)``); errors found while running return 2 after one line on stderr.
+    ``SystemExit(0)``); errors found while running return 2 after one line on stderr. The other
+    statuses are in :data:`EXIT_STATUS`.
     """
     import numpy as np
 
     parser = _build_parser()
     args = parser.parse_args(argv)
+    if sys.stdout is None:  # started with stdout closed (`mett info >&-`): results would be lost
+        print("mett: error: standard output is closed; nothing could be printed", file=sys.stderr)
+        return _USAGE
     with warnings.catch_warnings(record=True) as caught:
         if not sys.warnoptions:  # python -W ... decides for itself
             warnings.simplefilter("default")
         try:
             status = args.func(args)
+            sys.stdout.flush()  # a closed pipe shows here, not at the interpreter's exit
         except KeyboardInterrupt:
             print("mett: interrupted", file=sys.stderr)
-            return 130
+            return _INTERRUPTED
+        except BrokenPipeError:  # the reader of stdout is gone (`| head -1`): quietly
+            _quiet_stdout()
+            return _BROKEN_PIPE
         except (
             ValueError,
             TypeError,
@@ -651,7 +727,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.traceback:
                 raise
             print(f"mett: error: {_error(exc)}", file=sys.stderr)
-            return 2
+            return _USAGE
         except Exception as exc:  # a bug: still one line, with a hint for the report
             if args.traceback:
                 raise
@@ -660,7 +736,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "rerun with --traceback and report it",
                 file=sys.stderr,
             )
-            return 1
+            return _INTERNAL
     for w in caught:
         print(f"mett: warning: {_one_line(str(w.message))}", file=sys.stderr)
     return status

@@ -2,8 +2,10 @@
 surface (Rutstam 2012), the potential map with the run's path, the deforming potential and the
 separation equation.
 
-``mett figures --out DIR`` (or :func:`generate`) writes them as PNG (and one GIF); the checked-in
-copies live in ``figures/`` at the top of the repository. ``generate(out, top=...)`` draws the same
+``mett figures --out DIR`` (or :func:`generate`) writes them as PNG (and one GIF), with an index
+:data:`INDEX_NAME`; the checked-in copies live in ``figures/`` at the top of the repository. Only
+files of mett's own names (:func:`file_names`) are written, so ``--out .`` never replaces a file of
+the user's such as ``README.md``. ``generate(out, top=...)`` draws the same
 figures for any top: the run then starts at θ = 0.1 rad with λ = 2 λ_thres (the thesis run has
 λ ≈ 2.005 λ_thres), long enough to invert. Tops that cannot invert (groups I and III) get every
 figure but those of the run (:func:`skipped` says which and why).
@@ -25,7 +27,10 @@ from ._validate import MettWarning
 if TYPE_CHECKING:
     from .top import TippeTop
 
-__all__ = ["FIGURES", "FigureSkippedWarning", "generate", "skipped"]
+__all__ = ["FIGURES", "INDEX_NAME", "FigureSkippedWarning", "file_names", "generate", "skipped"]
+
+INDEX_NAME = "mett-figures.md"
+"""The Markdown index ``mett figures`` writes beside the figures (a name no other tool uses)."""
 
 THESIS_LAMBDA = 6.8944e-6
 """λ (kg m³/s) of the thesis run (θ = 0.1 rad, ω3 = 155 rad/s), used for the Rutstam 2012 surface."""
@@ -332,8 +337,13 @@ def generate(
     return written
 
 
+def file_names() -> list[str]:
+    """Every file name :func:`generate` and ``mett figures`` may write (nothing else is touched)."""
+    return [*(f"{n}.png" for n in FIGURES), *(f"{n}.gif" for n in ANIMATIONS), INDEX_NAME]
+
+
 def index_markdown(paths: Iterable[Path], *, left_out: dict[str, str] | None = None) -> str:
-    """A Markdown gallery of the written figures (for ``figures/README.md``), with the skipped."""
+    """A Markdown gallery of the written figures (:data:`INDEX_NAME`), with the skipped."""
     lines = ["# Figures", "", "Regenerate with `mett figures --out figures`.", ""]
     for p in paths:
         key = p.stem

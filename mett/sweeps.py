@@ -28,9 +28,10 @@ from typing import Any
 import pandas as pd
 
 from . import _validate
+from ._validate import MettWarning
 from .top import TippeTop
 
-__all__ = ["GRID_NAMES", "classify_end", "sweep"]
+__all__ = ["GRID_NAMES", "MAX_POINTS", "CheckpointWarning", "classify_end", "sweep"]
 
 _TOP_FIELDS = tuple(f.name for f in dataclasses.fields(TippeTop))
 _STATE_FIELDS = ("theta0", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
@@ -42,7 +43,21 @@ GRID_NAMES = (*_TOP_FIELDS, *_STATE_FIELDS, *_DERIVED, *_FRICTION)
 friction law: ``friction`` (names of :data:`mett.friction.LAW_NAMES`; its coefficient is ``mu``)
 and ``contensou_radius`` (m, Coulomb only)."""
 
-_CHECKPOINT_VERSION = 1
+_CHECKPOINT_VERSION = 2
+# Version 1 (mett before the checkpoint recorded its version) hashed the list of every point;
+# version 2 hashes the axes. Both are read.
+_CHECKPOINT_VERSIONS = (1, 2)
+
+MAX_POINTS = 1_000_000
+"""Most points a grid may have (the product of its axes' lengths), checked before any point is
+built: the table holds a row per point in memory (about 1 kB each)."""
+
+
+class CheckpointWarning(MettWarning):
+    """A checkpoint is resumed whose rows mett cannot vouch for (written before it recorded its
+    version)."""
+
+
 # θ within this of a pole counts as that pole when classifying a simulated end state
 _POLE_TOL = 0.05
 # A run has settled when, over its last _SETTLE_WINDOW (a fraction of the run), θ moved less than
@@ -116,16 +131,52 @@ _NAN_RESULT = dict(
     t_invert=math.nan, theta_end=math.nan, omega3_end=math.nan, omega3_start=math.nan,
     lam=math.nan, lam_ratio=math.nan, gamma=math.nan, predicted="n/a", agree=False,
 )  # fmt: skip
+# The types of a row's result columns (checked when a checkpoint is resumed).
+_ROW_TYPES: dict[str, type] = {
+    **{k: float for k in _NAN_RESULT if k not in ("predicted", "agree")},
+    "predicted": str, "agree": bool, "status": str, "message": str, "simulated": str,
+}  # fmt: skip
+
+# The models whose spins (θ = 0 and θ = π on the ball) are those linearised by
+# mett.stability.spin_eigenvalues (the gliding ball; docs/theory/thresholds.md#thresholds: their
+# stability is decided by λ alone, for any friction that dissipates gliding). A stemmed top spins
+# on its stem near θ = π, so only its upright spin is checked. The other models (rolling,
+# frictionless, the cylinder, the heavy symmetric top) have no such analysis in mett.
+_SPIN_MODELS = {
+    "gliding": ("upright", "inverted"), "gliding-euler": ("upright", "inverted"),
+    "coulomb": ("upright", "inverted"), "coulomb-contensou": ("upright", "inverted"),
+    "coulomb-regularised": ("upright", "inverted"), "stemmed": ("upright",),
+    "stemmed-coulomb": ("upright",), "stemmed-coulomb-contensou": ("upright",),
+}  # fmt: skip
+# A spin counts as unstable when its largest growth rate exceeds this fraction of the largest
+# eigenvalue's modulus: the eigenvalues of the 6 × 6 block are exact to a few ulps of its norm
+# (complex-step Jacobian, LAPACK), so a frictionless (neutral) spin is not called unstable.
+_UNSTABLE_REL = 1e-12
 
 
 def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _start(base: dict, point: dict) -> tuple[dict, Any]:
-    """The row of a grid point so far, and (top, state, simulate options, start values) to run,
-    or None if the point's parameters are refused (the row then says why)."""
+def _law(base: dict, point: dict, top: TippeTop) -> Any:
+    """The friction law of a point (None: simulate's default), from the grid's ``friction`` name
+    or the sweep's ``friction=`` (a name, whose coefficient is the point's ``mu``, or a law)."""
     from . import friction
+
+    fixed = base["simulate_kw"].get("friction")
+    law = point.get("friction", fixed)
+    if law is None:
+        return None
+    if isinstance(law, dict):  # a law given whole: friction=Coulomb(0.3), …
+        fields = {k: v for k, v in law.items() if k != "law"}
+        return getattr(friction, law["law"])(**fields)
+    r = point.get("contensou_radius", base["simulate_kw"].get("contensou_radius", 0.0))
+    return friction.from_name(law, top.mu, contensou_radius=r)
+
+
+def _start(base: dict, point: dict) -> tuple[dict, Any]:
+    """The row of a grid point so far, and (top, state, simulate options, start values, model) to
+    run, or None if the point's parameters are refused (the row then says why)."""
     from .integrals import jellett
     from .state import State
 
@@ -145,15 +196,15 @@ def _start(base: dict, point: dict) -> tuple[dict, Any]:
         result = dict(status="invalid", message=str(exc), simulated="invalid")
         return _finish(row, point, result), None
     kw: dict[str, Any] = {}
-    law = point.get("friction", base["simulate_kw"].get("friction"))
-    if law is not None:  # a law name: its coefficient is the point's mu
-        r = point.get("contensou_radius", base["simulate_kw"].get("contensou_radius", 0.0))
-        try:
-            kw["friction"] = friction.from_name(law, top.mu, contensou_radius=r)
-        except Exception as exc:  # as if the simulation had raised it
-            result = dict(start, status="error", message=_describe(exc), simulated="error")
-            return _finish(row, point, result), None
-    return row, (top, state, kw, start)
+    try:
+        law = _law(base, point, top)
+    except (ValueError, TypeError) as exc:  # e.g. a Contensou radius with the viscous law
+        result = dict(start, status="invalid", message=str(exc), simulated="invalid")
+        return _finish(row, point, result), None
+    if law is not None:
+        kw["friction"] = law
+    model = base["simulate_kw"].get("model", "gliding")
+    return row, (top, state, kw, start, model)
 
 
 def _finish(row: dict, point: dict, result: dict) -> dict:
@@ -187,22 +238,101 @@ def _prediction(top: TippeTop, lam: float) -> tuple[str, tuple[str, ...]]:
     return found
 
 
+def _unstable_spin(top: TippeTop, model: str, kw: dict, lam: float, pole: str, end: Any) -> str:
+    """Why a run ending within the pole band of ``pole`` has not reached an end state ("" if the
+    spin there is not unstable, or mett has no stability analysis for the model).
+
+    A spin whose linearisation has a growing mode (:func:`mett.stability.spin_eigenvalues`) is
+    left by every nearby top, slowly when the growth rate σ is small: a top seen near it at
+    ``t_end`` is still escaping (e.g. θ = 0.035 rad at 4 s, tumbling by 30 s), never an end state.
+    """
+    import numpy as np
+
+    from .dynamics import MODELS
+    from .friction import Viscous
+
+    if pole not in _SPIN_MODELS.get(model, ()):
+        return ""
+    if "lam" not in MODELS[model].conserves:  # λ changes (Contensou torque, stem impacts): at
+        # the end, next to the pole, λ ≈ R I3 ω3 (cos θ − α) (the R I1 φ̇ sin²θ term is O(θ²))
+        lam = top.R * top.I3 * end.omega3_end * (math.cos(end.theta_end) - top.alpha)
+    # a mirror image (ω → −ω) spins with −λ and has the same stability
+    lam = abs(lam)
+    law = kw.get("friction")
+    viscous = law is None or isinstance(law, Viscous)
+    if viscous:  # the run's own linearisation
+        mu = top.mu if law is None or law.mu is None else law.mu
+    else:  # dry friction: the same thresholds decide; the viscous linearisation gives the sign
+        mu = 1.0 if law.mu > 0 else 0.0
+    eig_top = top if mu == top.mu else dataclasses.replace(top, mu=mu)
+    if not lam > 0.0:  # no spin: upright rests on the ball's bottom (stable), inverted falls
+        return "" if pole == "upright" else f"θ ends near the {pole} pole without spin (unstable)"
+    # Whether the spin is unstable, remembered per (top without mu, mu > 0, λ, pole): with
+    # friction, the thresholds λ_0, λ_thres that decide it do not depend on mu
+    # (docs/theory/thresholds.md#thresholds; a test checks the eigenvalues' signs), so a sweep over
+    # friction computes the eigenvalues once.
+    key = (*(getattr(top, f) for f in _PREDICTION_KEY), mu > 0.0, lam, pole)
+    unstable = _UNSTABLE.get(key)
+    try:
+        if unstable is None:
+            unstable = _growth_rate(eig_top, lam, pole) > 0.0
+            if len(_UNSTABLE) >= 4096:  # bounded, as _PREDICTED
+                _UNSTABLE.clear()
+            _UNSTABLE[key] = unstable
+        if not unstable:
+            return ""
+        rate = f" (growth rate {_growth_rate(eig_top, lam, pole):.3g} 1/s)" if viscous else ""
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return f"the stability of the {pole} spin could not be decided ({exc})"
+    return (
+        f"θ ends near the {pole} spin, which is unstable at this λ{rate}: the top is still "
+        "escaping from it; run longer"
+    )
+
+
+_UNSTABLE: dict[tuple, bool] = {}
+
+
+def _growth_rate(top: TippeTop, lam: float, pole: str) -> float:
+    """The largest real part σ (1/s) of the spin's eigenvalues, or 0 where it is 0 to rounding
+    (a frictionless, neutral spin)."""
+    import numpy as np
+
+    from .stability import spin_eigenvalues
+
+    ev = spin_eigenvalues(top, lam, pole)
+    sigma = float(ev.real.max())
+    return sigma if sigma > _UNSTABLE_REL * float(np.abs(ev).max()) else 0.0
+
+
 def _row(row: dict, point: dict, job: tuple, end: Any) -> dict:
     """The row of a point from how its run ended (a RunEnd, or the exception it raised)."""
-    top, _, _, start = job
+    top, _, kw, start, model = job
+    if isinstance(end, (ValueError, TypeError)):  # simulate refused the point's values
+        return _finish(row, point, dict(start, status="invalid", message=str(end),
+                                        simulated="invalid"))  # fmt: skip
     if isinstance(end, BaseException):  # a sweep records a failing point and goes on
         return _finish(row, point, dict(start, status="error", message=_describe(end),
                                         simulated="error"))  # fmt: skip
-    message = end.message
+    notes = [end.message]
     candidates: tuple[str, ...] = ()
+    lam = start["lam"]
     try:
-        lam = start["lam"]
-        predicted, candidates = _prediction(top, lam) if lam > 0 else ("n/a", ())
+        if lam > 0:
+            predicted, candidates = _prediction(top, lam)
+        else:
+            predicted = "n/a"
+            notes.append(f"no predicted end state: lam = {lam:.6g} <= 0 (spin the other way)")
     except Exception as exc:  # the simulated result is kept
         predicted = "error"
-        message = "; ".join(filter(None, [message, f"asymptotic_state: {_describe(exc)}"]))
+        notes.append(f"asymptotic_state: {_describe(exc)}")
     settled = end.status != "completed" or _settled(end)
     simulated = classify_end(end.theta_end, end.status, settled=settled)
+    if simulated in ("upright", "inverted"):
+        why = _unstable_spin(top, model, kw, lam, simulated, end)
+        if why:
+            simulated = NOT_SETTLED
+            notes.append(why)
     return _finish(
         row,
         point,
@@ -210,7 +340,7 @@ def _row(row: dict, point: dict, job: tuple, end: Any) -> dict:
             start,
             t_invert=end.t_cross,
             status=end.status,
-            message=message,
+            message="; ".join(filter(None, notes)),
             theta_end=end.theta_end,
             omega3_end=end.omega3_end,
             predicted=predicted,
@@ -226,8 +356,9 @@ def _run_point(base: dict, point: dict) -> dict:
     """One grid point's row. Never raises: a failure is the row's status and message.
 
     ``status`` is "invalid" (the point's parameters are refused: ValueError/TypeError while building
-    the top or the state), "error" (the simulation raised), or the simulation's own status; an
-    exception of the prediction only sets ``predicted`` = "error" and keeps the simulated result.
+    the top or the state, or from simulate's checks), "error" (the simulation raised), or the
+    simulation's own status; an exception of the prediction only sets ``predicted`` = "error" and
+    keeps the simulated result.
     """
     return _run_chunk(base, [(0, point)])[0][1]
 
@@ -237,7 +368,7 @@ def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dic
     (:func:`mett.dynamics.batch.run_ends`)."""
     from .dynamics.batch import run_ends
 
-    kw = {k: v for k, v in base["simulate_kw"].items() if k != "contensou_radius"}
+    kw = {k: v for k, v in base["simulate_kw"].items() if k not in _FRICTION}
     started = [(i, p, *_start(base, p)) for i, p in chunk]
     todo = [(i, p, row, job) for i, p, row, job in started if job is not None]
     jobs = [(job[0], job[1], job[2]) for *_, job in todo]
@@ -248,7 +379,29 @@ def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dic
     return [(i, rows[i]) for i, _ in chunk]
 
 
-def _grid_points(grid: Mapping[str, Any]) -> tuple[list[str], list[dict]]:
+class _Grid:
+    """The Cartesian product of the axes, point by point, never held whole (in the order of
+    ``itertools.product``: the last axis varies fastest)."""
+
+    def __init__(self, names: list[str], axes: list[list]) -> None:
+        self.names, self.axes = names, axes
+        self.size = math.prod(len(a) for a in axes)
+
+    def __len__(self) -> int:
+        return self.size
+
+    def __iter__(self):
+        return (dict(zip(self.names, c, strict=True)) for c in itertools.product(*self.axes))
+
+    def point(self, index: int) -> dict:
+        values = []
+        for axis in reversed(self.axes):
+            index, k = divmod(index, len(axis))
+            values.append(axis[k])
+        return dict(zip(self.names, reversed(values), strict=True))
+
+
+def _grid(grid: Mapping[str, Any]) -> _Grid:
     if not isinstance(grid, Mapping) or not grid:
         raise ValueError("grid must be a non-empty mapping of name -> 1-D array of values")
     names = list(grid)
@@ -265,7 +418,7 @@ def _grid_points(grid: Mapping[str, Any]) -> tuple[list[str], list[dict]]:
             from .friction import LAW_NAMES
 
             laws = list(grid[n]) if not isinstance(grid[n], str) else [grid[n]]
-            bad = [v for v in laws if v not in LAW_NAMES]
+            bad = [v for v in laws if not isinstance(v, str) or v not in LAW_NAMES]
             if bad or not laws:
                 raise ValueError(f"grid['friction'] must name laws of {LAW_NAMES}; got {bad!r}")
             axes.append(laws)
@@ -274,35 +427,85 @@ def _grid_points(grid: Mapping[str, Any]) -> tuple[list[str], list[dict]]:
         if arr.ndim != 1 or arr.size == 0:
             raise ValueError(f"grid[{n!r}] must be a non-empty 1-D array; got shape {arr.shape}")
         axes.append([float(v) for v in arr])
-    return names, [dict(zip(names, combo, strict=True)) for combo in itertools.product(*axes)]
+    size = math.prod(len(a) for a in axes)  # before any point is built
+    if size > MAX_POINTS:
+        shape = " x ".join(str(len(a)) for a in axes)
+        raise ValueError(
+            f"grid has {shape} = {size} points; at most MAX_POINTS = {MAX_POINTS} (split the "
+            "sweep into several)"
+        )
+    return _Grid(names, axes)
 
 
-def _signature(base: dict, names: list[str], points: list[dict]) -> str:
-    payload = json.dumps({"base": base, "names": names, "points": points}, sort_keys=True)
-    return hashlib.sha256(payload.encode()).hexdigest()
+def _signature(base: dict, grid: _Grid, version: int = _CHECKPOINT_VERSION) -> str:
+    """The hash of a sweep's arguments: of the axes (version 2), or of the list of every point
+    (version 1, for checkpoints written before; as large as the grid)."""
+    if version == 1:
+        doc: dict[str, Any] = {"base": base, "names": grid.names, "points": list(grid)}
+    else:
+        doc = {"base": base, "names": grid.names, "axes": grid.axes, "version": version}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
+
+
+def _checkpoint_path(value: Any) -> Path:
+    """A checkpoint path: writable, and a regular file if it exists (a FIFO would block the
+    open, a device or /dev/stdout cannot be read back)."""
+    import stat
+
+    if isinstance(value, (str, os.PathLike)) and not isinstance(value, bytes) and os.fspath(value):
+        path = Path(value)
+        for p in (os.path.abspath(path), os.path.realpath(path)):
+            if p == "/dev" or p.startswith(("/dev/", "/proc/")):
+                raise ValueError(f"checkpoint must be a regular file; got {str(path)!r}")
+        try:
+            mode = path.stat().st_mode
+        except OSError:  # missing (or unreadable: output_path says so)
+            mode = None
+        if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+            kind = "a FIFO" if stat.S_ISFIFO(mode) else "not a regular file"
+            raise ValueError(f"checkpoint must be a regular file; {str(path)!r} is {kind}")
+    return _validate.output_path("checkpoint", value)
 
 
 class _Checkpoint:
-    """JSON-lines file: a header with the arguments' signature, then one finished point a line.
+    """JSON-lines file: a header with the format version, mett's version and the arguments'
+    signature, then one finished point a line.
 
-    An existing file is read and checked (header, signature, every record) before anything is
-    written to it, so a file that is not this sweep's checkpoint is never modified.
+    An existing file is read and checked (header, signature, every record against its point)
+    before anything is written to it, so a file that is not this sweep's checkpoint is never
+    modified, and a record that is not what this sweep would have written is never resumed.
     """
 
-    def __init__(self, path: Path, signature: str, summary: dict, n_points: int) -> None:
+    def __init__(self, path: Path, base: dict, grid: _Grid, summary: dict) -> None:
+        from . import __version__
+
         self.path = path
         self.done: dict[int, dict] = {}
+        self._failed = False
         if path.exists() and path.stat().st_size > 0:
-            self._load(signature, n_points)
+            self._load(base, grid, __version__)
         else:
-            header = {"mett_sweep": _CHECKPOINT_VERSION, "signature": signature, "args": summary}
-            with open(path, "w", encoding="utf-8") as fh:
-                fh.write(json.dumps(header) + "\n")
-                fh.flush()
-                os.fsync(fh.fileno())
+            header = {
+                "mett_sweep": _CHECKPOINT_VERSION, "mett": __version__,
+                "signature": _signature(base, grid), "args": summary,
+            }  # fmt: skip
+            # "x": a file created by someone else since the check is not overwritten
+            fh = open(path, "w" if path.exists() else "x", encoding="utf-8")
+            try:
+                self._guard(lambda: (fh.write(json.dumps(header) + "\n"), fh.flush(),
+                                     os.fsync(fh.fileno())))  # fmt: skip
+            finally:
+                self._fh = fh
+                self.close()
         self._fh = open(path, "a", encoding="utf-8")
 
-    def _load(self, signature: str, n_points: int) -> None:
+    def _damaged(self, lineno: int, line: bytes, why: str) -> ValueError:
+        return ValueError(
+            f"{self.path}, line {lineno}: damaged checkpoint record ({why}): {line[:80]!r}; "
+            "delete that line (the point will be rerun) or the file"
+        )
+
+    def _load(self, base: dict, grid: _Grid, version: str) -> None:
         raw = self.path.read_bytes()
         lines = raw.split(b"\n")
         complete, tail = lines[:-1], lines[-1]
@@ -312,30 +515,55 @@ class _Checkpoint:
         )
         try:
             header = json.loads(complete[0])
-        except (IndexError, UnicodeDecodeError, json.JSONDecodeError):
+        except (IndexError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
             raise ValueError(not_ours) from None
         if not isinstance(header, dict) or "mett_sweep" not in header:
             raise ValueError(not_ours)
-        if header.get("signature") != signature:
+        fmt = header["mett_sweep"]
+        if type(fmt) is not int or fmt not in _CHECKPOINT_VERSIONS:
+            raise ValueError(
+                f"checkpoint {self.path} has format version {fmt!r}, which this mett does not "
+                f"read (it reads {', '.join(map(str, _CHECKPOINT_VERSIONS))}); it was left "
+                "untouched"
+            )
+        written_by = header.get("mett")
+        if fmt >= 2 and written_by != version:
+            raise ValueError(
+                f"checkpoint {self.path} was written by mett {written_by!r}, this is mett "
+                f"{version}: its rows may differ from what this version computes; resume with "
+                "that version, or use another path (or delete it) to run the sweep afresh"
+            )
+        if header.get("signature") != _signature(base, grid, fmt):
             raise ValueError(
                 f"checkpoint {self.path} was written for different sweep arguments "
                 f"({header.get('args')}); use another path or delete it"
             )
-        done = {}
+        if fmt == 1:
+            _validate.warn(
+                f"checkpoint {self.path} was written by a mett that did not record its version; "
+                "its rows are resumed as they are (delete the file to recompute them)",
+                CheckpointWarning,
+            )
+        done: dict[int, dict] = {}
+        first_line: dict[int, int] = {}
         for lineno, line in enumerate(complete[1:], start=2):
             if not line.strip():
                 continue
             try:
                 rec = json.loads(line)
-                index, row = int(rec["index"]), rec["row"]
-                if not (0 <= index < n_points and isinstance(row, dict)):
-                    raise ValueError
-            except (UnicodeDecodeError, ValueError, KeyError, TypeError):
-                raise ValueError(
-                    f"{self.path}, line {lineno}: damaged checkpoint record {line[:80]!r}; "
-                    "delete that line (the point will be rerun) or the file"
-                ) from None
-            done[index] = row
+            except (UnicodeDecodeError, json.JSONDecodeError):
+                raise self._damaged(lineno, line, "not JSON") from None
+            except RecursionError:
+                raise self._damaged(lineno, line, "nested too deeply") from None
+            index, row = self._check_record(rec, grid, lineno, line)
+            if index in done:
+                if _canonical(row) != _canonical(done[index]):
+                    raise ValueError(
+                        f"{self.path}, lines {first_line[index]} and {lineno}: two different "
+                        f"records of point {index}; delete one (or both: the point is rerun)"
+                    )
+                continue
+            done[index], first_line[index] = row, lineno
         # Only now, with the file known to be ours: a kill in the middle of a write leaves a
         # partial last line; cut it off (its point is rerun).
         if tail:
@@ -343,14 +571,56 @@ class _Checkpoint:
                 fh.truncate(len(raw) - len(tail))
         self.done = done
 
+    def _check_record(self, rec: Any, grid: _Grid, lineno: int, line: bytes) -> tuple[int, dict]:
+        """(index, row) of a record, if it is exactly what this sweep writes for that point."""
+        if not isinstance(rec, dict) or set(rec) != {"index", "row"}:
+            raise self._damaged(lineno, line, 'not {"index": ..., "row": {...}}')
+        index, row = rec["index"], rec["row"]
+        if type(index) is not int or not 0 <= index < len(grid):
+            raise self._damaged(lineno, line, f"index must be an integer in [0, {len(grid)})")
+        if not isinstance(row, dict):
+            raise self._damaged(lineno, line, "row is not an object")
+        point = grid.point(index)
+        expected = set(point) | set(_ROW_TYPES)
+        if set(row) != expected:
+            extra, missing = sorted(set(row) - expected), sorted(expected - set(row))
+            raise self._damaged(lineno, line, f"columns missing {missing}, unexpected {extra}")
+        for key, value in point.items():
+            if type(row[key]) is not type(value) or row[key] != value:
+                raise self._damaged(
+                    lineno, line, f"{key} = {row[key]!r}, but point {index} has {value!r}"
+                )
+        for key, kind in _ROW_TYPES.items():
+            if key not in point and type(row[key]) is not kind:
+                raise self._damaged(lineno, line, f"{key} must be a {kind.__name__}")
+        return index, row
+
+    def _guard(self, write: Any) -> None:
+        """Run ``write``; an OSError (a full disk, …) names the checkpoint, and later errors of
+        the same file (its close) are not allowed to hide it."""
+        try:
+            write()
+        except OSError as exc:
+            self._failed = True
+            raise OSError(
+                exc.errno, f"cannot write the checkpoint: {exc.strerror or exc}", str(self.path)
+            ) from exc
+
     def write(self, index: int, row: dict) -> None:
-        self._fh.write(json.dumps({"index": index, "row": row}) + "\n")
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
+        line = json.dumps({"index": index, "row": row}) + "\n"
+        self._guard(lambda: (self._fh.write(line), self._fh.flush(), os.fsync(self._fh.fileno())))
         self.done[index] = row
 
     def close(self) -> None:
-        self._fh.close()
+        try:
+            self._fh.close()
+        except OSError:
+            if not self._failed:  # else the first error is the one to report
+                raise
+
+
+def _canonical(row: dict) -> str:
+    return json.dumps(row, sort_keys=True)
 
 
 def _want_progress(progress: bool | None) -> bool:
@@ -386,20 +656,69 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _probe_options(base: dict, points: list[dict]) -> None:
+def _friction_option(friction: Any, contensou_radius: Any, names: list[str]) -> dict:
+    """The sweep's fixed friction (``friction=``, ``contensou_radius=``) as plain values for the
+    checkpoint, refused where a grid axis sets it instead."""
+    from . import friction as laws
+
+    out: dict[str, Any] = {}
+    if friction is not None:
+        if "friction" in names:
+            raise ValueError(
+                "friction= and a grid axis 'friction' both set the friction law; give one"
+            )
+        if isinstance(friction, str):
+            if friction not in laws.LAW_NAMES:
+                raise ValueError(
+                    f"friction must be one of {laws.LAW_NAMES} or a law; got {friction!r}"
+                )
+            out["friction"] = friction
+        else:
+            law = laws.check_law(friction)
+            fields = dataclasses.asdict(law)
+            if fields.get("mu") is not None and "mu" in names:
+                raise ValueError(
+                    f"friction={laws.describe(law)} fixes mu, so the grid axis 'mu' would be "
+                    "ignored; give friction='viscous' or 'coulomb' (mu from the grid) instead"
+                )
+            out["friction"] = {"law": type(law).__name__, **fields}
+    if contensou_radius is not None:
+        if "contensou_radius" in names:
+            raise ValueError(
+                "contensou_radius= and a grid axis 'contensou_radius' both set the radius; give one"
+            )
+        if isinstance(out.get("friction"), dict):
+            raise ValueError(
+                "contensou_radius= is for a law given by name; a Coulomb law given whole carries "
+                "its own contensou_radius"
+            )
+        if out.get("friction") != "coulomb" and "friction" not in names:
+            raise ValueError(
+                "contensou_radius= applies to the Coulomb law: give friction='coulomb' (or a "
+                f"grid axis 'friction'); got friction={friction!r}"
+            )
+        out["contensou_radius"] = _validate.positive_scalar(
+            "contensou_radius", contensou_radius, allow_zero=True
+        )
+    return out
+
+
+def _probe_options(base: dict, grid: _Grid) -> None:
     """Let :func:`mett.simulate` check the options (model, rtol, atol, backend, …) before any run.
 
     Makes simulate's own checks, without integrating (:func:`mett.dynamics.simulation.check_run`),
-    at the first grid point whose top and state are valid, so ``rtol=2.0`` or ``model="nope"``
-    is refused once, with simulate's own message, instead of making every row "invalid".
-    ``t_eval`` (which must fit the full ``t_end``) is checked here.
+    at the first grid point whose values simulate accepts, so ``rtol=2.0`` or ``model="nope"``
+    is refused once, with simulate's own message, instead of making every row "invalid". A point
+    refused by the same checks with simulate's default options is the point's fault, whatever its
+    place in the grid: its row is "invalid". ``t_eval`` (which must fit the full ``t_end``) is
+    checked here.
     """
     import numpy as np
 
     from .dynamics.simulation import check_run
     from .state import State
 
-    kw = dict(base["simulate_kw"])
+    kw = {k: v for k, v in base["simulate_kw"].items() if k not in _FRICTION}
     if "events" in kw:
         raise ValueError("a sweep cannot pass events to simulate (they cannot be checkpointed)")
     t_eval = kw.pop("t_eval", None)
@@ -411,20 +730,29 @@ def _probe_options(base: dict, points: list[dict]) -> None:
             )
         if np.any(np.diff(te) <= 0):
             raise ValueError("t_eval must be strictly increasing")
-    for point in points:
+    t_probe = min(base["t_end"], _PROBE_T_END)
+    for point in grid:
         try:
             top, ic = _point_setup(base, point)
             state = State(
                 theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
                 omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
             )  # fmt: skip
+            law = _law(base, point, top)
         except (ValueError, TypeError, ArithmeticError):
             continue  # an invalid point: it becomes an "invalid" row; probe the next one
+        own = {} if law is None else {"friction": law}
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # each run reports its own warnings
             try:  # what simulate checks before its first step, without integrating
-                check_run(top, state, min(base["t_end"], _PROBE_T_END), **kw)
+                check_run(top, state, t_probe, **kw, **own)
             except (ValueError, TypeError) as exc:
+                try:  # the point's own values, or the options?
+                    check_run(top, state, t_probe)
+                except (ValueError, TypeError):
+                    continue  # the point: an "invalid" row
+                except Exception:
+                    pass
                 raise type(exc)(f"invalid simulate option for the sweep: {exc}") from None
             except Exception:  # a run-time failure is the rows' business
                 pass
@@ -432,6 +760,7 @@ def _probe_options(base: dict, points: list[dict]) -> None:
 
 
 _PROBE_T_END = 1e-6  # s: short, since friction=Viscous(...) checks by running simulate itself
+_STATE_DEFAULTS = dict(theta0=0.1, thetadot=0.0, phidot=0.0, omega3=155.0, nu_x=0.0, nu_y=0.0)
 
 
 def sweep(
@@ -439,16 +768,18 @@ def sweep(
     grid: Mapping[str, Iterable[float]],
     *,
     t_end: float,
-    theta0: float = 0.1,
-    thetadot: float = 0.0,
-    phidot: float = 0.0,
-    omega3: float = 155.0,
-    nu_x: float = 0.0,
-    nu_y: float = 0.0,
+    theta0: float | None = None,
+    thetadot: float | None = None,
+    phidot: float | None = None,
+    omega3: float | None = None,
+    nu_x: float | None = None,
+    nu_y: float | None = None,
     executor: Executor | None = None,
     progress: bool | None = None,
     checkpoint: str | os.PathLike | None = None,
     chunksize: int | None = None,
+    friction: Any = None,
+    contensou_radius: float | None = None,
     **simulate_kw: Any,
 ) -> pd.DataFrame:
     """Simulate every point of a Cartesian grid of parameters and initial conditions.
@@ -459,48 +790,66 @@ def sweep(
         The base top; grid entries override its fields.
     grid : mapping of str to 1-D array
         Names from :data:`GRID_NAMES` (TippeTop fields, initial conditions, ``gamma``,
-        ``lam_ratio``) to the values to run; the Cartesian product is swept.
+        ``lam_ratio``, ``friction``, ``contensou_radius``) to the values to run; the Cartesian
+        product is swept. At most :data:`MAX_POINTS` points (checked before any is built).
     t_end : float
         Simulated time of every run (s).
-    theta0, thetadot, phidot, omega3, nu_x, nu_y : float
-        Initial conditions where the grid does not set them (default: the thesis start).
+    theta0, thetadot, phidot, omega3, nu_x, nu_y : float, optional
+        Initial conditions where the grid does not set them (default: the thesis start, θ0 = 0.1
+        rad, ω3 = 155 rad/s, the rest 0). One the grid sets (``omega3`` with a ``lam_ratio`` axis,
+        which sets ω3; ``theta0`` with a ``theta0`` axis, …) is refused: it would be ignored.
     executor : concurrent.futures.Executor, optional
         Where to run: a ``ProcessPoolExecutor``, a Dask ``Client.get_executor()``, …; serial when
-        None. Only ``submit`` is used; points travel in chunks of ``chunksize``.
+        None. Only ``submit`` is used (it must return a ``concurrent.futures.Future``); points
+        travel in chunks of ``chunksize``.
     progress : bool or None, default None
         A tqdm progress bar on stderr (optional dependency ``mett[progress]``). None: a bar when
         stderr is a terminal and tqdm is installed, none in scripts, logs and notebooks' captured
         output; True insists (ValueError without tqdm); False never.
     checkpoint : path, optional
-        JSON-lines file of finished points; rerunning with the same arguments resumes. An existing
-        file that is not this sweep's checkpoint is refused and left untouched.
+        JSON-lines file of finished points (a regular file); rerunning with the same arguments
+        and the same mett version resumes. An existing file that is not this sweep's checkpoint
+        is refused and left untouched; so is one written by another mett version.
     chunksize : int, optional
         Points per task sent to ``executor`` (default: about 1/32 of the grid), >= 1; without an
         executor, points run (and are checkpointed) this many at a time (default 1, and 64 with
         ``backend="taylor"``). On the Taylor backend the points of a task run side by side, four
         per SIMD batch (:func:`mett.dynamics.batch.run_ends`): the fastest way through a grid.
+    friction : str or friction law, optional
+        One friction law for the whole sweep: a name of :data:`mett.friction.LAW_NAMES`, whose
+        coefficient is each point's ``mu`` (so ``mu`` may be a grid axis), or a law such as
+        ``Coulomb(0.3)`` (then ``mu`` may not be an axis). Default: simulate's (viscous, ``mu``).
+    contensou_radius : float, optional
+        Contact-disc radius (m) of ``friction="coulomb"`` for the whole sweep.
     **simulate_kw
         Passed to :func:`mett.simulate` (``model``, ``rtol``, …); checked once, before the first
-        run, by simulate's own checks at the first valid grid point.
+        run, by simulate's own checks at the first grid point simulate accepts.
 
     Returns
     -------
     pandas.DataFrame
         One row per grid point, in grid order: the grid values, ``t_invert`` (first θ = π/2, NaN
         if never), ``status``, ``theta_end``, ``omega3_end``, ``lam``, ``lam_ratio`` (λ/λ_thres),
-        ``predicted`` (:func:`mett.asymptotic_state` kind), ``simulated`` (kind read off θ_end, or
-        "not settled" if θ still moved over the last quarter of the run), ``agree`` (for a
-        "bistable" prediction: the run ended in one of its two stable states), and
-        ``message``. A point that fails is a row too: status "invalid" (its parameters are
-        refused), "error" (the simulation raised; ``message`` says what) or the run's own status
-        ("failed", "contact_lost") with the partial run's end values; the sweep goes on.
+        ``predicted`` (:func:`mett.asymptotic_state` kind; "n/a" with a ``message`` if λ <= 0),
+        ``simulated`` (kind read off θ_end, or "not settled" if θ still moved over the last
+        quarter of the run or it ended near an unstable spin), ``agree`` (for a "bistable"
+        prediction: the run ended in one of its two stable states), and ``message``. A point that
+        fails is a row too: status "invalid" (its parameters are refused), "error" (the
+        simulation raised; ``message`` says what) or the run's own status ("failed",
+        "contact_lost") with the partial run's end values; the sweep goes on.
 
     Raises
     ------
     ValueError, TypeError
         Before any run or write: unknown grid names, bad values or options (``rtol``, ``model``,
-        ``chunksize``, …), a checkpoint path in a missing directory, or an existing file that is
-        not this sweep's checkpoint (left untouched) or has a damaged record (path and line named).
+        ``chunksize``, an option a grid axis overrides, …), a grid of more than
+        :data:`MAX_POINTS` points, a checkpoint path in a missing directory or that is not a
+        regular file, or an existing file that is not this sweep's checkpoint (left untouched) or
+        has a damaged record (path and line named). ``TypeError`` if ``executor.submit`` does
+        not return a ``concurrent.futures.Future``.
+    OSError
+        A checkpoint that cannot be written (a full disk): the error names the file; every point
+        recorded before it is kept, and a rerun resumes there.
     """
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
@@ -513,20 +862,32 @@ def sweep(
         chunksize = _validate.positive_int("chunksize", chunksize)
     if progress is not None:
         progress = _validate.boolean("progress", progress)
-    ckpt_path = None if checkpoint is None else _validate.output_path("checkpoint", checkpoint)
-    names, points = _grid_points(grid)
+    ckpt_path = None if checkpoint is None else _checkpoint_path(checkpoint)
+    grid_ = _grid(grid)
+    names = grid_.names
+    given = dict(theta0=theta0, thetadot=thetadot, phidot=phidot, omega3=omega3, nu_x=nu_x,
+                 nu_y=nu_y)  # fmt: skip
+    for name, value in given.items():
+        if value is None:
+            continue
+        overridden = "lam_ratio" if name == "omega3" and "lam_ratio" in names else name
+        if overridden in names:
+            raise ValueError(
+                f"{name}={value!r} is ignored when the grid varies {overridden!r} (it sets "
+                f"{name} at every point); leave {name} out"
+            )
+    start = {k: _STATE_DEFAULTS[k] if v is None else v for k, v in given.items()}
     base = {
         "top": dataclasses.asdict(top),
         "t_end": t_end,
-        "theta0": float(_validate.theta(theta0, "theta0")),
-        "thetadot": _validate.finite_scalar("thetadot", thetadot),
-        "phidot": _validate.finite_scalar("phidot", phidot),
-        "omega3": _validate.finite_scalar("omega3", omega3),
-        "nu_x": _validate.finite_scalar("nu_x", nu_x),
-        "nu_y": _validate.finite_scalar("nu_y", nu_y),
-        "simulate_kw": {k: _plain(v) for k, v in simulate_kw.items()},
+        "theta0": float(_validate.theta(start["theta0"], "theta0")),
+        **{k: _validate.finite_scalar(k, start[k]) for k in _STATE_FIELDS if k != "theta0"},
+        "simulate_kw": {
+            **{k: _plain(v) for k, v in simulate_kw.items()},
+            **_friction_option(friction, contensou_radius, names),
+        },
     }
-    _probe_options(base, points)
+    _probe_options(base, grid_)
     try:
         json.dumps(base["simulate_kw"])
     except (TypeError, ValueError):
@@ -534,15 +895,15 @@ def sweep(
             "simulate options of a sweep must be plain values (numbers, strings, arrays): they "
             f"are recorded in the checkpoint; got {simulate_kw!r}"
         ) from None
-    signature = _signature(base, names, points)
     show_progress = _want_progress(progress)
     ckpt = None
+    n = len(grid_)
     if ckpt_path is not None:
-        summary = {"names": names, "n_points": len(points), "t_end": t_end}
-        ckpt = _Checkpoint(ckpt_path, signature, summary, len(points))
+        summary = {"names": names, "n_points": n, "t_end": t_end}
+        ckpt = _Checkpoint(ckpt_path, base, grid_, summary)
     done = dict(ckpt.done) if ckpt else {}
-    todo = [(i, p) for i, p in enumerate(points) if i not in done]
-    bar = _progress_bar(len(points), len(done)) if show_progress else None
+    todo = ((i, p) for i, p in enumerate(grid_) if i not in done)
+    bar = _progress_bar(n, len(done)) if show_progress else None
     results = dict(done)
 
     def finish(pairs: list[tuple[int, dict]]) -> None:
@@ -559,12 +920,19 @@ def sweep(
             # others one at a time (each checkpointed as soon as it is done)
             batched = simulate_kw.get("backend") == "taylor"
             size = chunksize or (_SERIAL_CHUNK if batched else 1)
-            for k in range(0, len(todo), size):
-                finish(_run_chunk(base, todo[k : k + size]))
+            for chunk in iter(lambda: list(itertools.islice(todo, size)), []):
+                finish(_run_chunk(base, chunk))
         else:
-            size = chunksize or max(1, math.ceil(len(todo) / 32))
-            chunks = [todo[k : k + size] for k in range(0, len(todo), size)]
-            futures: list[Future] = [executor.submit(_run_chunk, base, c) for c in chunks]
+            size = chunksize or max(1, math.ceil((n - len(done)) / 32))
+            futures: list[Future] = []
+            for chunk in iter(lambda: list(itertools.islice(todo, size)), []):
+                fut = executor.submit(_run_chunk, base, chunk)
+                if not isinstance(fut, Future):
+                    raise TypeError(
+                        "executor.submit must return a concurrent.futures.Future; "
+                        f"{type(executor).__name__}.submit returned {type(fut).__name__}"
+                    )
+                futures.append(fut)
             # A chunk whose task failed (a worker died, the executor shut down) is not recorded,
             # so a rerun redoes it; every other chunk is still collected and checkpointed first.
             failures: list[BaseException] = []
@@ -582,7 +950,7 @@ def sweep(
             ckpt.close()
         if bar is not None:
             bar.close()
-    records = [results[i] for i in range(len(points))]
+    records = [results[i] for i in range(n)]
     results_first = ["t_invert", "status", "theta_end", "omega3_end", "lam", "lam_ratio",
                      "predicted", "simulated", "agree"]  # fmt: skip
     first = names + [c for c in results_first if c not in names]

@@ -136,7 +136,7 @@ def test_figures_command_writes_every_figure(tmp_path):
     assert out.returncode == 0, out.stderr
     for name in FIGURES:
         assert (tmp_path / f"{name}.png").stat().st_size > 5_000
-    assert "thesis fig. 4a" in (tmp_path / "README.md").read_text()
+    assert "thesis fig. 4a" in (tmp_path / "mett-figures.md").read_text()
 
 
 @pytest.mark.parametrize(
@@ -164,6 +164,7 @@ def test_bad_arguments_of_the_other_commands(args, needle, capsys):
 THESIS = ["--preset", "rutstam2013"]
 SIM = ["simulate", *THESIS, "--theta0", "0.1", "--omega3", "155", "--t-end", "0.05"]
 SWEEP = ["sweep", *THESIS, "--grid", "mu=0.1:0.3:2", "--t-end", "0.05"]
+SWEEP_LR = ["sweep", *THESIS, "--grid", "lam_ratio=0.5:2:2", "--t-end", "0.05"]
 
 
 def test_version(capsys):
@@ -253,6 +254,20 @@ def test_period_with_the_centre_of_mass_at_rest(capsys):
         (["period", *THESIS, "--E", "1e300", "--D", "1e200", "--lam", "1"], "error:"),
         (["period", *THESIS, "--theta0", "0.1"], "give --E --D --lam"),
         (["info", *THESIS, "--theta0", "-1"], "argument --theta0: must lie in [0, pi]"),
+        # an option the grid overrides would be ignored
+        ([*SWEEP_LR, "--omega3", "150"], "--omega3 is ignored when --grid varies lam_ratio"),
+        ([*SWEEP, "--mu", "0.3"], "--mu is ignored when --grid varies mu"),
+        ([*SWEEP_LR, "--grid", "gamma=0.9:1:2", "--I1", "3e-6"],
+         "--I1 is ignored when --grid varies gamma"),
+        ([*SWEEP, "--grid", "theta0=0.1:0.2:2", "--theta0", "0.1"], "--theta0 is ignored"),
+        # numbers in ASCII only
+        ([*SIM, "--omega3", "١٥٥"], "argument --omega3: invalid float value"),
+        ([*SIM, "--t-end", "1_000"], "argument --t-end: invalid float value"),
+        ([*SWEEP, "--workers", "٢"], "argument --workers: invalid int value"),
+        ([*SWEEP, "--workers", "1_0"], "argument --workers: invalid int value"),
+        ([*SWEEP_LR, "--grid", "mu=0:1:1_0"], "--grid takes name=start:stop:num with numbers"),
+        # a negative number in scientific notation is a value, not an option
+        ([*SIM, "--omega3", "-1e20", "--rtol", "5"], "argument --rtol: must lie in (0, 1)"),
     ],
 )  # fmt: skip
 def test_errors_are_one_line_and_exit_2_before_any_work(argv, needle, capsys, monkeypatch):
@@ -346,7 +361,7 @@ def test_figures_preset_passes_the_top_to_the_gallery(tmp_path, capsys, monkeypa
     code, out, err = call(["figures", "--preset", "ueda2005", "--out", tmp_path / "f"], capsys)
     assert code == 0, err
     assert seen["top"] == presets.get("ueda2005") and seen["progress"] is False
-    assert (tmp_path / "f" / "README.md").exists()
+    assert (tmp_path / "f" / "mett-figures.md").exists()
     seen.clear()
     code, _, _ = call(["figures", "--out", tmp_path / "g", "--no-animation"], capsys)
     assert code == 0 and "top" not in seen and seen["animation"] is False  # the thesis top
@@ -431,3 +446,123 @@ def test_backend_option_of_simulate_and_sweep(tmp_path, capsys):
     got = pd.read_csv(path)
     np.testing.assert_array_equal(got["theta_end"], want["theta_end"])
     assert_error(call([*SIM, "--backend", "nope"], capsys), "invalid choice: 'nope'")
+
+
+# --- exit statuses, the output streams, odd files ---------------------------------------------------
+def test_a_run_that_does_not_complete_exits_1_with_its_results(tmp_path, capsys):
+    import mett
+
+    # started with θ̇ = 100 rad/s at θ = 1.5 the ball leaves the table at once
+    argv = ["simulate", *THESIS, "--theta0", "1.5", "--omega3", "0", "--thetadot", "100",
+            "--t-end", "1"]  # fmt: skip
+    ref = mett.simulate(mett.presets.get("rutstam2013"),
+                        mett.State(theta=1.5, omega3=0.0, thetadot=100.0), 1.0)  # fmt: skip
+    assert ref.status == "contact_lost"
+    code, out, err = call([*argv, "--out", tmp_path / "t.csv"], capsys)
+    assert code == 1, err
+    assert out.startswith("status                  contact_lost") and err == ""
+    assert (tmp_path / "t.csv").stat().st_size > 100  # the partial run, written
+    code, out, _ = call([*argv, "--json"], capsys)
+    assert code == 1 and json.loads(out)["status"] == "contact_lost"
+
+
+@pytest.mark.slow  # the run fails only after its step budget: half a minute
+def test_the_issue_s_failed_run_exits_1():
+    out = run("simulate", *THESIS, "--theta0", "0.1", "--omega3", "155", "--t-end", "1e9", "--json")
+    assert out.returncode == 1, out.stderr
+    assert json.loads(out.stdout)["status"] == "failed"
+
+
+def test_exit_statuses_are_in_the_help(capsys):
+    from mett.cli import EXIT_STATUS
+
+    code, out, _ = call(["--help"], capsys)
+    assert code == 0
+    text = " ".join(out.split())
+    for status, meaning in EXIT_STATUS.items():
+        assert f"{status} {meaning}" in text
+
+
+def test_no_prediction_for_lambda_not_positive_says_so(capsys):
+    # ω3 < 0 (written in scientific notation: a value, not an option): λ < 0
+    code, out, err = call([*SIM, "--omega3", "-1.55e2", "--json"], capsys)
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["lambda"] < 0 and data["predicted"] is None
+    assert "lambda" in data["prediction_error"] and "<= 0" in data["prediction_error"]
+    code, out, err = call([*SIM, "--omega3=-155"], capsys)
+    assert "predicted end state     unavailable (lambda = " in out
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX pipes and file descriptors")
+def test_a_closed_pipe_is_a_quiet_exit_141():
+    import os
+
+    r, w = os.pipe()
+    os.close(r)  # the reader is gone before mett writes (as `| head -1` after its line)
+    try:
+        out = subprocess.run([sys.executable, "-m", "mett", "info", *THESIS], stdout=w,
+                             stderr=subprocess.PIPE, text=True, timeout=120)  # fmt: skip
+    finally:
+        os.close(w)
+    assert out.returncode == 141 and out.stderr == ""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX shell")
+def test_a_closed_stdout_is_an_error_not_a_silent_success():
+    cmd = f"exec {sys.executable} -m mett info --preset rutstam2013 --json >&-"
+    out = subprocess.run(["sh", "-c", cmd], capture_output=True, text=True, timeout=120)
+    assert_one_line_error(out, "standard output is closed")
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="POSIX FIFOs")
+def test_a_fifo_or_dev_stdout_checkpoint_is_refused(tmp_path, capsys, monkeypatch):
+    import os
+
+    monkeypatch.chdir(tmp_path)
+    os.mkfifo("fifo")
+    assert_error(call([*SWEEP, "--checkpoint", "fifo"], capsys), "must be a regular file")
+    # (a /dev that is not writable may be named first: either way, one line and nothing run)
+    assert_error(call([*SWEEP, "--checkpoint", "/dev/stdout"], capsys), "checkpoint")
+    assert sorted(os.listdir()) == ["fifo"]  # nothing written
+
+
+def test_figures_never_replace_a_file_of_the_user_s(tmp_path, capsys, monkeypatch):
+    import mett.gallery
+
+    def fake_generate(out_dir, **kw):
+        out_dir.mkdir(parents=True, exist_ok=True)
+        path = out_dir / "energies.png"
+        path.write_bytes(b"png")
+        return [path]
+
+    monkeypatch.setattr(mett.gallery, "generate", fake_generate)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "README.md").write_text("# my project readme\n")
+    code, out, err = call(["figures", "--out", "."], capsys)
+    assert code == 0, err
+    assert (tmp_path / "README.md").read_text() == "# my project readme\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["README.md", "energies.png",
+                                                          "mett-figures.md"]  # fmt: skip
+    assert set(p.name for p in tmp_path.iterdir()) - {"README.md"} <= set(mett.gallery.file_names())
+
+
+def test_the_repository_figure_index_is_the_one_mett_writes():
+    # figures/ (the README's main job writes it) holds the index under mett's name, as generated
+    from pathlib import Path
+
+    from mett import gallery
+
+    root = Path(__file__).resolve().parents[1] / "figures"
+    assert not (root / "README.md").exists()
+    paths = [root / f"{n}.png" for n in gallery.FIGURES] + [root / "deforming_potential.gif"]
+    assert (root / gallery.INDEX_NAME).read_text() == gallery.index_markdown(paths)
+    assert all(p.exists() for p in paths)
+
+
+def test_a_grid_product_over_the_maximum_is_one_line(tmp_path, capsys):
+    # each axis within the per-axis cap, the product 10¹⁰ points: refused before any point
+    argv = ["sweep", *THESIS, "--grid", "mu=0:1:100000", "--grid", "lam_ratio=0.5:2:100000",
+            "--t-end", "1", "--out", tmp_path / "s.csv"]  # fmt: skip
+    assert_error(call(argv, capsys), "100000 x 100000 = 10000000000 points; at most MAX_POINTS")
+    assert list(tmp_path.iterdir()) == []

@@ -70,7 +70,7 @@ def test_checkpoint_resume_skips_finished_points(tmp_path):
     path = tmp_path / "ckpt.jsonl"
     first = _cheap(checkpoint=path)
     lines = path.read_text().splitlines()
-    assert len(lines) == 5 and json.loads(lines[0])["mett_sweep"] == 1
+    assert len(lines) == 5 and json.loads(lines[0])["mett_sweep"] == 2
     mtime = path.stat().st_mtime_ns
     again = _cheap(checkpoint=path)  # nothing left to run: read back, file untouched
     pd.testing.assert_frame_equal(first, again)
@@ -218,7 +218,8 @@ def test_taylor_sweep_runs_points_side_by_side_with_the_results_of_one_at_a_time
         traj = mett.simulate(TOP.replace(mu=row["mu"]),
                              mett.State(theta=row["theta0"], omega3=row["omega3"]), 8.0,
                              backend="taylor", rtol=1e-12)  # fmt: skip
-        assert row["status"] == traj.status and row["message"] == traj.message
+        # the run's message, and the sweep's note on an unstable spin after it
+        assert row["status"] == traj.status and row["message"].startswith(traj.message)
         assert row["theta_end"] == float(traj.theta[-1])
         assert row["omega3_end"] == float(traj.omega3[-1])
         cross = traj.crossings(np.pi / 2)
@@ -265,3 +266,307 @@ def test_the_predicted_end_state_does_not_depend_on_friction():
     rows = sweep(TOP, {"mu": [0.01, 0.3, 3.0]}, t_end=0.01, progress=False)
     want = mett.asymptotic_state(TOP, float(rows["lam"][0])).kind
     assert list(rows["predicted"]) == [want] * 3
+
+
+# --- end states near an unstable spin ------------------------------------------------------------
+def test_a_top_slowly_leaving_its_unstable_upright_spin_is_not_labelled_upright():
+    # the sweeps page's first example, point (λ = 0.5 λ_thres, γ = 0.9): λ > λ_0, so the upright
+    # spin is unstable (a growing mode of the linearisation, independent of the simulation) and the
+    # end state is a tumbling one (asymptotic_state); the top escapes on the time scale of
+    # escape_time (~19 s) and is still within the pole band at 4 s
+    top = TOP.replace(I1=0.9 * TOP.I3)
+    short = sweep(TOP, {"lam_ratio": [0.5], "gamma": [0.9]}, t_end=4.0, progress=False).iloc[0]
+    lam = float(short["lam"])
+    assert lam > top.lambda_0
+    assert mett.stability.spin_eigenvalues(top, lam, "upright").real.max() > 0
+    pred = mett.asymptotic_state(top, lam)
+    assert pred.kind == "tumbling"
+    escape = mett.escape_time(top, mett.State(theta=0.1, omega3=float(short["omega3_start"])))
+    assert 4.0 < escape.time < 100.0
+    assert short["status"] == "completed" and short["theta_end"] < 0.05  # in the pole band
+    assert short["simulated"] == "not settled" and "unstable" in short["message"]
+    long = sweep(TOP, {"lam_ratio": [0.5], "gamma": [0.9]}, t_end=100.0, progress=False).iloc[0]
+    assert long["simulated"] == "tumbling" and long["agree"]
+    # settled at the predicted tumbling angle, within the settled test's band
+    assert abs(long["theta_end"] - pred.theta) < 0.05
+
+
+def test_a_stable_upright_spin_is_still_upright():
+    # λ = 0.2 λ_thres < λ_0 ≈ 0.36 λ_thres: every eigenvalue of the upright spin decays
+    table = sweep(TOP, {"lam_ratio": [0.2]}, t_end=4.0, progress=False)
+    lam = float(table["lam"].iloc[0])
+    assert lam < TOP.lambda_0
+    assert mett.stability.spin_eigenvalues(TOP, lam, "upright").real.max() < 0
+    assert list(table["simulated"]) == ["upright"] and table["agree"].all()
+
+
+def test_a_top_near_its_unstable_inverted_spin_is_not_labelled_inverted():
+    # started 0.01 rad from θ = π with λ = 0.98 λ_thres: the inverted spin is unstable (slowly:
+    # σ ≈ 0.37/s), and after 3 s the top is still in the pole band, losing almost no energy
+    table = sweep(TOP, {"lam_ratio": [0.98]}, theta0=np.pi - 0.01, t_end=3.0, progress=False)
+    row = table.iloc[0]
+    lam = float(row["lam"])
+    assert 0 < lam < TOP.lambda_thres
+    assert mett.stability.spin_eigenvalues(TOP, lam, "inverted").real.max() > 0
+    assert mett.asymptotic_state(TOP, lam).kind == "tumbling"
+    assert row["theta_end"] > np.pi - 0.05
+    assert row["simulated"] == "not settled" and "inverted spin" in row["message"]
+
+
+def test_no_prediction_for_a_negative_lambda_says_why():
+    table = sweep(TOP, {"omega3": [-155.0]}, t_end=0.05, progress=False)
+    row = table.iloc[0]
+    assert row["lam"] < 0 and row["predicted"] == "n/a"
+    assert "no predicted end state: lam" in row["message"] and "<= 0" in row["message"]
+
+
+# --- options a grid axis makes meaningless; fixed friction ---------------------------------------
+@pytest.mark.parametrize(
+    ("grid", "kw", "needle"),
+    [
+        ({"lam_ratio": [1.0]}, {"omega3": 150.0}, "omega3=150.0 is ignored when the grid varies "
+                                                  "'lam_ratio'"),
+        ({"theta0": [0.1]}, {"theta0": 0.2}, "theta0=0.2 is ignored when the grid varies 'theta0'"),
+        ({"friction": ["viscous"]}, {"friction": "coulomb"}, "friction= and a grid axis"),
+        ({"mu": [0.3]}, {"friction": mett.friction.Coulomb(0.3)}, "would be ignored"),
+        ({"contensou_radius": [0.0]}, {"contensou_radius": 0.001, "friction": "coulomb"},
+         "contensou_radius= and a grid axis"),
+        ({"mu": [0.3]}, {"friction": "dry"}, "friction must be one of"),
+        ({"mu": [0.3]}, {"contensou_radius": 1e-3}, "contensou_radius= applies to the Coulomb"),
+        ({"mu": [0.3]}, {"contensou_radius": 1e-3, "friction": "viscous"},
+         "contensou_radius= applies to the Coulomb"),
+        ({"omega3": [155.0]}, {"contensou_radius": 1e-3, "friction": mett.friction.Coulomb(0.3)},
+         "carries its own contensou_radius"),
+    ],
+)  # fmt: skip
+def test_options_the_grid_overrides_are_refused(grid, kw, needle):
+    with pytest.raises(ValueError, match=needle):
+        sweep(TOP, grid, t_end=0.05, progress=False, **kw)
+
+
+def test_one_friction_law_for_the_whole_sweep():
+    # a law by name (coefficient: each point's mu), a law whole, and a Contensou radius; each row
+    # is the simulate call with that law
+    from mett.friction import Coulomb
+
+    st = mett.State(theta=0.1, omega3=155.0)
+    cases = [
+        ({"mu": [0.3, 0.1]}, {"friction": "coulomb"}, lambda mu: Coulomb(mu)),
+        ({"omega3": [155.0]}, {"friction": Coulomb(0.2)}, lambda mu: Coulomb(0.2)),
+        ({"mu": [0.3]}, {"friction": "coulomb", "contensou_radius": 1e-3},
+         lambda mu: Coulomb(mu, contensou_radius=1e-3)),
+    ]  # fmt: skip
+    for grid, kw, law in cases:
+        table = sweep(TOP, grid, t_end=0.2, progress=False, **kw)
+        for _, row in table.iterrows():
+            mu = row.get("mu", TOP.mu)
+            ref = mett.simulate(TOP.replace(mu=mu), st, 0.2, friction=law(mu))
+            assert row["status"] == ref.status and row["theta_end"] == ref.theta[-1], kw
+
+
+def test_a_point_simulate_refuses_is_invalid_wherever_it_is_in_the_grid():
+    # 1e300 λ_thres is a spin beyond simulate's range: first or last, the same "invalid" row
+    a = sweep(TOP, {"lam_ratio": [1e300, 1.0]}, t_end=0.01, progress=False)
+    b = sweep(TOP, {"lam_ratio": [1.0, 1e300]}, t_end=0.01, progress=False)
+    assert list(a["status"]) == ["invalid", "completed"]
+    assert list(b["status"]) == ["completed", "invalid"]
+    assert a["message"].iloc[0] == b["message"].iloc[1]
+
+
+def test_an_executor_whose_submit_returns_no_future_is_a_type_error():
+    class Odd:
+        def submit(self, fn, *args):
+            return fn(*args)  # the result itself, not a Future
+
+    with pytest.raises(TypeError, match=r"executor.submit must return a concurrent.futures.Future"):
+        sweep(TOP, {"mu": [0.3]}, t_end=0.01, progress=False, executor=Odd())
+
+
+# --- the grid's size -------------------------------------------------------------------------------
+def test_a_grid_over_the_maximum_is_refused_before_any_point_is_built(monkeypatch):
+    import itertools
+
+    def no_product(*a, **k):  # the points must not be enumerated to find the size out
+        raise AssertionError("points were built")
+
+    monkeypatch.setattr(itertools, "product", no_product)
+    n = int(np.sqrt(mett.sweeps.MAX_POINTS)) + 1
+    axis = np.linspace(0.1, 0.5, n)
+    with pytest.raises(ValueError, match=f"{n} x {n} = {n * n} points; at most MAX_POINTS"):
+        sweep(TOP, {"mu": axis, "theta0": axis}, t_end=1.0)
+
+
+def test_grid_points_come_in_product_order_without_being_listed():
+    import itertools
+
+    g = mett.sweeps._grid({"mu": [0.1, 0.2, 0.3], "friction": ["viscous", "coulomb"], "g": [9.8]})
+    want = [dict(zip(g.names, c, strict=True)) for c in itertools.product(*g.axes)]
+    assert list(g) == want and [g.point(i) for i in range(len(g))] == want
+
+
+# --- checkpoint records: exactly what the sweep writes -------------------------------------------
+GRID2 = {"mu": [0.2, 0.3]}
+
+
+def _checkpoint(tmp_path):
+    path = tmp_path / "c.jsonl"
+    sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+    return path, path.read_text().splitlines()
+
+
+def _edited(path, lines, line, edit):
+    rec = json.loads(lines[line])
+    edit(rec)
+    lines = [*lines[:line], json.dumps(rec), *lines[line + 1 :]]
+    path.write_text("\n".join(lines) + "\n")
+    return path.read_bytes()
+
+
+def _set(key, value):
+    return lambda rec: rec["row"].__setitem__(key, value)
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        (lambda rec: rec.__setitem__("row", {}), "columns missing"),
+        (_set("mu", 99.0), "mu = 99.0, but point 0 has 0.2"),
+        (_set("mu", 0.2 + 1e-16), "but point 0 has 0.2"),  # exact after the JSON round trip
+        (_set("status", 42), "status must be a str"),
+        (_set("theta_end", "abc"), "theta_end must be a float"),
+        (_set("theta_end", [1, 2, 3]), "theta_end must be a float"),
+        (_set("agree", 1), "agree must be a bool"),
+        (_set("extra", 1.0), r"unexpected \['extra'\]"),
+        (lambda rec: rec.__setitem__("index", 1.9), "index must be an integer"),
+        (lambda rec: rec.__setitem__("index", True), "index must be an integer"),
+        (lambda rec: rec.__setitem__("index", "0"), "index must be an integer"),
+        (lambda rec: rec.__setitem__("index", 7), "index must be an integer in"),
+        (lambda rec: rec.__setitem__("more", 1), "not {"),
+    ],
+)
+def test_a_wrong_record_is_refused_naming_file_and_line(tmp_path, edit, needle):
+    path, lines = _checkpoint(tmp_path)
+    before = _edited(path, lines, 1, edit)
+    with pytest.raises(ValueError, match=f"{path}, line 2: damaged checkpoint record.*{needle}"):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+    assert path.read_bytes() == before  # left as it was
+
+
+def test_a_grid_value_of_a_lam_ratio_axis_is_checked(tmp_path):
+    path = tmp_path / "c.jsonl"
+    sweep(TOP, {"lam_ratio": [0.5]}, t_end=0.01, progress=False, checkpoint=path)
+    lines = path.read_text().splitlines()
+    _edited(path, lines, 1, _set("lam_ratio", 99.0))
+    with pytest.raises(ValueError, match=r"lam_ratio = 99.0, but point 0 has 0.5"):
+        sweep(TOP, {"lam_ratio": [0.5]}, t_end=0.01, progress=False, checkpoint=path)
+
+
+def test_duplicate_records_conflicting_are_refused_identical_are_one(tmp_path):
+    path, lines = _checkpoint(tmp_path)
+    path.write_text("\n".join([*lines, lines[1]]) + "\n")  # the same record twice: harmless
+    fresh = sweep(TOP, GRID2, t_end=0.05, progress=False)
+    pd.testing.assert_frame_equal(
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path), fresh
+    )
+    rec = json.loads(lines[1])
+    rec["row"]["theta_end"] = 0.5
+    path.write_text("\n".join([*lines, json.dumps(rec)]) + "\n")
+    with pytest.raises(
+        ValueError, match=f"{path}, lines 2 and 4: two different records of point 0"
+    ):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+
+
+def test_a_deeply_nested_record_is_a_value_error_naming_file_and_line(tmp_path):
+    path, lines = _checkpoint(tmp_path)
+    path.write_text("\n".join([*lines, "[" * 100_000 + "]" * 100_000]) + "\n")
+    with pytest.raises(ValueError, match=f"{path}, line 4: damaged checkpoint record"):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+
+
+@pytest.mark.parametrize("version", [99, "x", True, 2.0, None])
+def test_an_unknown_format_version_is_refused(tmp_path, version):
+    path, lines = _checkpoint(tmp_path)
+    before = _edited(path, lines, 0, lambda h: h.__setitem__("mett_sweep", version))
+    with pytest.raises(ValueError, match=f"checkpoint {path} has format version"):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+    assert path.read_bytes() == before
+
+
+def test_a_checkpoint_of_another_mett_version_is_refused(tmp_path):
+    path, lines = _checkpoint(tmp_path)
+    _edited(path, lines, 0, lambda h: h.__setitem__("mett", "0.0.1"))
+    with pytest.raises(ValueError, match=r"written by mett '0.0.1', this is mett"):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+
+
+def test_a_version_1_checkpoint_still_resumes_with_a_warning(tmp_path):
+    # written as mett did before format 2: the signature hashes the list of every point, with the
+    # arguments as they were recorded then (spelled out here, not computed by mett)
+    import dataclasses
+    import hashlib
+
+    base = {"top": dataclasses.asdict(TOP), "t_end": 0.05, "theta0": 0.1, "thetadot": 0.0,
+            "phidot": 0.0, "omega3": 155.0, "nu_x": 0.0, "nu_y": 0.0, "simulate_kw": {}}  # fmt: skip
+    points = [{"mu": 0.2}, {"mu": 0.3}]
+    doc = json.dumps({"base": base, "names": ["mu"], "points": points}, sort_keys=True)
+    header = {"mett_sweep": 1, "signature": hashlib.sha256(doc.encode()).hexdigest(),
+              "args": {"names": ["mu"], "n_points": 2, "t_end": 0.05}}  # fmt: skip
+    _, lines = _checkpoint(tmp_path)
+    path = tmp_path / "v1.jsonl"
+    path.write_text("\n".join([json.dumps(header), lines[1]]) + "\n")  # point 0 done
+    with pytest.warns(mett.sweeps.CheckpointWarning, match="did not record its version"):
+        resumed = sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+    pd.testing.assert_frame_equal(resumed, sweep(TOP, GRID2, t_end=0.05, progress=False))
+    assert len(path.read_text().splitlines()) == 3  # point 1 appended
+
+
+# --- checkpoint paths and a full disk ------------------------------------------------------------
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="FIFOs are a POSIX feature")
+def test_a_fifo_or_a_device_is_refused_as_checkpoint_without_blocking(tmp_path):
+    fifo = tmp_path / "f"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match=r"checkpoint must be a regular file; .* is a FIFO"):
+        sweep(TOP, {"mu": [0.3]}, t_end=0.01, progress=False, checkpoint=fifo)
+    for dev in ("/dev/stdout", "/dev/null"):
+        with pytest.raises(ValueError, match="checkpoint must be a regular file"):
+            sweep(TOP, {"mu": [0.3]}, t_end=0.01, progress=False, checkpoint=dev)
+
+
+@pytest.mark.parametrize("room", [0, 2])  # the disk fills at the header, or after one record
+def test_a_full_disk_is_one_error_naming_the_checkpoint_and_resumes(tmp_path, monkeypatch, room):
+    import errno
+
+    path = tmp_path / "c.jsonl"
+    grid = {"mu": [0.2, 0.3, 0.4]}
+    real = os.fsync
+    calls = []
+
+    def fsync(fd):  # `room` writes fit; then the disk is full
+        calls.append(fd)
+        if len(calls) > room:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(fd)
+
+    monkeypatch.setattr(mett.sweeps.os, "fsync", fsync)
+    with pytest.raises(OSError) as info:
+        sweep(TOP, grid, t_end=0.01, progress=False, checkpoint=path)
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(path)
+    assert "cannot write the checkpoint" in str(info.value)
+    monkeypatch.setattr(mett.sweeps.os, "fsync", real)  # space freed
+    resumed = sweep(TOP, grid, t_end=0.01, progress=False, checkpoint=path)
+    pd.testing.assert_frame_equal(resumed, sweep(TOP, grid, t_end=0.01, progress=False))
+
+
+def test_the_spin_stability_a_sweep_remembers_does_not_depend_on_friction():
+    # mett.sweep remembers whether a spin is unstable by the top without mu (and mu > 0): the sign
+    # of the eigenvalues' largest real part must not depend on mu, on either side of λ_0 and λ_thres
+    from mett.stability import spin_eigenvalues
+
+    for top in (TOP, TOP.replace(I1=0.9 * TOP.I3), TOP.replace(I1=1.1 * TOP.I3)):
+        for lam in np.geomspace(0.05, 20.0, 24) * top.lambda_thres:  # not at a threshold
+            for pole, threshold in (("upright", top.lambda_0), ("inverted", top.lambda_thres)):
+                want = (lam > threshold) if pole == "upright" else (lam < threshold)
+                for mu in (1e-4, 0.3, 40.0):
+                    sigma = spin_eigenvalues(top.replace(mu=mu), lam, pole).real.max()
+                    assert (sigma > 0) == want, (lam / top.lambda_thres, pole, mu)
