@@ -744,16 +744,24 @@ class _Run:
         return self.result(t_out, Y, sol, *event_end(ev.action, ev.message, t_ev), **kw)
 
 
-def _recording(method: str, pieces: list[Any], states: list[np.ndarray]) -> type:
+class _StepBudget(Exception):
+    """Raised by the recording solver class at its step budget (:data:`MAX_STEPS`)."""
+
+
+def _recording(method: str, pieces: list[Any], states: list[np.ndarray], max_steps: int) -> type:
     """The solver class of ``method``, recording the interpolant and the state at the end of every
     step in ``pieces`` and ``states`` (solve_ivp asks for the interpolant once per accepted step
-    with ``dense_output=True``)."""
+    with ``dense_output=True``). After ``max_steps`` recorded steps the next one raises
+    :class:`_StepBudget` (solve_ivp has no step limit of its own), so a run on the scipy backend has
+    the compiled backend's budget."""
     import scipy.integrate
 
     base = getattr(scipy.integrate, method)
 
     class Recording(base):  # type: ignore[misc, valid-type]
         def dense_output(self) -> Any:
+            if len(pieces) >= max_steps:
+                raise _StepBudget
             out = super().dense_output()
             pieces.append(out)
             states.append(np.array(self.y, dtype=float))
@@ -812,7 +820,7 @@ def _solve_scipy(
                 fun,
                 (t0, t_end),
                 y0,
-                method=_recording(method, pieces, states),
+                method=_recording(method, pieces, states, MAX_STEPS),
                 t_eval=t_eval_arr,
                 dense_output=True,
                 events=all_events,
@@ -822,11 +830,14 @@ def _solve_scipy(
             )
     except _UserEventError as err:
         raise err.exc from None  # a user event's exception, unchanged (as solve_ivp lets it go)
-    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
-        # raised inside the solver (e.g. an LU factorisation of a non-finite Jacobian): keep the
-        # steps taken so far, as for any other failure
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError, _StepBudget) as exc:
+        # raised inside the solver (e.g. an LU factorisation of a non-finite Jacobian), or the
+        # step budget: keep the steps taken so far, as for any other failure
+        failed, reason = "integration failed", str(exc)
+        if isinstance(exc, _StepBudget):  # worded as on the compiled backend
+            failed, reason = "integrator failed", f"maximum number of steps ({MAX_STEPS}) reached"
         if not pieces:
-            return run.at_start("failed", f"integration failed at t = {t0:.9g} s: {exc}")
+            return run.at_start("failed", f"{failed} at t = {t0:.9g} s: {reason}")
         sol = OdeSolution(
             [t0] + [pc.t for pc in pieces], pieces, alt_segment=method in ("BDF", "LSODA")
         )
@@ -836,7 +847,7 @@ def _solve_scipy(
         else:
             t_out = np.append(t_eval_arr[t_eval_arr < sol.t_max], sol.t_max)
             Y = np.asarray(sol(t_out), dtype=float).reshape(y0.size, -1)
-        msg = f"integration failed at t = {sol.t_max:.9g} s: {exc}"
+        msg = f"{failed} at t = {sol.t_max:.9g} s: {reason}"
         kw = {"t_events": [np.empty(0) for _ in events], "nfev": 0}
         return run.result(t_out, Y, sol, "failed", msg, **kw)
 
