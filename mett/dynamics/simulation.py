@@ -53,8 +53,8 @@ __all__ = [
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
-"""The compiled backend stops with status "failed" after this many steps. It keeps every step in
-memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the gliding model (n = 10),
+"""Every backend stops with status "failed" after this many accepted steps (per phase of a hybrid
+run), the steps taken kept. The compiled backend keeps every step in memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the gliding model (n = 10),
 plus the Trajectory's series, about 140 MB more. Measured on the thesis top (rtol = 1e-10; 1e6
 steps reach t = 74 000 s once the top has settled, about 3000 s while it still nutates fast): the
 process peaks at 0.96 GB RSS, of which 0.19 GB is the interpreter with numpy, scipy and numba."""
@@ -299,16 +299,16 @@ def simulate(
         once per installation); DOP853 only. ``"scipy"``: :func:`scipy.integrate.solve_ivp` with
         the Python right-hand side, the reference; 30-50× slower. With DOP853 both take the same
         steps and agree to rounding. ``"auto"``: compiled for DOP853 (every model has a compiled
-        twin), scipy for other methods. ``Trajectory.backend`` says which ran. The compiled
-        backend keeps every step in memory and stops with status "failed" after
-        :data:`MAX_STEPS` steps. ``"taylor"``: the adaptive Taylor-series integrator
+        twin), scipy for other methods. ``Trajectory.backend`` says which ran. Every backend
+        keeps every step in memory and stops with status "failed" after :data:`MAX_STEPS`
+        steps. ``"taylor"``: the adaptive Taylor-series integrator
         (:mod:`mett.dynamics.taylor`; order p = ⌈−½ ln rtol⌉ + 1, the step of Jorba & Zou 2005),
         generated from the same equations and compiled with LLVM (a few seconds per model and
         order, once per installation: the machine code is cached on disk); its dense output is
         each step's Taylor polynomial. DOP853 only in ``method`` (it is not used).
     max_step : float, default inf
         Largest step (s); at least ``t_end / MAX_STEPS`` (a smaller one could not reach ``t_end``
-        within the compiled backend's step budget, and is refused on both backends).
+        within the step budget, and is refused on every backend).
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
@@ -359,6 +359,9 @@ def simulate(
     Exception
         Whatever a user event raises propagates unchanged (as in :func:`scipy.integrate.solve_ivp`);
         failures of the integration itself are a status, never an exception.
+    KeyboardInterrupt
+        Ctrl-C (SIGINT) during the run, on every backend: the compiled loops stop within 32 steps
+        (docs/reliability.md, "Interrupts and step budgets"). The run is discarded.
 
     Examples
     --------
