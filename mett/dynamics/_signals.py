@@ -19,10 +19,13 @@ Two parts make an interrupt clean and prompt:
   thread only) with one that only sets ``stop[0]``; the loop stops at its next poll, and a SIGINT
   that arrives while numba's wrapper runs Python code is harmless. :func:`raise_pending` then
   raises ``KeyboardInterrupt``. A SIGINT handler of the user's own is left in place (it runs at
-  the poll; if it raises, its exception is raised as above).
+  the poll; if it raises, its exception is raised as above). Such a handler, or one of another
+  signal, that raises during the few microseconds numba's wrapper runs Python code can still
+  meet numba's unchecked path; Python's default SIGINT handler never does.
 
-``PyErr_CheckSignals`` costs an atomic load when no signal is pending, a few nanoseconds against
-the microseconds of a step (measured on the thesis run: no difference above the noise).
+A poll costs about 25 ns when no signal is pending (``PyErr_CheckSignals`` reads one flag), and
+the loops poll every 32 steps (``_POLL_EVERY`` in :mod:`.dop853` and :mod:`.taylor`): on the thesis
+run, 2 630 steps of ~4 µs, that is 83 polls, about 2 µs of 11 ms.
 """
 
 from __future__ import annotations

@@ -1288,7 +1288,7 @@ def solve(
             raise ValueError(f"fixed_step must be positive and finite; got {fixed_step!r}")
     store = bool(dense_output or te is not None)
 
-    # A Ctrl-C during the run stops the loop at its next step and is raised here as
+    # A Ctrl-C during the run stops the loop within _POLL_EVERY steps and is raised here as
     # KeyboardInterrupt (see mett.dynamics._signals: raised inside numba's call wrapper it
     # crashed the process)
     stop = _signals.new_stop()
