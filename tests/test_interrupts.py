@@ -3,12 +3,12 @@
 A SIGINT during a compiled run used to crash the process (SIGSEGV) or surface as SystemError
 after the whole run, and a serial sweep recorded it as an "error" row and went on
 (docs/reliability.md#interrupts-and-step-budgets). Here a child process starts a long run; the
-parent sends SIGINT only once the child reports that the integration is under way (for a single
-run: a SIGALRM handler, which the compiled loops run at their signal polls, sees the solver's
-frame twice in a row; for a sweep: the checkpoint holds a first row). The child must end with a
-KeyboardInterrupt, caught and reported, never with a signal (a negative return code); an
-interrupted sweep, resumed from its checkpoint, must give the rows of an uninterrupted run, bit
-for bit.
+parent sends SIGINT only once the child reports that the integration is under way (a SIGALRM
+handler, which the compiled loops run at their signal polls, finds the run integrating; in a
+sweep, after a first row is in the checkpoint; with an executor, the checkpoint's first row
+alone). The child must end with a KeyboardInterrupt, caught and reported, never with a signal (a
+negative return code); an interrupted sweep, resumed from its checkpoint, must give the rows of an
+uninterrupted run, bit for bit.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ import os, signal, sys
 import mett
 
 COMPILED = {("dop853.py", "solve"), ("taylor.py", "solve"), ("taylor.py", "propagate")}
-seen = 0
+reported = False
 ready = lambda: True
 
 def where(frame):
@@ -60,9 +60,9 @@ def integrating(frame):
     return False
 
 def tick(signum, frame):
-    global seen
-    seen = seen + 1 if integrating(frame) and ready() else 0
-    if seen == 1:
+    global reported
+    if not reported and integrating(frame) and ready():
+        reported = True
         print("RUNNING", flush=True)
 
 def has_rows(path):  # a checkpoint with its header and a first row
