@@ -936,13 +936,18 @@ def sweep(
             # A chunk whose task failed (a worker died, the executor shut down) is not recorded,
             # so a rerun redoes it; every other chunk is still collected and checkpointed first.
             failures: list[BaseException] = []
-            for fut in as_completed(futures):
-                try:
-                    pairs = fut.result()
-                except Exception as exc:
-                    failures.append(exc)
-                    continue
-                finish(pairs)
+            try:
+                for fut in as_completed(futures):
+                    try:
+                        pairs = fut.result()
+                    except Exception as exc:
+                        failures.append(exc)
+                        continue
+                    finish(pairs)
+            except BaseException:  # an interrupt: the chunks not yet started are not run
+                for fut in futures:
+                    fut.cancel()
+                raise
             if failures:
                 raise failures[0]
     finally:

@@ -33,6 +33,11 @@ from .simulation import (
 
 __all__ = ["LANES", "RunEnd", "end_of", "run_ends"]
 
+_NOT_A_POINT = (MemoryError, RecursionError, SystemError)
+"""Failures of the process, not of a run's input: they propagate (like KeyboardInterrupt, which
+is no ``Exception``) instead of being recorded as the point's outcome, so a sweep never keeps them
+as a row and a resumed sweep runs the point again."""
+
 LANES = 4
 """Trajectories per SIMD batch: four doubles fill an AVX2 register (measured on the thesis top:
 0.45 µs per trajectory-step with 4 lanes, 1.6 µs with 1; 8 lanes were slower than 4)."""
@@ -115,7 +120,8 @@ def run_ends(
 ) -> list[RunEnd | BaseException]:
     """How each of the runs ``simulate(top, state, t_end, **simulate_kw, **options)`` ends, for
     ``jobs`` = [(top, state) or (top, state, options), ...]: a :class:`RunEnd`, or the exception
-    the run raised (bad input).
+    the run raised (bad input). An interrupt (KeyboardInterrupt) and a failure of the process
+    (MemoryError, RecursionError, SystemError) are raised, never returned as a run's outcome.
 
     Runs of the Taylor backend (``backend="taylor"``) of a single-phase model with ``cos_theta``
     and no user events go ``LANES`` at a time through :func:`mett.dynamics.taylor.propagate`;
@@ -144,11 +150,15 @@ def run_ends(
                 fast.setdefault((k, prep.max_step), []).append((j, prep))
             else:
                 out[j] = end_of(run_prepared(prep), window=window, n_window=n_window)
+        except _NOT_A_POINT:
+            raise
         except Exception as exc:  # the caller records it with the point
             out[j] = exc
     for (k, max_step), items in fast.items():
         try:
             _propagate_group(k, max_step, items, t_end, window, n_window, out)
+        except _NOT_A_POINT:
+            raise
         except Exception as exc:  # each run of the group records it
             for j, _ in items:
                 out[j] = exc

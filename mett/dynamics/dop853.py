@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike
 
 from .._numba_cache import install as _check_numba_cache
 from .._validate import ToleranceWarning
+from . import _signals
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
 
@@ -273,6 +274,8 @@ NON_FINITE = -2
 """Failed: the state or the right-hand side stayed non-finite however small the step."""
 MAX_STEPS = -3
 """Failed: ``max_steps`` accepted steps without reaching the end."""
+_INTERRUPTED = -4  # a signal (Ctrl-C) stopped the loop: solve raises, it is never a result
+_POLL_EVERY = 32  # steps between polls for signals: ~25 ns a poll, a step takes microseconds
 
 STATUS_MESSAGES = {
     COMPLETED: "The solver successfully reached the end of the integration interval.",
@@ -651,7 +654,7 @@ _RUNNING = -99
 def _advance(
     rhs, events, n_events, ev_dir, ev_term, t_bound, params, rtol, atol, max_step, fixed_step,
     max_steps, store_dense, K, Fc, y, y_new, ytmp, yev, g_old, g_new, gtmp, act_k, act_t,
-    ts, ys, hs, F, ev_idx, ev_t, ev_y, fstate, istate,
+    ts, ys, hs, F, ev_idx, ev_t, ev_y, fstate, istate, stop,
 ):  # fmt: skip
     """Take accepted steps until the run ends or an output buffer has no room for another step.
 
@@ -659,7 +662,8 @@ def _advance(
     In the NRT-compiled caller every array reassigned inside the loop (the growing buffers) cost
     an atomic incref/decref pair per step; together about 10 % of the thesis run.  The state
     between calls is in ``fstate`` (t, h_abs) and ``istate`` (status, m, n_rej, nfev, n_ev);
-    K[0] holds f(t, y) and g_old the event values at t.
+    K[0] holds f(t, y) and g_old the event values at t. Every ``_POLL_EVERY`` steps it polls for
+    signals (:func:`._signals.poll`, ``stop``): a Ctrl-C ends the loop with status ``_INTERRUPTED``.
     """
     n = y.size
     nF = INTERPOLATOR_POWER * n
@@ -669,6 +673,9 @@ def _advance(
     status, m, n_rej, nfev, n_ev = istate[0], istate[1], istate[2], istate[3], istate[4]
 
     while status == _RUNNING:
+        if m % _POLL_EVERY == 0 and _signals.poll(stop):
+            status = _INTERRUPTED
+            break
         # room for one more step and all the events it can report
         if m + 2 > ts.size or m + 1 > hs.size or (m + 2) * n > ys.size:
             break
@@ -826,6 +833,7 @@ _KERNEL_SIGNATURE = _KERNEL_RESULT(
     _f8,  # fixed step (0: adaptive)
     _i8,  # max steps
     types.boolean,  # store the dense output
+    _ivec,  # stop: the signal flags of _signals.poll
 )
 
 
@@ -846,6 +854,7 @@ def _integrate(
     fixed_step,
     max_steps,
     store_dense,
+    stop,
 ):
     """The compiled DOP853 loop; see :func:`solve` for the meaning of the arguments.
 
@@ -914,7 +923,7 @@ def _integrate(
         _advance(
             rhs, events, n_events, ev_dir, ev_term, t_bound, params, rtol, atol, max_step,
             fixed_step, max_steps, store_dense, K, Fc, y, y_new, ytmp, yev, g_old, g_new, gtmp,
-            act_k, act_t, ts, ys, hs, F, ev_idx, ev_t, ev_y, fstate, istate,
+            act_k, act_t, ts, ys, hs, F, ev_idx, ev_t, ev_y, fstate, istate, stop,
         )  # fmt: skip
         m, n_ev = istate[_M], istate[_N_EV]
         if m + 2 > ts.size:
@@ -1282,10 +1291,16 @@ def solve(
             raise ValueError(f"fixed_step must be positive and finite; got {fixed_step!r}")
     store = bool(dense_output or te is not None)
 
-    (status, t_last, nfev, n_acc, n_rej, ts, ys, hs, F, ev_idx, ev_t, ev_y) = _integrate(
-        rhs, ev_fn, n_events, ev_dir, ev_term, t0, t1, y0, p, rtol_arr, atol_arr,
-        fs, ms, hf, int(max_steps), store,
-    )  # fmt: skip
+    # A Ctrl-C during the run stops the loop within _POLL_EVERY steps and is raised here as
+    # KeyboardInterrupt (see mett.dynamics._signals: raised inside numba's call wrapper it
+    # crashed the process)
+    stop = _signals.new_stop()
+    with _signals.deferred_sigint(stop):
+        (status, t_last, nfev, n_acc, n_rej, ts, ys, hs, F, ev_idx, ev_t, ev_y) = _integrate(
+            rhs, ev_fn, n_events, ev_dir, ev_term, t0, t1, y0, p, rtol_arr, atol_arr,
+            fs, ms, hf, int(max_steps), store, stop,
+        )  # fmt: skip
+    _signals.raise_pending(stop)
     ys = ys.reshape(-1, n)
     ev_y = ev_y.reshape(-1, n)
     dense = DenseOutput(ts, ys, hs, F.reshape(-1, INTERPOLATOR_POWER, n)) if store else None

@@ -53,8 +53,8 @@ __all__ = [
 
 _METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 MAX_STEPS = 1_000_000
-"""The compiled backend stops with status "failed" after this many steps. It keeps every step in
-memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the gliding model (n = 10),
+"""Every backend stops with status "failed" after this many accepted steps (per phase of a hybrid
+run), the steps taken kept. The compiled backend keeps every step in memory: 8 (12 + 8n) bytes per step for an n-component state, 656 MB for the gliding model (n = 10),
 plus the Trajectory's series, about 140 MB more. Measured on the thesis top (rtol = 1e-10; 1e6
 steps reach t = 74 000 s once the top has settled, about 3000 s while it still nutates fast): the
 process peaks at 0.96 GB RSS, of which 0.19 GB is the interpreter with numpy, scipy and numba."""
@@ -299,16 +299,16 @@ def simulate(
         once per installation); DOP853 only. ``"scipy"``: :func:`scipy.integrate.solve_ivp` with
         the Python right-hand side, the reference; 30-50× slower. With DOP853 both take the same
         steps and agree to rounding. ``"auto"``: compiled for DOP853 (every model has a compiled
-        twin), scipy for other methods. ``Trajectory.backend`` says which ran. The compiled
-        backend keeps every step in memory and stops with status "failed" after
-        :data:`MAX_STEPS` steps. ``"taylor"``: the adaptive Taylor-series integrator
+        twin), scipy for other methods. ``Trajectory.backend`` says which ran. Every backend
+        keeps every step in memory and stops with status "failed" after :data:`MAX_STEPS`
+        steps. ``"taylor"``: the adaptive Taylor-series integrator
         (:mod:`mett.dynamics.taylor`; order p = ⌈−½ ln rtol⌉ + 1, the step of Jorba & Zou 2005),
         generated from the same equations and compiled with LLVM (a few seconds per model and
         order, once per installation: the machine code is cached on disk); its dense output is
         each step's Taylor polynomial. DOP853 only in ``method`` (it is not used).
     max_step : float, default inf
         Largest step (s); at least ``t_end / MAX_STEPS`` (a smaller one could not reach ``t_end``
-        within the compiled backend's step budget, and is refused on both backends).
+        within the step budget, and is refused on every backend).
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
@@ -359,6 +359,9 @@ def simulate(
     Exception
         Whatever a user event raises propagates unchanged (as in :func:`scipy.integrate.solve_ivp`);
         failures of the integration itself are a status, never an exception.
+    KeyboardInterrupt
+        Ctrl-C (SIGINT) during the run, on every backend: the compiled loops stop within 32 steps
+        (docs/reliability.md, "Interrupts and step budgets"). The run is discarded.
 
     Examples
     --------
@@ -744,16 +747,24 @@ class _Run:
         return self.result(t_out, Y, sol, *event_end(ev.action, ev.message, t_ev), **kw)
 
 
-def _recording(method: str, pieces: list[Any], states: list[np.ndarray]) -> type:
+class _StepBudget(Exception):
+    """Raised by the recording solver class at its step budget (:data:`MAX_STEPS`)."""
+
+
+def _recording(method: str, pieces: list[Any], states: list[np.ndarray], max_steps: int) -> type:
     """The solver class of ``method``, recording the interpolant and the state at the end of every
     step in ``pieces`` and ``states`` (solve_ivp asks for the interpolant once per accepted step
-    with ``dense_output=True``)."""
+    with ``dense_output=True``). After ``max_steps`` recorded steps the next one raises
+    :class:`_StepBudget` (solve_ivp has no step limit of its own), so a run on the scipy backend has
+    the compiled backend's budget."""
     import scipy.integrate
 
     base = getattr(scipy.integrate, method)
 
     class Recording(base):  # type: ignore[misc, valid-type]
         def dense_output(self) -> Any:
+            if len(pieces) >= max_steps:
+                raise _StepBudget
             out = super().dense_output()
             pieces.append(out)
             states.append(np.array(self.y, dtype=float))
@@ -812,7 +823,7 @@ def _solve_scipy(
                 fun,
                 (t0, t_end),
                 y0,
-                method=_recording(method, pieces, states),
+                method=_recording(method, pieces, states, MAX_STEPS),
                 t_eval=t_eval_arr,
                 dense_output=True,
                 events=all_events,
@@ -822,11 +833,14 @@ def _solve_scipy(
             )
     except _UserEventError as err:
         raise err.exc from None  # a user event's exception, unchanged (as solve_ivp lets it go)
-    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
-        # raised inside the solver (e.g. an LU factorisation of a non-finite Jacobian): keep the
-        # steps taken so far, as for any other failure
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError, _StepBudget) as exc:
+        # raised inside the solver (e.g. an LU factorisation of a non-finite Jacobian), or the
+        # step budget: keep the steps taken so far, as for any other failure
+        failed, reason = "integration failed", str(exc)
+        if isinstance(exc, _StepBudget):  # worded as on the compiled backend
+            failed, reason = "integrator failed", f"maximum number of steps ({MAX_STEPS}) reached"
         if not pieces:
-            return run.at_start("failed", f"integration failed at t = {t0:.9g} s: {exc}")
+            return run.at_start("failed", f"{failed} at t = {t0:.9g} s: {reason}")
         sol = OdeSolution(
             [t0] + [pc.t for pc in pieces], pieces, alt_segment=method in ("BDF", "LSODA")
         )
@@ -836,7 +850,7 @@ def _solve_scipy(
         else:
             t_out = np.append(t_eval_arr[t_eval_arr < sol.t_max], sol.t_max)
             Y = np.asarray(sol(t_out), dtype=float).reshape(y0.size, -1)
-        msg = f"integration failed at t = {sol.t_max:.9g} s: {exc}"
+        msg = f"{failed} at t = {sol.t_max:.9g} s: {reason}"
         kw = {"t_events": [np.empty(0) for _ in events], "nfev": 0}
         return run.result(t_out, Y, sol, "failed", msg, **kw)
 

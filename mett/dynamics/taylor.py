@@ -1057,6 +1057,7 @@ from numba import types  # noqa: E402
 from .._numba_cache import install as _check_numba_cache  # noqa: E402
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
+from . import _signals  # noqa: E402
 
 _F8P = types.CPointer(types.float64)
 _JET_SIG = types.void(_F8P, _F8P, _F8P, _F8P, _F8P, _F8P)
@@ -1079,6 +1080,8 @@ class _JetAddress(types.WrapperAddressProtocol):
 
 
 COMPLETED, TERMINAL_EVENT, NON_FINITE, STEP_TOO_SMALL, MAX_STEPS = 0, 1, -1, -2, -3
+_INTERRUPTED = -4  # a signal (Ctrl-C) stopped the loop: the caller raises, it is never a result
+_POLL_EVERY = 32  # steps between polls for signals (mett.dynamics._signals)
 STATUS_MESSAGES = {
     COMPLETED: "the end of the interval was reached",
     TERMINAL_EVENT: "a terminal event occurred",
@@ -1147,13 +1150,14 @@ _INTEGRATE_SIG = types.void(
     types.float64[::1],  # tt: sample times, increasing
     types.float64[:, :, ::1],  # S (tt.size, n, W): the states at tt
     types.int64[:, ::1],  # info (W, 3): steps, event index, status
+    types.int64[::1],  # stop: the signal flags of _signals.poll
 )
 
 
 @numba.njit(_INTEGRATE_SIG, cache=True, error_model="numpy")
 def _integrate(
     jet, update, t0, t_end, y0, p, sig, fac, order, max_step, ev_dir, ev_terminal, n_sub, room,
-    T, Y, C, first, tt, S, info,
+    T, Y, C, first, tt, S, info, stop,
 ):  # fmt: skip
     """Taylor steps of W trajectories (lanes) at once, from ``t0`` towards ``t_end``.
 
@@ -1167,7 +1171,9 @@ def _integrate(
     its zero; a recording one (``ev_terminal`` 0) notes its first zero in ``first`` (NaN: none).
     The states at the sample times ``tt`` go to ``S`` (left as they are after a lane stops).
     ``info[l]`` = (steps, index of the terminal event or −1, status), status as in
-    :data:`STATUS_MESSAGES` (:data:`MAX_STEPS`: out of room, to be resumed).
+    :data:`STATUS_MESSAGES` (:data:`MAX_STEPS`: out of room, to be resumed). Every
+    ``_POLL_EVERY`` steps it polls for signals (``stop``, :func:`._signals.poll`): a Ctrl-C stops
+    the active lanes with status ``_INTERRUPTED``, which the caller turns into KeyboardInterrupt.
     """
     n, W = y0.shape
     n_ev = ev_dir.size
@@ -1206,6 +1212,11 @@ def _integrate(
             for lane in range(W):
                 if active[lane]:
                     info[lane, 2] = MAX_STEPS
+            break
+        if it % _POLL_EVERY == 0 and _signals.poll(stop):
+            for lane in range(W):
+                if active[lane]:
+                    info[lane, 2] = _INTERRUPTED
             break
         X = C[it] if dense else C[0]
         jet(t.ctypes, y.ctypes, p.ctypes, X.ctypes, sig.ctypes, nrm.ctypes)
@@ -1493,6 +1504,7 @@ def solve(
     # are only made resident when written; a short run's coefficients are copied out (below).
     step_bytes = rows * width * W * 8
     pending, room = list(range(m)), max(1024, -(-_HUGE // step_bytes))
+    stop = _signals.new_stop()
     while pending:
         resume = []
         for g in range(0, len(pending), W):
@@ -1502,14 +1514,18 @@ def solve(
             T, Yb = np.empty((rm + 1, W)), np.empty((rm + 1, n, W))
             C = np.empty((rm, rows, width, W))
             info = np.zeros((W, 3), dtype=np.int64)
-            _integrate(
-                k.function, k.update, np.ascontiguousarray(t_now[lanes]), t_end,
-                np.ascontiguousarray(y_now[lanes].T), np.ascontiguousarray(P[lanes].T),
-                np.ascontiguousarray(np.vstack([tol_scale * SC[lanes].T, np.full(W, tol_scale)])),
-                fac, k.order, float(max_step), ev_dir, np.ones(k.n_events), n_sub, rm, T, Yb, C,
-                np.empty((W, k.n_events)), _NO_TIMES, np.empty((0, n, W)),
-                info,
-            )  # fmt: skip
+            # a Ctrl-C stops the loop within _POLL_EVERY steps and is raised here
+            with _signals.deferred_sigint(stop):
+                _integrate(
+                    k.function, k.update, np.ascontiguousarray(t_now[lanes]), t_end,
+                    np.ascontiguousarray(y_now[lanes].T), np.ascontiguousarray(P[lanes].T),
+                    np.ascontiguousarray(
+                        np.vstack([tol_scale * SC[lanes].T, np.full(W, tol_scale)])
+                    ),
+                    fac, k.order, float(max_step), ev_dir, np.ones(k.n_events), n_sub, rm, T,
+                    Yb, C, np.empty((W, k.n_events)), _NO_TIMES, np.empty((0, n, W)), info, stop,
+                )  # fmt: skip
+            _signals.raise_pending(stop)
             for lane, j in enumerate(group):
                 steps, hit, status = (int(x) for x in info[lane])
                 parts[j].append(
@@ -1608,11 +1624,14 @@ def propagate(
         np.full((m, k.n_events), np.nan), np.empty((m, tt.size, n)), np.empty(m, dtype=np.int64),
     )  # fmt: skip
     Y0, P, SC = (np.array(a, dtype=float, order="C") for a in (Y0, P, SC))  # writable copies
-    _propagate_groups(
-        k.function, k.update, t0, t_end, Y0, P, SC, fac, k.order, float(max_step), ev_dir,
-        ev_term, n_sub, int(max_steps), tt, W, rows, out.t, out.y, out.status, out.event_index,
-        out.first, out.samples, out.n_steps,
-    )  # fmt: skip
+    stop = _signals.new_stop()
+    with _signals.deferred_sigint(stop):  # a Ctrl-C stops the batch and is raised here
+        _propagate_groups(
+            k.function, k.update, t0, t_end, Y0, P, SC, fac, k.order, float(max_step), ev_dir,
+            ev_term, n_sub, int(max_steps), tt, W, rows, out.t, out.y, out.status,
+            out.event_index, out.first, out.samples, out.n_steps, stop,
+        )  # fmt: skip
+    _signals.raise_pending(stop)
     return out
 
 
@@ -1623,13 +1642,14 @@ def propagate(
         types.float64[::1], types.float64[::1], types.int64, types.int64, types.float64[::1],
         types.int64, types.int64, types.float64[::1], types.float64[:, ::1], types.int64[::1],
         types.int64[::1], types.float64[:, ::1], types.float64[:, :, ::1], types.int64[::1],
+        types.int64[::1],
     ),
     cache=True,
     error_model="numpy",
 )  # fmt: skip
 def _propagate_groups(
     jet, update, t0, t_end, Y0, P, SC, fac, order, max_step, ev_dir, ev_term, n_sub, max_steps,
-    tt, W, rows, out_t, out_y, out_status, out_event, out_first, out_samples, out_steps,
+    tt, W, rows, out_t, out_y, out_status, out_event, out_first, out_samples, out_steps, stop,
 ):  # fmt: skip
     """:func:`propagate`'s runs (rows of ``Y0``, ``P``, ``SC``), ``W`` lanes at a time (the last
     group padded with its first run), the results in the ``out_`` arrays: one call from Python
@@ -1659,8 +1679,10 @@ def _propagate_groups(
         S[:] = np.nan
         _integrate(
             jet, update, t0s, t_end, y0, p, sig, fac, order, max_step, ev_dir, ev_term, n_sub,
-            max_steps, T, Yb, C, first, tt, S, info,
+            max_steps, T, Yb, C, first, tt, S, info, stop,
         )  # fmt: skip
+        if stop[0] != 0:  # interrupted (a signal): the caller raises
+            return
         for lane in range(min(W, m - g)):
             j = g + lane
             steps = info[lane, 0]
