@@ -1055,9 +1055,9 @@ import numba  # noqa: E402  (only the integrator needs numba; tracing does not)
 from numba import types  # noqa: E402
 
 from .._numba_cache import install as _check_numba_cache  # noqa: E402
+from . import _signals  # noqa: E402
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
-from . import _signals  # noqa: E402
 
 _F8P = types.CPointer(types.float64)
 _JET_SIG = types.void(_F8P, _F8P, _F8P, _F8P, _F8P, _F8P)
