@@ -235,8 +235,8 @@ def test_every_switch_met_its_condition(stick_slip_run):
         else:
             assert sw.reason == "reversal" and sw.margin < 0.0
     # the phase series agrees with the recorded switches
-    for sw in tr.switches:
-        after = tr.phase[np.searchsorted(tr.t, sw.t, side="right")]
+    for sw in tr.switches:  # the phases change at the event (a stop's at the band)
+        after = tr.phase[np.searchsorted(tr.t, sw.t_event, side="left")]
         assert after == sw.after
 
 
