@@ -58,8 +58,8 @@ def test_both_contacts_and_both_phases_are_visited(run):
     reasons = [s.reason for s in run.switches]
     assert {"touchdown", "landing", "stop"} <= set(reasons)
     assert run.touchdowns.size == reasons.count("touchdown") >= 2
-    for sw in run.switches:  # the sample at a switch is the state after it
-        k = np.searchsorted(run.t, sw.t, side="left")
+    for sw in run.switches:  # the sample at a switch's event is the state after it
+        k = np.searchsorted(run.t, sw.t_event, side="left")
         assert f"{run.contact[k]}-{run.phase[k]}" == sw.after
         contacts = (sw.before.split("-")[0], sw.after.split("-")[0])
         want = {"touchdown": ("ball", "stem"), "landing": ("stem", "ball")}
