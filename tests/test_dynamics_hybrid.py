@@ -189,3 +189,75 @@ def test_a_switch_event_that_is_zero_where_its_phase_starts_does_not_fire(backen
     tr = simulate(TOP, START, 0.5, model=PINGPONG, backend=backend)
     assert tr.status == "completed"
     assert [(round(t, 12), a, b) for t, a, b in tr.switches] == [(0.3, "friction", "frictionless")]
+
+
+# --- user events: one meaning of a zero on every backend --------------------------------------
+# A zero of a user event is a change of its class (sign −1, 0, +1); a stretch of exact zeros is a
+# class of its own (docs/theory/simulation.md#user-events). The references are the roots of θ − L
+# on the dense output of a run without events (scipy's brentq), on the same backend: the event
+# code and the reference share only the integration, so they agree to the root tolerance (4 ulps
+# of t, plus the interpolant's rounding: 1e-12 s at |θ̇| ≥ 0.1 rad/s).
+
+NUTATING = mett.State(theta=0.3, thetadot=1.0, omega3=155.0)  # θ ∈ [0.289, 0.305]: 0.03 s
+LEVEL = 0.302
+
+
+def _level_crossings(tr, level):
+    """Roots of θ − level on the run's dense output, bracketed on a fine grid (independent)."""
+    from scipy.optimize import brentq
+
+    tt = np.linspace(0.0, tr.t_final, 4001)
+    f = tr.theta_at(tt) - level
+    idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)
+    return np.array([brentq(lambda t: tr.theta_at(t) - level, tt[i], tt[i + 1], xtol=1e-15)
+                     for i in idx])  # fmt: skip
+
+
+@pytest.fixture(scope="module", params=["compiled", "scipy", "taylor"])
+def level_run(request):
+    tr = simulate(TOP, NUTATING, 0.1, backend=request.param, rtol=1e-10)
+    roots = _level_crossings(tr, LEVEL)
+    assert roots.size >= 4 and np.all(np.abs(tr.at(roots).thetadot) > 0.1)
+    return request.param, roots
+
+
+def test_a_clipped_event_stops_at_the_first_true_crossing(level_run):
+    """max(θ − L, 0) is 0 until θ first reaches L: it fires there (rising), on every backend —
+    scipy used to stop at the end of its first step (0 at both ends counted as a zero), DOP853
+    and Taylor at the first fall back through L."""
+    backend, roots = level_run
+
+    def clipped(t, s):
+        return max(s.theta - LEVEL, 0.0)
+
+    tr = simulate(TOP, NUTATING, 0.1, backend=backend, rtol=1e-10, events=[clipped])
+    np.testing.assert_allclose(tr.t_events[0], roots, rtol=0, atol=1e-12)  # every crossing
+    clipped.direction = 1.0
+    up = simulate(TOP, NUTATING, 0.1, backend=backend, rtol=1e-10, events=[clipped])
+    rising = roots[tr.at(roots).thetadot > 0]
+    np.testing.assert_allclose(up.t_events[0], rising, rtol=0, atol=1e-12)
+    clipped.terminal = True
+    cut = simulate(TOP, NUTATING, 0.1, backend=backend, rtol=1e-10, events=[clipped])
+    assert cut.status == "completed" and "terminal event 0" in cut.message
+    assert cut.t_final == pytest.approx(roots[0], abs=1e-12)
+    assert cut.t_events[0] == pytest.approx([roots[0]], abs=1e-12)
+
+
+def test_a_bool_event_fires_at_every_change_and_a_zero_event_never(level_run):
+    backend, roots = level_run
+
+    def above(t, s):
+        return s.theta > LEVEL
+
+    def nothing(t, s):
+        return 0.0
+
+    nothing.terminal = True
+    tr = simulate(TOP, NUTATING, 0.1, backend=backend, rtol=1e-10, events=[above, nothing])
+    assert tr.status == "completed" and tr.t_final == 0.1
+    np.testing.assert_allclose(tr.t_events[0], roots, rtol=0, atol=1e-12)
+    assert tr.t_events[1].size == 0
+    # the negated clipped event: the same zeros (the classes 0 and −1)
+    neg = simulate(TOP, NUTATING, 0.1, backend=backend, rtol=1e-10,
+                   events=[lambda t, s: -max(s.theta - LEVEL, 0.0)])  # fmt: skip
+    np.testing.assert_allclose(neg.t_events[0], roots, rtol=0, atol=1e-12)

@@ -312,8 +312,10 @@ class TestCoulomb(ModelContract):
         reasons = [s.reason for s in tr.switches]
         assert reasons[0] == "stop" and set(reasons) <= {"stop", "cone", "reversal"}
         for sw in tr.switches:  # the phase series agrees with the recorded switches
-            # (the sample at a switch time is the state after the switch)
-            assert tr.phase[np.searchsorted(tr.t, sw.t, side="left")] == sw.after
+            # (the sample at a switch's event is the state after the switch; a stop is recorded
+            # where the slip vanishes, δ/a after its event at the band)
+            assert tr.phase[np.searchsorted(tr.t, sw.t_event, side="left")] == sw.after
+            assert sw.t_event <= sw.t
 
 
 class TestCoulombContensou(ModelContract):

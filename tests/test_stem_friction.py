@@ -58,8 +58,8 @@ def test_both_contacts_and_both_phases_are_visited(run):
     reasons = [s.reason for s in run.switches]
     assert {"touchdown", "landing", "stop"} <= set(reasons)
     assert run.touchdowns.size == reasons.count("touchdown") >= 2
-    for sw in run.switches:  # the sample at a switch is the state after it
-        k = np.searchsorted(run.t, sw.t, side="left")
+    for sw in run.switches:  # the sample at a switch's event is the state after it
+        k = np.searchsorted(run.t, sw.t_event, side="left")
         assert f"{run.contact[k]}-{run.phase[k]}" == sw.after
         contacts = (sw.before.split("-")[0], sw.after.split("-")[0])
         want = {"touchdown": ("ball", "stem"), "landing": ("stem", "ball")}
@@ -244,8 +244,17 @@ def test_a_sticking_touchdown_starts_rolling_on_the_stem():
 def test_compiled_equals_python(run):
     ref = simulate(TOP, NEAR, 0.5, friction=LAW, backend="scipy")
     assert [s[1:4] for s in ref.switches] == [s[1:4] for s in run.switches]
-    np.testing.assert_allclose([s.t for s in ref.switches], [s.t for s in run.switches],
-                               rtol=0, atol=1e-9)  # fmt: skip
+    # the same steps only while the rounding agrees (not across machines): each switch time to
+    # its integration error, δ/a for a stop or reversal (the slip's error is below the band δ;
+    # a = −d|γ|/dt at the band), the bound 1e-7 rad on θ below over |θ̇| for the others
+    p = run.params
+    for a, b, (y_ev, _) in zip(ref.switches, run.switches, run.jumps, strict=True):
+        if b.reason in ("stop", "reversal"):
+            q = stemslip._contact(p, b.before.startswith("stem"))
+            tol = run.stopping_band / stickslip._slip_rate(y_ev, q)
+        else:
+            tol = 1e-7 / abs(run.at(b.t).thetadot)
+        assert abs(a.t - b.t) <= 2.0 * tol, (a, b, tol)
     assert abs(ref.theta[-1] - run.theta[-1]) < 1e-7
 
 

@@ -6,8 +6,9 @@ Two backends run the same models (docs/theory/simulation.md#numerics):
   right-hand side (:mod:`._kernels`, compiled from the same source as ``Model.rhs``). The contact
   event g_n = 0 and the model's guards are located inside the compiled loop. User ``events``
   (Python callables of a :class:`~mett.State`) cannot run there: they are evaluated after the run
-  on the solver's steps and dense output, with scipy's rules (sign change over a step, refined by
-  Brent's method on the interpolant), and a terminal user event truncates the trajectory there.
+  on the solver's steps and dense output (a change of class over a step, located by Brent's
+  method on the interpolant, :class:`_UserEvents`), and a terminal user event truncates the
+  trajectory there.
   numba is imported on the first compiled run, not by ``import mett``.
 * ``backend="scipy"``: :func:`scipy.integrate.solve_ivp` with the pure-Python right-hand side, any of
   its methods; the reference path of the tests.
@@ -193,14 +194,7 @@ def _check_t_eval(t_eval: Any, t_end: float) -> np.ndarray | None:
     return te
 
 
-def _user_event(
-    ev: Callable,
-    model: Model,
-    params: tuple,
-    t_start: float,
-    terminal: int = 0,
-    direction: float = 0.0,
-) -> Callable:
+def _user_event(ev: Callable, model: Model, params: tuple) -> Callable:
     """The user event ``ev(t, State)`` as an event ``f(t, y)`` of the model state."""
 
     def wrapped(t: float, y: np.ndarray) -> float:
@@ -210,15 +204,10 @@ def _user_event(
             *(float(s[k][0]) for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
         )
         try:
-            value = float(ev(t, state))
+            return float(ev(t, state))
         except Exception as exc:  # the caller's exception, raised again unchanged by simulate
             raise _UserEventError(exc) from exc
-        # A zero at the start is not an event (on both backends; solve_ivp alone would count it,
-        # and a terminal event would end the run at t = 0): NaN makes no sign change with it.
-        return math.nan if value == 0.0 and t == t_start else value
 
-    wrapped.terminal = terminal  # type: ignore[attr-defined]
-    wrapped.direction = direction  # type: ignore[attr-defined]
     return wrapped
 
 
@@ -285,11 +274,14 @@ def simulate(
         ``event(t, state) -> float`` with a scalar :class:`~mett.State`; optional attributes
         ``terminal`` and ``direction`` as in :func:`scipy.integrate.solve_ivp`: ``terminal`` a bool
         or an int n ≥ 0 (stop at the n-th zero; True = 1), ``direction`` a real number (its sign
-        selects the crossings). A zero at t = 0 is not an event. Their times are in
-        ``Trajectory.t_events``. A terminal user event ends the run with status "completed".
-        With the compiled backend they are evaluated after the run, on the same steps and dense
-        output scipy would use (so the times agree), and the trajectory is cut at the first
-        terminal one.
+        selects the crossings). A zero is a change of sign of the value, with an exact 0 a sign
+        of its own: ``max(θ − 1, 0)`` fires where θ crosses 1, a bool-valued event where it
+        changes, an event identically 0 never; a stretch of zeros between opposite signs is one
+        crossing, where it begins (docs/reliability.md). A zero at t = 0 is not an event. Their
+        times are in ``Trajectory.t_events``. A terminal user event ends the run with status
+        "completed". Every backend follows the same rules, with the same code: the compiled
+        and Taylor backends evaluate the events after the run on their steps and dense output
+        and cut the trajectory at the first terminal one; scipy's steps are taken as they come.
     method : str, default "DOP853"
         Integration method: DOP853 on either backend, or another method of
         :func:`scipy.integrate.solve_ivp` ("RK45", "Radau", …) on the scipy backend.
@@ -577,9 +569,10 @@ def run_prepared(prep: PreparedRun) -> Trajectory:
         max_step=max_step,
         method=method,
     )
+    events = _UserEvents(user, run) if user else None
     if not mdl.hybrid:
-        return solve(run, t_eval_arr=t_eval_arr, events=user)
-    return _solve_hybrid(run, solve, table, t_eval_arr, user)
+        return solve(run, t_eval_arr=t_eval_arr, events=events)
+    return _solve_hybrid(run, solve, table, t_eval_arr, events)
 
 
 MAX_SWITCHES = 100_000
@@ -591,7 +584,7 @@ def _solve_hybrid(
     solve: Callable,
     table: dict[str, Phase],
     t_eval_arr: np.ndarray | None,
-    user: list[tuple[Callable, int, float]],
+    events: _UserEvents | None,
 ) -> Trajectory:
     """Run a hybrid model phase by phase: each phase until one of its events; a "switch" event
     starts the phase it names at the located time (with the event's ``jump`` applied), any other
@@ -600,24 +593,19 @@ def _solve_hybrid(
     The samples of a phase end just before the switch time; the next phase's first sample is the
     state after the switch. ``Trajectory.phase`` holds the phase of each sample and
     ``Trajectory.switches`` the (time, from, to) of each switch. User events count their zeros
-    over the whole run (``terminal`` = n stops at the n-th zero, whichever phase it falls in).
+    over the whole run (``terminal`` = n stops at the n-th zero, whichever phase it falls in):
+    ``events`` carries their state from phase to phase.
     """
     mdl, params = run.mdl, run.params
-    remaining = [term for _, term, _ in user]
-    t_parts, y_parts, phases, sols, t_user = [], [], [], [], [[] for _ in user]
+    t_parts, y_parts, phases, sols = [], [], [], []
     seg_phases: list[str] = []
     switches: list[tuple[float, str, str]] = []
     jumps: list[tuple[np.ndarray, np.ndarray]] = []
     nfev = 0
     jump_failed: str | None = None
     while True:
-        events = [(ev, rem, dirn) for (ev, _, dirn), rem in zip(user, remaining, strict=True)]
         seg = solve(run, t_eval_arr=t_eval_arr, events=events, collect=True)
         nfev += seg.kw.get("nfev", 0)
-        for k, te in enumerate(seg.kw.get("t_events", [])):
-            t_user[k].append(te)
-            if remaining[k]:  # a terminal event that reaches its count ends the run anyway
-                remaining[k] = max(remaining[k] - te.size, 1)
         sols.append(seg.sol)
         seg_phases.append(run.phase.name)
         last = run.switch is None or len(switches) >= MAX_SWITCHES
@@ -650,7 +638,6 @@ def _solve_hybrid(
                    state=run.state, options=run.options)  # fmt: skip
     kw = dict(seg.kw)
     kw["nfev"] = nfev
-    kw["t_events"] = [np.concatenate(parts) if parts else np.empty(0) for parts in t_user]
     status, message = seg.status, seg.message
     if jump_failed is not None:
         status, message = "failed", jump_failed
@@ -782,7 +769,7 @@ def _solve_scipy(
     Integrates ``run.phase`` from ``run.t0``; returns the Trajectory (with ``collect``, the
     :class:`_Piece` for a hybrid run to join).
     """
-    mdl, params, y0, t0 = run.mdl, run.params, run.y0, run.t0
+    params, y0, t0 = run.params, run.y0, run.t0
     run.collect = collect
     rhs, nan = run.phase.rhs, np.full(y0.size, np.nan)
 
@@ -810,13 +797,35 @@ def _solve_scipy(
         model_event.direction = ev.direction  # type: ignore[attr-defined]
         all_events.append(model_event)
     n_internal = len(all_events)
-    all_events.extend(_user_event(ev, mdl, params, t0, term, dirn) for ev, term, dirn in events)
     if t_eval_arr is not None:
         t_eval_arr = t_eval_arr[t_eval_arr >= t0]
 
     # the steps' interpolants and end states, to keep the run if the solver raises
     pieces: list[Any] = []
     states: list[np.ndarray] = []
+    taken, snap, flip = [-1], [None], [math.inf]
+    if events:
+
+        def user_watch(t: float, y: np.ndarray) -> float:
+            """The user events, taken step by step (:class:`_UserEvents`); solve_ivp calls this
+            at the start and at the end of every step, after ``_recording`` kept the step. It
+            changes sign at the end of the step in which a terminal one reached its count, so
+            that solve_ivp stops there; the zeros themselves are the tracker's."""
+            if taken[0] < 0:
+                taken[0] = 0
+                events.advance([t0], events.values([t0], y0.reshape(-1, 1)), None)
+            while taken[0] < len(pieces):
+                j = taken[0]
+                taken[0] += 1
+                snap[0] = events.snapshot()
+                t_j = float(pieces[j].t)
+                events.advance([t_j], events.values([t_j], states[j].reshape(-1, 1)), pieces[j])
+                if events.stop is not None and flip[0] == math.inf:
+                    flip[0] = t_j
+            return -1.0 if t >= flip[0] else 1.0
+
+        user_watch.terminal = 1  # type: ignore[attr-defined]
+        all_events.append(user_watch)
     try:
         with np.errstate(all="ignore"):
             res = solve_ivp(
@@ -851,7 +860,7 @@ def _solve_scipy(
             t_out = np.append(t_eval_arr[t_eval_arr < sol.t_max], sol.t_max)
             Y = np.asarray(sol(t_out), dtype=float).reshape(y0.size, -1)
         msg = f"{failed} at t = {sol.t_max:.9g} s: {reason}"
-        kw = {"t_events": [np.empty(0) for _ in events], "nfev": 0}
+        kw = {"t_events": events.result(sol.t_max) if events else [], "nfev": 0}
         return run.result(t_out, Y, sol, "failed", msg, **kw)
 
     sol = res.sol
@@ -867,10 +876,33 @@ def _solve_scipy(
         keep = t_out < t_stop
         t_out = np.append(t_out[keep], t_stop)
         Y = np.hstack([Y[:, keep], np.asarray(sol(t_stop), dtype=float).reshape(-1, 1)])
-    t_events = [np.asarray(te, dtype=float) for te in (res.t_events or [])]
-    user_events = t_events[n_internal:]
+    t_events = [np.asarray(te, dtype=float) for te in (res.t_events or [])][:n_internal]
+    by_model = [
+        (te[ev.terminal - 1], i)
+        for i, (te, ev) in enumerate(zip(t_events, all_events, strict=False))
+        if res.status == 1 and te.size >= ev.terminal
+    ]
+    user_stop = None
+    if events:
+        if by_model and snap[0] is not None and events.t_last > t_stop:
+            # a model event ended the run inside the last step: take that step up to it only
+            events.restore(snap[0])
+            y_stop = np.asarray(sol(t_stop), dtype=float).reshape(-1, 1)
+            events.advance([t_stop], events.values([t_stop], y_stop), pieces[taken[0] - 1])
+        if events.stop is not None and (events.stop[0] <= t_stop or not by_model):
+            # a terminal user event: the run ends there (solve_ivp stopped at the end of its step)
+            t_u, user_stop = min(events.stop[0], t_stop), events.stop[1]
+            if t_u < t_stop:
+                sol = _cut_ode_solution(sol, t_u)
+                keep = t_out < t_u
+                t_out = np.append(t_out[keep], t_u)
+                Y = np.hstack([Y[:, keep], np.asarray(sol(t_u), dtype=float).reshape(-1, 1)])
+            t_stop = t_u
 
-    kw: dict[str, Any] = {"t_events": user_events, "nfev": res.nfev}
+    kw: dict[str, Any] = {"t_events": events.result(t_stop) if events else [], "nfev": res.nfev}
+    if user_stop is not None:
+        msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
+        return run.result(t_out, Y, sol, "completed", msg, **kw)
     if not np.all(np.isfinite(Y)):
         # solve_ivp rejects steps with non-finite errors, so this is a last line of defence:
         # keep the finite prefix (the initial state is finite, so it is never empty)
@@ -881,18 +913,9 @@ def _solve_scipy(
     if res.status == -1:
         msg = f"integrator failed at t = {t_stop:.9g} s: {res.message}"
         return run.result(t_out, Y, sol, "failed", msg, **kw)
-    if res.status == 1:
-        # the terminating event: a terminal one that reached its count of zeros, the latest
-        last = [
-            (te[ev.terminal - 1], i)
-            for i, (te, ev) in enumerate(zip(t_events, all_events, strict=True))
-            if ev.terminal and te.size >= ev.terminal
-        ]
-        t_ev, idx = max(last)
-        if idx < n_internal:
-            return run.stopped(t_out, Y, sol, idx, t_ev, **kw)
-        msg = f"stopped by terminal event {idx - n_internal} at t = {t_ev:.9g} s"
-        return run.result(t_out, Y, sol, "completed", msg, **kw)
+    if by_model:  # the model event that ended the run (the latest, if several)
+        t_ev, idx = max(by_model)
+        return run.stopped(t_out, Y, sol, idx, t_ev, **kw)
     return run.result(t_out, Y, sol, "completed", completed_message(t_end), **kw)
 
 
@@ -952,7 +975,7 @@ def _finish(
     failure: str | None,
     t_end: float,
     t_eval_arr: np.ndarray | None,
-    events: list,
+    events: _UserEvents | None,
 ) -> Any:
     """The Trajectory of a compiled (DOP853 or Taylor) run that ended at ``t_stop``: user events
     located on the dense output (a terminal one cuts the run there), the samples (the steps, or
@@ -962,13 +985,14 @@ def _finish(
     user_stop = None
     if events:
         try:
-            t_user, t_term, k_term = _user_events_after_run(events, run, dense)
+            events.advance(dense.t, events.values(dense.t, dense.y.T), dense)
         except _UserEventError as err:
             raise err.exc from None  # a user event's exception, unchanged (as on scipy)
-        if t_term is not None and t_term <= t_stop:
+        if events.stop is not None and events.stop[0] <= t_stop:
             # the run would have stopped here: cut it, and its dense output, at the event
-            dense, t_stop, user_stop = truncate(dense, t_term), t_term, k_term
-        kw["t_events"] = [te[te <= t_stop] for te in t_user]
+            t_term, user_stop = events.stop
+            dense, t_stop = truncate(dense, t_term), t_term
+        kw["t_events"] = events.result(t_stop)
 
     if t_eval_arr is None:
         t_out, Y = dense.t, dense.y.T
@@ -1027,56 +1051,141 @@ def _solve_taylor(
                    failure, t_end, t_eval_arr, events)  # fmt: skip
 
 
-def _user_events_after_run(
-    events: list[tuple[Callable, int, float]], run: _Run, dense: Any
-) -> tuple[list[np.ndarray], float | None, int]:
-    """Zeros of the user events along a finished compiled run, with scipy's rules.
+class _UserEvents:
+    """The user events of a run and the state of their zeros, carried across its phases.
 
-    Each event is evaluated at the solver's steps; a sign change over a step (allowed by the
-    event's ``direction``; a zero at the start of a step belongs to the previous step) is refined
-    by Brent's method on that step's interpolant, as ``solve_ivp`` does during the run. Returns the
-    times per event, and the time and index of the zero that ends the run (None, -1 if none):
-    the earliest of each terminal event's ``terminal``-th zero, as solve_ivp counts them.
+    One meaning on every backend (docs/reliability.md#stick-slip-stops-and-user-events). The class of g is its
+    sign, −1, 0 or +1; a zero is a change of class, seen at the solver's steps and located on the
+    dense output (Brent's method, to 4 ulps). Going from one sign to the other is one zero, where
+    g leaves its first sign (for a continuous g, its root). A stretch where g is exactly 0 is a
+    class of its own: g reaching it is a zero, and g leaving it is one too, unless it leaves to
+    the sign opposite to the one it came from (the stretch was then one crossing, counted where
+    it began). So ``max(θ − 1, 0)`` has a zero at every crossing of θ = 1, a bool-valued g one at
+    every change of value, and a g identically 0 none. A zero at the start is no event, nor is g
+    leaving a zero at the start within 8 ulps of it (a run started on a crossing), nor a change
+    of class across the jump of a phase switch (the next change counts). Direction
+    +1 keeps the zeros where the class rises, −1 those where it falls. NaN has no class: no zero
+    next to it. DOP853 and Taylor runs are processed after the run, scipy's step by step (so that
+    a terminal event stops it).
     """
-    from scipy.optimize import brentq
 
-    ts = dense.t
-    # the States at the steps, derived in one vectorised call and shared by all events
-    series = run.mdl.derive(dense.y.T, run.params)
-    theta = np.clip(series["theta"], 0.0, math.pi)
-    states = [
-        State.unchecked(th, a, b, c, d, e)
-        for th, a, b, c, d, e in zip(
-            theta.tolist(),
-            *(series[k].tolist() for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y")),
-            strict=True,
-        )
-    ]
-    eps = np.finfo(float).eps
-    t_user: list[np.ndarray] = []
-    t_term, k_term = None, -1
-    for k, (ev, terminal, direction) in enumerate(events):
-        g = np.array([float(ev(t, st)) for t, st in zip(ts.tolist(), states, strict=True)])
-        up = (g[:-1] < 0.0) & (g[1:] >= 0.0)
-        down = (g[:-1] > 0.0) & (g[1:] <= 0.0)
-        steps = np.flatnonzero((up & (direction >= 0)) | (down & (direction <= 0)))
-        fn = _user_event(ev, run.mdl, run.params, run.t0)  # for the root, on the interpolant
-        roots = np.empty(steps.size)
-        for j, i in enumerate(steps):
-            a, b, ga, gb = ts[i], ts[i + 1], g[i], g[i + 1]
+    def __init__(self, events: list[tuple[Callable, int, float]], run: _Run) -> None:
+        self.events = events
+        self.fns = [_user_event(ev, run.mdl, run.params) for ev, _, _ in events]
+        self.mdl, self.params, self.t0 = run.mdl, run.params, run.t0
+        n = len(events)
+        self.g: list[float] = [math.nan] * n  # value at the last point (NaN: none yet)
+        self.before = [0.0] * n  # the sign g had before its current zero stretch
+        self.from_start = [False] * n  # the current zero stretch began at the start
+        self.times: list[list[float]] = [[] for _ in range(n)]
+        self.t_last: float | None = None
+        self.stop: tuple[float, int] | None = None  # (time, index) of the terminal zero
 
-            def h(t: float, fn=fn, a=a, b=b, ga=ga, gb=gb) -> float:
-                # the step values at the ends: the interpolant's end value can differ by an ulp
-                # and must not lose the bracket
-                return ga if t == a else gb if t == b else fn(t, dense(t))
+    def __len__(self) -> int:
+        return len(self.events)
 
-            roots[j] = brentq(h, a, b, xtol=4 * eps, rtol=4 * eps)
-        t_user.append(roots)
-        if terminal and roots.size >= terminal:
-            t_k = float(roots[terminal - 1])
-            if t_term is None or t_k < t_term:
-                t_term, k_term = t_k, k
-    return t_user, t_term, k_term
+    def result(self, t_stop: float) -> list[np.ndarray]:
+        """The zeros of each event up to ``t_stop`` (``Trajectory.t_events``)."""
+        return [np.array([t for t in times if t <= t_stop]) for times in self.times]
+
+    def snapshot(self) -> tuple:
+        counts = [len(t) for t in self.times]
+        return ([*self.g], [*self.before], [*self.from_start], counts, self.t_last, self.stop)
+
+    def restore(self, snap: tuple) -> None:
+        g, before, from_start, counts, self.t_last, self.stop = snap
+        self.g, self.before, self.from_start = [*g], [*before], [*from_start]
+        self.times = [t[:c] for t, c in zip(self.times, counts, strict=True)]
+
+    def values(self, ts: Any, Y: np.ndarray) -> np.ndarray:
+        """g of every event at times ``ts``, states ``Y`` (columns): shape (events, times)."""
+        Y = np.asarray(Y, dtype=float)
+        series = self.mdl.derive(Y.reshape(Y.shape[0], -1), self.params)
+        theta = np.clip(series["theta"], 0.0, math.pi).tolist()
+        cols = (series[k].tolist() for k in ("thetadot", "phidot", "omega3", "nu_x", "nu_y"))
+        states = [State.unchecked(*s) for s in zip(theta, *cols, strict=True)]
+        times = np.atleast_1d(np.asarray(ts, dtype=float)).tolist()
+        g = np.empty((len(self.events), len(states)))
+        for k, (ev, _, _) in enumerate(self.events):
+            for j, (t, st) in enumerate(zip(times, states, strict=True)):
+                try:
+                    g[k, j] = float(ev(t, st))
+                except Exception as exc:  # the caller's, raised again unchanged by simulate
+                    raise _UserEventError(exc) from exc
+        return g
+
+    def advance(self, ts: Any, g: np.ndarray, y_at: Callable[[float], Any]) -> None:
+        """Take the points ``ts`` (increasing; the first may repeat the last one taken: the two
+        sides of a jump) with their values ``g`` (events × points); a zero between two points
+        is located on ``y_at``, the dense output between them."""
+        for j, t in enumerate(np.atleast_1d(np.asarray(ts, dtype=float)).tolist()):
+            for k in range(len(self.events)):
+                self._point(k, self.t_last, t, float(g[k, j]), y_at)
+            self.t_last = t
+
+    def _point(self, k: int, t_a: float | None, t_b: float, g_b: float, y_at: Callable) -> None:
+        g_a, self.g[k] = self.g[k], g_b
+        if math.isnan(g_b):
+            return
+        if t_a is None or math.isnan(g_a):  # the start, or the first value after a NaN
+            if g_b == 0.0:
+                self.before[k], self.from_start[k] = 0.0, t_a is None
+            return
+        c_a, c_b = math.copysign(1.0, g_a) if g_a else 0.0, math.copysign(1.0, g_b) if g_b else 0.0
+        if c_a == c_b:
+            return
+        if t_b <= t_a:  # across the jump of a phase switch: no zero, the new class holds
+            if c_b == 0.0:
+                self.before[k], self.from_start[k] = c_a, False
+            return
+        if c_a != 0.0:  # g leaves its sign: a zero where it does
+            rise = -c_a
+            if c_b == 0.0:
+                self.before[k], self.from_start[k] = c_a, False
+        elif self.before[k] == -c_b:
+            return  # a zero stretch between opposite signs: one crossing, counted at its start
+        else:  # g leaves a zero stretch to the side it came from (or the start's)
+            rise = c_b
+        t_z = self._locate(k, t_a, t_b, g_a, g_b, y_at)
+        eps = np.finfo(float).eps
+        if c_a == 0.0 and self.from_start[k] and t_z <= self.t0 + 8 * eps * max(1.0, abs(self.t0)):
+            return  # g left a zero at the start at once: the run started on a crossing
+        _, terminal, direction = self.events[k]
+        if direction * rise < 0.0:
+            return
+        self.times[k].append(t_z)
+        if (
+            terminal
+            and len(self.times[k]) == terminal
+            and (self.stop is None or t_z < self.stop[0])
+        ):
+            self.stop = (t_z, k)
+
+    def _locate(self, k: int, t_a: float, t_b: float, g_a: float, g_b: float, y_at) -> float:
+        """Where g leaves the class of g_a in [t_a, t_b] (towards g_b's if g_a = 0)."""
+        from scipy.optimize import brentq
+
+        # h > 0 on the class g leaves (g_a ≠ 0) or reaches (g_a = 0: g_b's sign), < 0 off it
+        s = math.copysign(1.0, g_a if g_a else g_b)
+        fn, neg = self.fns[k], -math.ulp(0.0)
+
+        raw = g_a * g_b < 0.0  # from one sign to the other: a root of g itself, as solve_ivp's
+
+        def h(t: float) -> float:
+            # the step values at the ends: the interpolant's end value may differ in the last
+            # ulp and must not lose the bracket
+            v = s * (g_a if t == t_a else g_b if t == t_b else fn(t, y_at(t)))
+            return v if raw or v > 0.0 else neg
+
+        eps = np.finfo(float).eps
+        return float(brentq(h, t_a, t_b, xtol=4 * eps, rtol=4 * eps))
+
+
+def _cut_ode_solution(sol: Any, t_stop: float) -> Any:
+    """A scipy dense output (``OdeSolution``) cut at ``t_stop`` (inside its last kept step)."""
+    ts = np.asarray(sol.ts, dtype=float)
+    k = max(int(np.searchsorted(ts, t_stop, side="left")), 1)
+    return OdeSolution(np.append(ts[:k], t_stop), sol.interpolants[:k], sol.side == "right")
 
 
 def _truncate(dense: Any, t_stop: float) -> Any:

@@ -414,7 +414,8 @@ def _finish(traj: Any) -> None:
             gn, _, m = stickslip.required(y_dec, q)
             margin = float(m / (p[6] * gn))
             speed = float(np.linalg.norm(stickslip.slip(y_ev, q)))
-        records.append(stickslip.Switch(t, before, after, why, float(margin), speed))
+        t_sw = stickslip.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
+        records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
     traj.switches = records
     traj.touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
     traj.stopping_band = p[10]

@@ -40,7 +40,9 @@ Switching, all by events located by the integrator (:func:`mett.simulate` runs t
 * sliding → rolling ("stop") when |γ| falls through a stopping band δ (10 rtol × the velocity
   scale, the option ``stopping_band``) with the required force inside the cone: the ``jump``
   removes the remaining O(δ) of slip by the contact impulse P with G P = −v_A (:func:`_set_slip`;
-  it keeps λ exactly and changes E by −½ v_A·G⁻¹v_A ≤ 0).
+  it keeps λ exactly and changes E by −½ v_A·G⁻¹v_A ≤ 0). The slip falls linearly at a finite
+  rate there, so the stop itself, recorded as the switch time, is extrapolated δ/a beyond the
+  band crossing (:func:`stop_time`); the impulse matches the sliding up to it to O(δ²).
 * sliding → sliding ("reversal") when |γ| falls through δ with the required force outside the
   cone: the ``jump`` removes the slip as above and restarts it with |v_A| = 2δ in the direction u
   of the excess force, the solution of s u = v̇_A(u), s > 0 (slip acceleration parallel to the
@@ -116,6 +118,7 @@ __all__ = [
     "stick_rhs",
     "stop_event",
     "stop_jump",
+    "stop_time",
     "stopping_band",
     "to_gliding",
     "viscous_force",
@@ -467,6 +470,43 @@ def _set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:
     return out
 
 
+def _slip_rate(y: np.ndarray, p: tuple) -> float:
+    """a = −d|γ|/dt (m/s²) of the sliding law at ``y``: the rate at which the slip falls.
+
+    Coulomb: −γ̂·v̇_A of :func:`_slide`, exactly. With Contensou's r* the spin part r* ω̇_z is the
+    central difference of r* ω_z along the sliding rates over a step that moves γ by 1e-3 |γ|
+    (γ is smooth in the state, and along a straight line in state space linear to O(h²)).
+    """
+    y = np.asarray(y, dtype=float)
+    g = _slip(y, p)
+    speed = float(np.linalg.norm(g))
+    d, _, _, _, vdot = _slide_law(y.tolist(), p)
+    rate = np.array([vdot[0], vdot[1], 0.0])
+    if p[7] > 0.0:
+        h = 1e-3 * speed / max(math.hypot(vdot[0], vdot[1]), p[6] * p[5])
+        step = np.zeros_like(y)
+        step[:10] = h * np.asarray(d)
+        rate[2] = (_slip(y + step, p)[2] - _slip(y - step, p)[2]) / (2.0 * h)
+    return float(-(g @ rate) / speed) if speed > 0.0 else math.nan
+
+
+def stop_time(t: float, y: np.ndarray, p: tuple) -> float:
+    """The instant the slip reaches 0, extrapolated from the band crossing ``(t, y)``.
+
+    Under Coulomb friction the slip falls to 0 in finite time at a finite rate a = −d|γ|/dt
+    (:func:`_slip_rate`; μ g_n times the contact's inverse effective mass along the slip, less
+    the pull of the required force), so |γ| is linear in t near the stop and the stop is at
+    t + |γ|/a, to O(|γ|²): the band crossing precedes it by |γ|/a = δ/a. The state needs no
+    advancing: the stopping impulse at the band equals the integral of the friction force
+    beyond the required one up to the stop (both bring v_A from γ to 0 through the same G), so
+    the rolling state after it is that of the exact stop to O(δ²). ``t`` if a ≤ 0 (no finite
+    extrapolation).
+    """
+    speed = float(np.linalg.norm(_slip(y, p)))
+    a = _slip_rate(y, p)
+    return t + speed / a if a > 0.0 else t
+
+
 def _stop_jump(y: np.ndarray, p: tuple) -> np.ndarray:
     """Sliding → rolling: the contact impulse that removes the last slip (|γ| = δ → 0)."""
     return _set_slip(y, p, np.zeros(3))
@@ -631,7 +671,8 @@ class Switch(NamedTuple):
     """A change of contact phase of a stick–slip run (``Trajectory.switches``)."""
 
     t: float
-    """Time of the switch (s)."""
+    """Time of the switch (s); for "stop" and "reversal" the instant the slip reaches 0,
+    extrapolated from the band crossing ``t_event`` (:func:`stop_time`)."""
     before: str
     """Phase before: "sliding" or "rolling"."""
     after: str
@@ -644,6 +685,9 @@ class Switch(NamedTuple):
     """Cone margin of the force rolling needs, (μ g_n − |F_t|)/(μ g_n), at the switch state."""
     slip: float
     """|v_A| (m/s) at the event that triggered the switch."""
+    t_event: float = math.nan
+    """Time (s) of the located event: the band crossing |γ| = δ of a "stop" or "reversal"
+    (``t`` is then the extrapolated instant |γ| = 0, :func:`stop_time`), else ``t``."""
 
 
 _REASONS = {
@@ -669,7 +713,8 @@ def _finish(traj: Any) -> None:
         y_dec = y_ev if why == "cone" else _set_slip(y_ev, p, np.zeros(3))
         gn, _, m = _required(y_dec, p)
         speed = float(np.linalg.norm(_slip(y_ev, p)))
-        records.append(Switch(t, before, after, why, float(m / (p[6] * gn)), speed))
+        t_sw = t if why == "cone" else stop_time(t, y_ev, p)
+        records.append(Switch(t_sw, before, after, why, float(m / (p[6] * gn)), speed, t))
     traj.switches = records
     traj.stopping_band = p[10]
 
