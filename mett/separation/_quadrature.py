@@ -88,13 +88,16 @@ def _anchored_half(form: _PoleForm, u_t: float, u_s: float, weight: bool):
     return T, float(np.dot(weights, f * form.phidot(u)))
 
 
-def _separatrix(form: _PoleForm, tol: float) -> bool:
+def _separatrix(form: _PoleForm, exact: _PoleForm) -> bool:
     """Whether a band ending at the pole sits on the separatrix of that (unstable) pole.
 
-    At the pole (N_p = 0) P(u)/u → 2 A_p, A_p = Ẽ − V(p): with A_p = 0 (to the rounding ``tol``)
-    the end u = 0 is a double root of P, the pole an equilibrium reached in infinite time.
+    At the pole (N_p = 0) P(u)/u → 2 A_p, A_p = Ẽ − V(p): with A_p = 0 the end u = 0 is a double
+    root of P, the pole an equilibrium reached in infinite time. A_p is correctly rounded
+    (:func:`_shift_fraction`), so it is 0 only if Ẽ = V(p) exactly; and N(p) must vanish exactly
+    too (``exact``: the pole form with the exact N(p)), or the doubles' own motion turns at a
+    wall next to the pole in finite time.
     """
-    return form.N_p == 0.0 and abs(form.A) <= tol
+    return form.A == 0.0 and exact.N_p == 0.0
 
 
 def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tuple[float, float]:
@@ -134,18 +137,28 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
     else:
         zs = 0.5 * (za + zb)
         us_a, us_b = 1.0 - pa * zs, 1.0 - pb * zs
-    tol = 64.0 * _EPS * max(abs(w.Es), float(w.gravity(pa)), float(w.gravity(pb)))
     T = integral = 0.0
     for form, u0, us in ((fa, ua0, us_a), (fb, ub0, us_b)):
         # an end exactly at the pole in this form of P (a band at z = ±1 whose P < 0 just off
         # the pole turns at the root u_lo > 0 found above, not at the pole)
         at_end = u0 == 0.0
-        if at_end and _separatrix(form, tol):
-            return math.inf, form.phidot_limit()
-        u_t = 0.0 if at_end else form.root(u0, us)
+        u_t, jump = (0.0, 0.0) if at_end else (form.root(u0, us), 0.0)
+        if at_end:
+            exact = _PoleForm(w, form.p, at_pole=False)
+            if _separatrix(form, exact):
+                return math.inf, form.phidot_limit()
+            if exact.N_p != 0.0 and float(exact.P(us)) > 0.0:
+                # N(p) zero only to rounding: the doubles' own motion turns at the root of P
+                # next to the pole (P(0) = −C N_p² < 0). Its period is the exact one even within
+                # a few ulps of Ẽ = V(p), where the cross term 2 C p N_p N[p, p] u of P shifts
+                # the separatrix by C p N_p N[p, p] (~ulps of Ẽ, a 1/δ error of T if left out);
+                # the angle it sweeps past the pole, sign(N_p) π in the limit, is the jump left
+                # out of ⟨φ̇⟩ (mean_precession)
+                form, u_t = exact, _root_towards(exact.P, 0.0, us)
+                jump = math.copysign(math.pi, exact.N_p)
         t_half, i_half = _anchored_half(form, u_t, us, weight)
         T += 2.0 * t_half
-        integral += 2.0 * i_half
+        integral += 2.0 * i_half - jump
     return T, integral
 
 
