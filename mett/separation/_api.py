@@ -569,7 +569,14 @@ def nutation_period(
     """Exact period (s) of the θ-oscillation of the rolling top, T = 2∫ √(g/P) dz over the band.
 
     For steady precession (Ẽ at the bottom of the well) the small-oscillation limit
-    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (docs/theory/estimates.md#estimates).
+    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (docs/theory/estimates.md#estimates),
+    at the true bottom z_m of the well, also where it lies below one ulp of z from a pole (a
+    vanishing spin); on a spinning pole its limit ω_θ² = 2|V'(±1)|/g(±1).
+
+    The doubles (E, D, λ) are taken as exact: next to the separatrix of an unstable pole the
+    period is finite and exact down to one ulp of Ẽ from V(±1); it is inf only on the separatrix
+    itself (Ẽ = V(±1) and N(±1) = 0 exactly, or a start ``z0`` at rest on the pole, Ẽ = V(z0)
+    within the rounding of the inputs). See docs/reliability.md.
 
     Raises
     ------
