@@ -4,9 +4,12 @@ While the top glides, the METT Ẽ(t) = g(cos θ) θ̇² + V(cos θ, D(t), λ) s
 but D(t) and Ẽ(t) drift: θ moves in a potential that deforms as the top inverts (RR14 §3). This
 module evaluates that picture on a :class:`~mett.Trajectory`: the residual of the METT, the potential
 V(z, D(t), λ) and its minimum z_min(t), the turning points of θ(t), and the observed θ-oscillation
-periods set against the rolling-METT periods with D and Ẽ frozen. Caveat (docs/theory/estimates.md#estimates): the gliding
-top oscillates faster than the rolling estimate, because the contact point glides on the time scale
-of one nutation; :func:`period_comparison` quantifies it.
+periods set against the rolling-METT periods with D and Ẽ frozen. Caveat
+(docs/theory/estimates.md#gliding-periods): the rolling periods are estimates, not predictions of the
+gliding top, whose contact point glides on the time scale of one nutation. The gliding period is
+closer to the fast-top value 2π I1/(I3 |ω3|) and may be longer or shorter than the rolling one: in
+the thesis run it is longer at the start (0.037 s against 0.032 s, the top oscillates more slowly)
+and shorter at the end (0.076 s against 0.092 s); :func:`period_comparison` sets them side by side.
 """
 
 from __future__ import annotations

@@ -11,9 +11,17 @@ the effective force F0 = m g R α + I3 K0 φ̇0 ω3, to leading order in 1/ω3
 
 Accuracy, measured against direct rolling integrations (tests/test_asymptotics.py): with φ̇0 = 0
 every relative error falls like ω3⁻²; with φ̇0 ≠ 0 the width and frequency errors fall like ω3⁻¹
-and the mean precession keeps an ω3-independent relative error ∝ φ̇0² (about −5.6e-5 s² · φ̇0² for
-the thesis body at θ0 = 1), because the formula is leading order in φ̇0 too. With φ̇0 = 0, z increases: gravity pulls the axis towards the vertical
-(θ decreases) because the centre of mass is below the geometric centre.
+and the mean precession keeps an ω3-independent relative error c(θ0) φ̇0², because the formula is
+leading order in φ̇0 too; c depends on θ0 in sign and size (thesis body: −5.6e-5 s² at θ0 = 1,
++1.0e-4 s² at θ0 = 2.2; docs/theory/high-spin.md#validity). With φ̇0 = 0, z increases: gravity pulls
+the axis towards the vertical (θ decreases) because the centre of mass is below the geometric centre.
+
+Validity. Outside its range the leading order is far off (thesis body, θ0 = 1, φ̇0 = 0: width 69 %
+off at ω3 = 20 rad/s, 324× at 1 rad/s; φ̇0 = 10 % of ω3 at 1000 rad/s: precession 217 % off).
+:func:`high_spin` therefore compares its result with the exact rolling values of the same start
+(:mod:`mett.separation`: band, depth, period and mean precession, a few milliseconds) and emits
+an :class:`AsymptoticWarning` with the relative error of each quantity when the largest exceeds
+:data:`WARN_ABOVE` (10 %).
 """
 
 from __future__ import annotations
@@ -26,10 +34,20 @@ import numpy as np
 from . import _validate
 from .potential import d
 
+WARN_ABOVE = 0.1
+_EPS = float(np.finfo(float).eps)
+"""Relative error of the leading order (largest of width, depth, frequency, precession) above which
+:func:`high_spin` warns."""
+
 if TYPE_CHECKING:
     from .top import TippeTop
 
-__all__ = ["HighSpin", "high_spin"]
+__all__ = ["WARN_ABOVE", "AsymptoticWarning", "HighSpin", "high_spin"]
+
+
+class AsymptoticWarning(_validate.AccuracyWarning):
+    """The leading-order high-spin values are used outside their validity: the message gives their
+    relative errors against the exact rolling values (:func:`high_spin`)."""
 
 
 class HighSpin(NamedTuple):
@@ -50,7 +68,9 @@ class HighSpin(NamedTuple):
         return 2.0 * math.pi / self.frequency
 
 
-def high_spin(top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0) -> HighSpin:
+def high_spin(
+    top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0, *, check: bool = True
+) -> HighSpin:
     """Leading-order high-ω3 band width, well depth, nutation frequency and precession (docs/theory/high-spin.md#high-spin).
 
     Parameters
@@ -62,6 +82,16 @@ def high_spin(top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0)
         Spin (rad/s), nonzero; the formulas are asymptotic in 1/|ω3|.
     phidot0 : float, default 0
         Initial precession rate, assumed small compared with ω3.
+    check : bool, default True
+        Compare the result with the exact rolling values of the same start (mett.separation) and
+        warn (:class:`AsymptoticWarning`, with the relative error of each quantity) if the largest
+        relative error exceeds :data:`WARN_ABOVE`. ``False`` skips the comparison.
+
+    Warns
+    -----
+    AsymptoticWarning
+        If the leading order is more than 10 % off (low spin, or φ̇0 not small compared with
+        ω3); also if the exact values cannot be computed for this start.
 
     Raises
     ------
@@ -97,7 +127,72 @@ def high_spin(top: TippeTop, theta0: float, omega3: float, phidot0: float = 0.0)
     if not all(math.isfinite(v) for v in result):
         raise ValueError(
             f"omega3 = {float(w3)!r} rad/s (with phidot0 = {phidot0!r}) puts the high-spin "
-            "expansion outside double precision: it holds for |omega3| large, e.g. above "
-            f"sqrt(m g R alpha / I3) = {math.sqrt(mgRa / I3):.3g} rad/s"
+            "expansion outside double precision: it holds for |omega3| large, to about 10 % above "
+            f"3 sqrt(m g R alpha / I3) = {3.0 * math.sqrt(mgRa / I3):.3g} rad/s"
         )
-    return HighSpin(*(float(v) for v in result))
+    out = HighSpin(*(float(v) for v in result))
+    if check:
+        _check(top, th, float(w3), phidot0, out)
+    return out
+
+
+def _check(top: TippeTop, theta0: float, omega3: float, phidot0: float, hs: HighSpin) -> None:
+    """Warn if ``hs`` is more than :data:`WARN_ABOVE` off the exact rolling values of the start."""
+    from . import integrals
+    from .separation import _api, _wells
+    from .state import State
+
+    s = State(theta=theta0, omega3=omega3, phidot=phidot0)
+    E, D, lam = (float(f(top, s)) for f in (integrals.energy, integrals.routh, integrals.jellett))
+    z0 = math.cos(theta0)
+    # what mett.band, nutation_period and mean_precession return, in two passes (numpy's
+    # overflow at extreme spins gives non-finite values, left out below, not RuntimeWarnings)
+    try:
+        with np.errstate(all="ignore"):
+            per = _api._solve(top, E, D, lam, z0, "period")
+            _api._raise_first(per)
+            pre = _api._solve(top, E, D, lam, z0, "precession")
+            _api._raise_first(pre)
+    except ValueError as exc:
+        _validate.warn(
+            f"high_spin(theta0={theta0!r}, omega3={omega3!r}, phidot0={phidot0!r}): the "
+            f"leading order could not be checked against the exact rolling values ({exc})",
+            AsymptoticWarning,
+        )
+        return
+    # the band runs from z0 to its other end: the signed width is that end minus z0
+    z_low, z_high = float(per.z_low[0]), float(per.z_high[0])
+    far = z_high if z_high - z0 >= z0 - z_low else z_low
+    exact = {
+        "width": far - z0,
+        "depth": float(per.depth[0]),
+        "frequency": 2.0 * math.pi / float(per.value[0]),
+        "precession": float(pre.value[0]),
+    }
+    # a band a few ulps of z wide (next to a pole, or at very high spin) or a depth within the
+    # rounding of the energy terms has no exact value in double to compare with: left out
+    if z_high - z_low <= 2.0**22 * math.ulp(max(abs(z_low), abs(z_high))):
+        del exact["width"]
+    if _wells._conditioning(top, E, D, lam, exact["depth"]) > 1e-6:
+        del exact["depth"]
+    # ⟨φ̇⟩ ~ m g R α/(I3 ω3) is a remainder of N, whose terms are ~ω3: rounding ~ε|ω3|/(1 − z0²)
+    if abs(exact["precession"]) * math.sin(theta0) ** 2 <= 2.0**20 * _EPS * abs(omega3):
+        del exact["precession"]
+    exact = {k: v for k, v in exact.items() if math.isfinite(v)}
+    errors = {k: _relative_error(getattr(hs, k), v) for k, v in exact.items()}
+    worst = max(errors.values(), default=0.0)
+    if worst > WARN_ABOVE:
+        detail = ", ".join(f"{k} {v:.2g}" for k, v in errors.items())
+        _validate.warn(
+            f"high_spin(theta0={theta0!r}, omega3={omega3!r}, phidot0={phidot0!r}) is outside "
+            f"the validity of the leading order: relative errors against the exact rolling "
+            f"values {detail} (above {WARN_ABOVE:g}); use mett.band, mett.nutation_period and "
+            "mett.mean_precession for the exact values",
+            AsymptoticWarning,
+        )
+
+
+def _relative_error(approx: float, exact: float) -> float:
+    if exact == 0.0:
+        return 0.0 if approx == 0.0 else math.inf
+    return abs(approx / exact - 1.0)

@@ -90,7 +90,17 @@ def _end(P, x, direction, step):
         y = x + direction * s
         if (y - pole) * direction >= 0:
             # the pole itself is an end where P vanishes there (N(±1) = 0), else P(±1) < 0
-            return pole if P(pole) >= 0 else _bisect(P, prev, pole)
+            if P(pole) < 0:
+                return _bisect(P, prev, pole)
+            # P(±1) = 0, but P/(1 − z²) → E − V(±1), which is negative below the separatrix
+            # of an unstable pole: P < 0 just off it, and the band ends at a root before it
+            t = abs(pole - prev)
+            while t > mpmath.mpf(2) ** (-4 * mpmath.mp.prec):
+                y = pole - direction * t
+                if P(y) < 0:
+                    return _bisect(P, prev, y)
+                prev, t = y, t / 2
+            return pole
         if P(y) <= 0:
             return _bisect(P, prev, y)
         prev = y
@@ -162,3 +172,88 @@ def excess_at(top, E, D, lam, z, *, dps=60) -> float:
         P, _, _ = _functions(top, E, D, lam)
         z = mpmath.mpf(z)
         return float(P(z) / (1 - z * z))
+
+
+class MpSteady(NamedTuple):
+    z_min: float
+    u_min: float
+    """Distance 1 − p z_min from the pole p (0 for a well in the interior)."""
+    period: float
+    precession: float
+
+
+def steady(top, D, lam, z_hint, *, pole=None, u_hint=None, dps=50) -> MpSteady:
+    """Steady precession at the bottom of the well of V(·, D, λ) next to ``z_hint``: the
+    small-oscillation period 2π/ω, ω² = (1 − z²) V''(z)/(2 g(z)), and φ̇ there.
+
+    Independent of mett: V = m g R(1 − α z) + C N²/(1 − z²) written out at ``dps`` digits (plus the
+    decades of the distance to the pole), its stationary point solved for by a bracketed root of
+    the numerical derivative. With ``pole`` (±1) the well is parametrised by x = ln u, u = 1 − p z,
+    so that a bottom far below one ulp of z (u ~ 1e-20) is resolved: dV/dx = u V'(u), and at the
+    bottom V'' = (d²V/dx²)/u². ``u_hint`` (default 1 − p z_hint) starts the search in u.
+    """
+    if pole is None:
+        extra = 0
+    else:
+        u_hint = max(1.0 - pole * z_hint, 1e-300) if u_hint is None else u_hint
+        extra = int(-mpmath.log10(u_hint)) + 10
+    with mpmath.workdps(dps + extra):
+        mp = mpmath.mpf
+        m, R, al, I1, I3, gr = (mp(v) for v in (top.m, top.R, top.alpha, top.I1, top.I3, top.g))
+        D, lam = mp(D), mp(lam)
+        gam, sig = I1 / I3, m * R**2 / I3
+        C = I3 / (2 * I1**2 * R**2)
+
+        def sqd(z):
+            return mpmath.sqrt(gam + sig * (al - z) ** 2 + sig * gam * (1 - z * z))
+
+        def V_of(z, w):  # w = 1 − z², passed separately (it is u(2 − u) next to a pole)
+            n = lam * sqd(z) + R * D * (al - z)
+            return m * gr * R * (1 - al * z) + C * n * n / w
+
+        def g(z):
+            return (I1 + m * R**2 * (1 + al**2 - 2 * al * z)) / 2
+
+        def phidot(z, w):
+            return (lam * sqd(z) + R * D * (al - z)) / (R * I1 * w * sqd(z))
+
+        if pole is None:
+
+            def F(x):
+                return V_of(x, 1 - x * x)
+
+            x0 = mp(z_hint)
+            h = mp("1e-3") * (1 - abs(x0))
+        else:
+            p = mp(pole)
+
+            def F(x):
+                u = mpmath.exp(x)
+                return V_of(p * (1 - u), u * (2 - u))
+
+            x0 = mpmath.log(mp(u_hint))
+            h = mp(1)
+
+        def dF(x):
+            return mpmath.diff(F, x)
+
+        lo, hi = x0 - h, x0 + h
+        for _ in range(200):
+            if dF(lo) < 0 < dF(hi):
+                break
+            lo, hi = lo - h, hi + h
+            h *= 1.5
+        else:
+            raise ValueError("no minimum of V bracketed")
+        x = mpmath.findroot(dF, (lo, hi), solver="anderson")
+        if pole is None:
+            z, w = x, 1 - x * x
+            omega2 = w * mpmath.diff(F, x, 2) / (2 * g(z))
+            u = mp(0)
+        else:
+            u = mpmath.exp(x)
+            z, w = p * (1 - u), u * (2 - u)
+            omega2 = w * mpmath.diff(F, x, 2) / (u * u) / (2 * g(z))
+        return MpSteady(
+            float(z), float(u), float(2 * mpmath.pi / mpmath.sqrt(omega2)), float(phidot(z, w))
+        )

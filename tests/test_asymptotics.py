@@ -9,6 +9,8 @@ with φ̇0 ≠ 0 the band width and frequency errors fall like ω3⁻¹, and the
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import reference_rolling as rr
@@ -127,3 +129,76 @@ def test_pole_frequencies_match_the_period_estimates():
 def test_high_spin_bad_input(args, message):
     with pytest.raises(ValueError, match=message):
         mett.high_spin(mett.presets.get("rutstam2013"), *args)
+
+
+# --- validity: warn where the leading order is off --------------------------------------------
+
+
+def _measured_errors(top, theta0, omega3, phidot0):
+    """Relative errors of high_spin's width, frequency and precession against the independent
+    rolling integrator (rtol 1e-12: its own errors are ~1e-9, far below the 10 % threshold)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mett.asymptotics.AsymptoticWarning)
+        hs = mett.high_spin(top, theta0, omega3, phidot0)
+    run = rr.integrate(top, rr.initial_state(theta0, 0.0, phidot0, omega3), periods=3, t_max=20.0)
+    z0 = np.cos(theta0)
+    lo, hi = np.mean(run.z_low), np.mean(run.z_high)
+    width = (hi - z0) if hi - z0 >= z0 - lo else (lo - z0)
+    return [
+        abs(hs.width / width - 1),
+        abs(hs.frequency / (2 * np.pi / run.period) - 1),
+        abs(hs.precession / run.mean_phidot - 1),
+    ]
+
+
+@pytest.mark.parametrize(
+    ("theta0", "omega3", "phidot0"),
+    [
+        (1.0, 20.0, 0.0),  # just above √(m g R α/I3): width ~70 % off
+        (1.0, 1.0, 0.0),  # width ~300× off
+        (3.0, 20.0, 0.0),
+        (1.0, 1000.0, 100.0),  # φ̇0 = 10 % of ω3: precession ~2× off
+    ],
+)
+def test_high_spin_warns_outside_its_validity(theta0, omega3, phidot0):
+    top = mett.presets.get("rutstam2013")
+    assert max(_measured_errors(top, theta0, omega3, phidot0)) > 0.2
+    with pytest.warns(mett.asymptotics.AsymptoticWarning, match="outside the validity") as rec:
+        mett.high_spin(top, theta0, omega3, phidot0)
+    assert rec[0].filename == __file__  # reported at the caller's line
+    assert issubclass(mett.asymptotics.AsymptoticWarning, mett.MettWarning)
+
+
+@pytest.mark.parametrize(
+    ("theta0", "omega3", "phidot0"),
+    [(1.0, 300.0, 0.0), (2.2, 1000.0, 2.0), (0.3, 3000.0, 0.0), (1.0, 1000.0, 1.0)],
+)
+def test_high_spin_is_silent_where_it_holds(theta0, omega3, phidot0):
+    top = mett.presets.get("rutstam2013")
+    assert max(_measured_errors(top, theta0, omega3, phidot0)) < 0.05
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mett.high_spin(top, theta0, omega3, phidot0)
+
+
+def test_high_spin_check_can_be_skipped():
+    top = mett.presets.get("rutstam2013")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        hs = mett.high_spin(top, 1.0, 1.0, check=False)
+    assert hs.width > 0
+
+
+@pytest.mark.parametrize(
+    ("theta0", "coefficient"), [(0.6, -5.1e-5), (1.0, -5.5e-5), (2.0, 1.0e-4), (2.5, 6.8e-5)]
+)
+def test_precession_error_coefficient_depends_on_theta0(theta0, coefficient):
+    # docs/theory/high-spin.md#validity: rel. error of ⟨φ̇⟩ → c(θ0) φ̇0² at high spin; c changes sign
+    # between θ0 = 1 and 1.5. The exact ⟨φ̇⟩ (mpmath-checked quadrature) at ω3 = 6000, φ̇0 = 4.
+    top = mett.presets.get("rutstam2013")
+    s = mett.State(theta=theta0, omega3=6000.0, phidot=4.0)
+    E, D, lam = (float(f(top, s)) for f in (mett.energy, mett.routh, mett.jellett))
+    mp = float(mett.mean_precession(top, E, D, lam, z0=np.cos(theta0)))
+    rel = mp / mett.high_spin(top, theta0, 6000.0, 4.0).precession - 1
+    # the plateau is reached to a few % at this spin (an O(1/(ω3 φ̇0)) remainder)
+    assert rel / 16.0 == pytest.approx(coefficient, rel=0.05)

@@ -77,17 +77,31 @@ def test_start_next_to_a_pole_against_mpmath(pole, eps, omega3):
 
 @pytest.mark.parametrize("omega3", [0.0, 1e-3, 1e-2, 5.0])
 def test_start_on_the_inverted_pole_is_the_separatrix(omega3):
-    # ε = 1e-8: cos θ0 rounds to −1, the start is the (unstable) pole itself, Ẽ = V(−1) exactly
+    # ε = 1e-8: cos θ0 rounds to −1, the start is the (unstable) pole itself. With the start z0
+    # given, Ẽ = V(−1) within the rounding of the inputs is taken as a start at rest there.
+    sqd = math.sqrt(float(mett.d(TOP, -1.0)))
     for theta in (math.pi, math.pi - 1e-8):
         E, D, lam = _integrals(TOP, mett.State(theta=theta, omega3=omega3))
         b = mett.band(TOP, E, D, lam)
         assert b.kind == "nutation" and b.z_low == -1.0
-        assert math.isinf(mett.nutation_period(TOP, E, D, lam))
+        assert math.isinf(mett.nutation_period(TOP, E, D, lam, z0=-1.0))
         # ⟨φ̇⟩ → φ̇ at the pole: −p N'(p)/(2 R I1 √d(p)), p = −1, N' = λ d'/(2√d) − R D
-        sqd = math.sqrt(float(mett.d(TOP, -1.0)))
         n1 = lam * float(mett.potential.dd_dz(TOP, -1.0)) / (2 * sqd) - TOP.R * D
         limit = n1 / (2 * TOP.R * TOP.I1 * sqd)
-        assert mett.mean_precession(TOP, E, D, lam) == pytest.approx(limit, rel=1e-12, abs=1e-300)
+        prec = mett.mean_precession(TOP, E, D, lam, z0=-1.0)
+        assert prec == pytest.approx(limit, rel=1e-12, abs=1e-300)
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_energy_of_a_state_on_the_inverted_pole_without_the_start_is_taken_as_exact():
+    # Without z0 the doubles (Ẽ, D, λ) are exact: Ẽ − V(−1) of the rounded energy is a few ulps,
+    # not 0, and the period is the finite one of those doubles (the mpmath reference's)
+    E, D, lam = _integrals(TOP, mett.State(theta=math.pi, omega3=0.0))
+    b = mett.band(TOP, E, D, lam)
+    T = float(mett.nutation_period(TOP, E, D, lam))
+    ref = mps.reference(TOP, E, D, lam, 0.5 * (b.z_low + b.z_high), dps=50)
+    assert math.isfinite(ref.period) and T == pytest.approx(ref.period, rel=1e-12)
 
 
 # --- the separatrix: log divergence with the closed-form κ --------------------------------------
@@ -274,3 +288,52 @@ def test_mean_precession_finite_on_every_band(theta, omega3, phidot, thetadot):
         T = float(mett.nutation_period(TOP, E, D, lam, z0=z0))
     assert math.isfinite(prec)
     assert T > 0.0  # inf only on the separatrix
+
+
+# --- within a few ulps of the separatrix ------------------------------------------------------
+
+_ULPS = [1, 4, 16, 64, 1000]
+
+
+def _separatrix_params():
+    for lam in (0.0, 1e-6):
+        for side in (-1, 1):
+            for k in [*_ULPS, "1e-12"]:
+                ci = k in (1, 64) and lam == 1e-6
+                marks = [pytest.mark.slow] + ([pytest.mark.ci] if ci else [])
+                yield pytest.param(lam, side, k, marks=marks, id=f"{lam}-{side}-{k}")
+
+
+@pytest.mark.parametrize(("lam", "side", "k"), list(_separatrix_params()))
+def test_period_within_ulps_of_the_separatrix_against_mpmath(lam, side, k):
+    # Ẽ = E1 ± k ulps (or ± 1e-12 relative), D = D1(λ) rounded. Below E1 the band stops a hair
+    # short of the inverted pole; above it passes over it. The doubles are exact inputs: A = Ẽ −
+    # V(−1) is formed exactly, and with N(−1) zero only to rounding (λ = 1e-6) its cross term
+    # shifts the separatrix by ~ulps of Ẽ (a 1/δ error of T if it were dropped). Was: inf within
+    # 64 ulps above E1, and a 1e-5 error at 100 ulps.
+    bv = mett.boundary_values(TOP, lam)
+    D, E1 = float(bv.D1), float(bv.E1)
+    E = E1 * (1.0 + side * 1e-12) if k == "1e-12" else E1 + side * k * math.ulp(E1)
+    b = mett.band(TOP, E, D, lam)
+    T = float(mett.nutation_period(TOP, E, D, lam))
+    prec = float(mett.mean_precession(TOP, E, D, lam))
+    ref = mps.reference(TOP, E, D, lam, 0.5 * (b.z_low + b.z_high), dps=50)
+    assert math.isfinite(T)
+    # the Gauss rules reach ~1e-14 of T (the log layer resolved by the sinh map)
+    assert T == pytest.approx(ref.period, rel=1e-12)
+    n = mps_N(D, lam)
+    jump = 0.0
+    if b.z_low == -1.0 and n != 0:  # over the pole: the ±π of the exact N(−1) left out
+        jump = math.copysign(math.pi, n) / T
+    assert prec + jump == pytest.approx(ref.precession, rel=1e-10, abs=1e-12)
+
+
+def mps_N(D, lam, dps=60):
+    """N(−1) = λ√d(−1) + R D(α + 1) at ``dps`` digits, the doubles taken as exact."""
+    import mpmath
+
+    with mpmath.workdps(dps):
+        mp = mpmath.mpf
+        m, R, a, I1, I3 = (mp(v) for v in (TOP.m, TOP.R, TOP.alpha, TOP.I1, TOP.I3))
+        d = I1 / I3 + m * R**2 / I3 * (a + 1) ** 2
+        return float(mp(lam) * mpmath.sqrt(d) + R * mp(D) * (a + 1))

@@ -188,11 +188,24 @@ def _band_one(top: TippeTop, E: float, D: float, lam: float, z0) -> tuple[Band, 
         return _band_scalar(top, e_start, D, lam, z0), e_start
 
 
-def _value_one(top: TippeTop, E: float, D: float, lam: float, b: Band, quantity: str) -> float:
-    """Period or mean precession of one element's band (steady or nutation)."""
+def _value_one(
+    top: TippeTop, E: float, D: float, lam: float, b: Band, quantity: str, z0=None
+) -> float:
+    """Period or mean precession of one element's band (steady or nutation).
+
+    With a start z0 at an end of the band on a pole where N vanishes to rounding and Ẽ = V(z0)
+    within the rounding of the inputs, the start is at rest on that (unstable) pole, as a state
+    there is (:func:`_start_energy`): the separatrix, (inf, the pole's φ̇). Otherwise the doubles
+    (Ẽ, D, λ) are taken as exact, and their period is finite however close to the separatrix.
+    """
     w = _well(top, E, D, lam)
     if b.kind == "steady":
         return float(_steady_values(top, w, np.array([b.z_min]), quantity)[0])
+    if z0 is not None and abs(z0) == 1.0 and z0 in (b.z_low, b.z_high):
+        form = _PoleForm(w, z0)  # N(z0) set to 0 where it vanishes to rounding (or underflows)
+        tol, tol_in = _steady_tolerance(top, E, D, lam, w.Es, float(w.gravity(z0)), 0.0)
+        if form.N_p == 0.0 and abs(form.A) <= float(tol + tol_in):
+            return math.inf if quantity == "period" else form.phidot_limit()
     _set_reference_one(w, b.z_min)
     T, integral = _quadrature(top, b, w, quantity == "precession")
     if quantity == "period":
@@ -279,7 +292,7 @@ def _reference_value(top: TippeTop, E, D, lam, z0, quantity: str) -> np.ndarray:
         b, e = _band_one(top, e, dd, la, z)
         if b.kind == "none":
             raise ValueError(_no_motion_message(e, dd, la, b.depth, b.z_min))
-        return _value_one(top, e, dd, la, b, quantity)
+        return _value_one(top, e, dd, la, b, quantity, z)
 
     return _map(one, E, D, lam, z0)
 
@@ -439,7 +452,7 @@ def _solve_one(top: TippeTop, E, D, lam, z0, i: int, sol: _Solution, quantity) -
     if b.kind == "none":
         sol.errors[i] = (_no_motion_message(e, dd, la, b.depth, b.z_min), False)
     elif quantity is not None:
-        sol.value[i] = _value_one(top, e, dd, la, b, quantity)
+        sol.value[i] = _value_one(top, e, dd, la, b, quantity, zz)
 
 
 def _raise_first(sol: _Solution, *, band_only: bool = False) -> None:
@@ -556,7 +569,14 @@ def nutation_period(
     """Exact period (s) of the θ-oscillation of the rolling top, T = 2∫ √(g/P) dz over the band.
 
     For steady precession (Ẽ at the bottom of the well) the small-oscillation limit
-    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (docs/theory/estimates.md#estimates).
+    2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)), is returned (docs/theory/estimates.md#estimates),
+    at the true bottom z_m of the well, also where it lies below one ulp of z from a pole (a
+    vanishing spin); on a spinning pole its limit ω_θ² = 2|V'(±1)|/g(±1).
+
+    The doubles (E, D, λ) are taken as exact: next to the separatrix of an unstable pole the
+    period is finite and exact down to one ulp of Ẽ from V(±1); it is inf only on the separatrix
+    itself (Ẽ = V(±1) and N(±1) = 0 exactly, or a start ``z0`` at rest on the pole, Ẽ = V(z0)
+    within the rounding of the inputs). See docs/reliability.md.
 
     Raises
     ------

@@ -17,7 +17,7 @@ import numpy as np
 from scipy import optimize
 
 from .._formulas import g
-from ..potential import d2V_dz2, dV_dz
+from ..potential import d2V_dz2
 
 if TYPE_CHECKING:
     from ..top import TippeTop
@@ -88,13 +88,16 @@ def _anchored_half(form: _PoleForm, u_t: float, u_s: float, weight: bool):
     return T, float(np.dot(weights, f * form.phidot(u)))
 
 
-def _separatrix(form: _PoleForm, tol: float) -> bool:
+def _separatrix(form: _PoleForm, exact: _PoleForm) -> bool:
     """Whether a band ending at the pole sits on the separatrix of that (unstable) pole.
 
-    At the pole (N_p = 0) P(u)/u → 2 A_p, A_p = Ẽ − V(p): with A_p = 0 (to the rounding ``tol``)
-    the end u = 0 is a double root of P, the pole an equilibrium reached in infinite time.
+    At the pole (N_p = 0) P(u)/u → 2 A_p, A_p = Ẽ − V(p): with A_p = 0 the end u = 0 is a double
+    root of P, the pole an equilibrium reached in infinite time. A_p is correctly rounded
+    (:func:`_shift_fraction`), so it is 0 only if Ẽ = V(p) exactly; and N(p) must vanish exactly
+    too (``exact``: the pole form with the exact N(p)), or the doubles' own motion turns at a
+    wall next to the pole in finite time.
     """
-    return form.N_p == 0.0 and abs(form.A) <= tol
+    return form.A == 0.0 and exact.N_p == 0.0
 
 
 def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tuple[float, float]:
@@ -134,18 +137,28 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
     else:
         zs = 0.5 * (za + zb)
         us_a, us_b = 1.0 - pa * zs, 1.0 - pb * zs
-    tol = 64.0 * _EPS * max(abs(w.Es), float(w.gravity(pa)), float(w.gravity(pb)))
     T = integral = 0.0
     for form, u0, us in ((fa, ua0, us_a), (fb, ub0, us_b)):
         # an end exactly at the pole in this form of P (a band at z = ±1 whose P < 0 just off
         # the pole turns at the root u_lo > 0 found above, not at the pole)
         at_end = u0 == 0.0
-        if at_end and _separatrix(form, tol):
-            return math.inf, form.phidot_limit()
-        u_t = 0.0 if at_end else form.root(u0, us)
+        u_t, jump = (0.0, 0.0) if at_end else (form.root(u0, us), 0.0)
+        if at_end:
+            exact = _PoleForm(w, form.p, at_pole=False)
+            if _separatrix(form, exact):
+                return math.inf, form.phidot_limit()
+            if exact.N_p != 0.0 and float(exact.P(us)) > 0.0:
+                # N(p) zero only to rounding: the doubles' own motion turns at the root of P
+                # next to the pole (P(0) = −C N_p² < 0). Its period is the exact one even within
+                # a few ulps of Ẽ = V(p), where the cross term 2 C p N_p N[p, p] u of P shifts
+                # the separatrix by C p N_p N[p, p] (~ulps of Ẽ, a 1/δ error of T if left out);
+                # the angle it sweeps past the pole, sign(N_p) π in the limit, is the jump left
+                # out of ⟨φ̇⟩ (mean_precession)
+                form, u_t = exact, _root_towards(exact.P, 0.0, us)
+                jump = math.copysign(math.pi, exact.N_p)
         t_half, i_half = _anchored_half(form, u_t, us, weight)
         T += 2.0 * t_half
-        integral += 2.0 * i_half
+        integral += 2.0 * i_half - jump
     return T, integral
 
 
@@ -172,28 +185,39 @@ def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: bool) -> tuple[fl
     return T, 2.0 * float(_gauss_sum(integrand * w.phidot(z)))
 
 
+# Steady wells this close to a pole (in z) are done in the pole form: V'' in z loses ~ε/(1 − |z|)
+# to the cancellation in 1 − z² and in N next to a pole (2e-11 at 1 − |z| = 1e-6), the pole form
+# none; its grid of u covers the whole half of [−1, 1] on that side.
+_STEADY_POLE_FORM = 0.25
+
+
 def _steady_values(top: TippeTop, W: _Wells, zm, quantity: str) -> np.ndarray:
     """Period or mean precession of steady precession at the bottoms z_m of the elements' wells.
 
     Period: the small-oscillation limit 2π/ω_θ, ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m))
-    (docs/theory/estimates.md#estimates); at a spinning pole z oscillates as ü = (ε − 2|V'| u)/g in
-    u = 1 ∓ z: ω² = 2|V'(±1)|/g. Precession: φ̇(z_m), at a spinning pole the limit of ⟨φ̇⟩ for a
-    band shrinking onto it (:meth:`_PoleForm.phidot_limit`).
+    (docs/theory/estimates.md#estimates), with V'' at the true bottom of the well. Precession:
+    φ̇(z_m). A well within ``_STEADY_POLE_FORM`` of a pole is done in the pole form
+    (:meth:`_PoleForm.steady`): its bottom u_m = 1 ∓ z_m is solved in u, where it may lie far below
+    one ulp of z (a vanishing spin: u_m ∝ |N(±1)|), and at a spinning pole where N vanishes the
+    limit ω² = 2|V'(±1)|/g(±1) and :meth:`_PoleForm.phidot_limit` are taken.
     """
-    pole = np.abs(zm) == 1.0
+    near = 1.0 - np.abs(zm) < _STEADY_POLE_FORM
     out = np.empty(zm.size)
     D, lam = np.broadcast_to(W.D, zm.shape), np.broadcast_to(W.lam, zm.shape)
+    inner = ~near
     if quantity == "period":
-        zi = zm[~pole]
-        curv = d2V_dz2(top, zi, D[~pole], lam[~pole])
-        omega = np.sqrt((1.0 - zi * zi) * curv / (2.0 * g(top, zi)))
-        slope = np.abs(dV_dz(top, zm[pole], D[pole], lam[pole]))
-        omega_pole = np.sqrt(2.0 * slope / g(top, zm[pole]))
-        out[~pole], out[pole] = 2.0 * math.pi / omega, 2.0 * math.pi / omega_pole
-        return out
-    out[~pole] = W.sub(~pole).phidot(zm[~pole])
-    for i in np.flatnonzero(pole):
-        out[i] = _PoleForm(W.element(i), float(zm[i])).phidot_limit()
+        zi = zm[inner]
+        curv = d2V_dz2(top, zi, D[inner], lam[inner])
+        out[inner] = 2.0 * math.pi / np.sqrt((1.0 - zi * zi) * curv / (2.0 * g(top, zi)))
+    else:
+        out[inner] = W.sub(inner).phidot(zm[inner])
+    for i in np.flatnonzero(near):
+        w = W.element(i)
+        z = float(zm[i])
+        p = math.copysign(1.0, z)
+        form = _PoleForm(w, p, at_pole=abs(z) == 1.0 and bool(w.n_vanishes(z)))
+        _, omega2, phidot = form.steady(1.0 - p * z)
+        out[i] = 2.0 * math.pi / math.sqrt(omega2) if quantity == "period" else phidot
     return out
 
 

@@ -231,6 +231,13 @@ def _set_reference_one(w: _Wells, zr: float) -> None:
         w.set_reference(zr, True)
     elif 1.0 - zr * zr > 64.0 * _EPS:
         w.set_reference(zr, False)
+        if 1.0 - abs(zr) < _NEAR_POLE:
+            # next to a pole the z form's depth Ẽ − V(z_r) keeps only ~ε of the energy terms
+            # (1e-18 J for the thesis body), more than a band's whole depth at low spin; the
+            # pole form (exact A_p, N_p) has terms of the size of the well itself
+            p = math.copysign(1.0, zr)
+            u = 1.0 - p * zr  # exact (Sterbenz)
+            w.depth_r = float(_PoleForm(w, p, at_pole=False).P(u)) / (u * (2.0 - u))
     else:
         w.zr, w.pole_ref = None, False
 
@@ -547,6 +554,94 @@ class _PoleForm:
         top = self.w.top
         n1 = float(self.n_div(0.0))
         return -self.p * n1 / (2.0 * top.R * top.I1 * self.sqd_p)
+
+    def _nu_derivatives(self, u):
+        """(ν, dν/dz, d²ν/dz²) of ν = N[p, z] = λ L/S − R D at z = p(1 − u), with
+        L = d'(p) + σ(1 − γ)(z − p) (d is quadratic) and S = √d(z) + √d(p)."""
+        top, w = self.w.top, self.w
+        z = np.clip(self.p * (1.0 - u), -1.0, 1.0)
+        dz = fm.d(top, z)
+        sq = np.sqrt(dz)
+        d1 = fm.dd_dz(top, z)
+        d2 = 2.0 * top.sigma * (1.0 - top.gamma)
+        L = self.dd_p + top.sigma * (1.0 - top.gamma) * (-self.p * u)
+        L1 = 0.5 * d2
+        S = sq + self.sqd_p
+        S1 = d1 / (2.0 * sq)
+        S2 = (2.0 * d2 * dz - d1 * d1) / (4.0 * dz * sq)
+        nu = w.lam * L / S - top.R * w.D
+        nu1 = w.lam * (L1 * S - L * S1) / (S * S)
+        nu2 = w.lam * (
+            -2.0 * L1 * S1 / (S * S) - L * S2 / (S * S) + 2.0 * L * S1 * S1 / (S * S * S)
+        )
+        return nu, nu1, nu2
+
+    def _dV(self, u, second: bool = False):
+        """dV/du (or d²V/du²) at u, in the pole form (u = 1 − p z, so d²V/du² = d²V/dz²).
+
+        V = m g R(1 − αp(1 − u)) + K + const, K/C = N_p²/q + 2 N_p m r + m² u r with q = u(2 − u),
+        r = 1/(2 − u) and m(u) = −p ν (N = N_p + u m): the three parts are differentiated apart,
+        so the large 1/u² terms of N_p never cancel against the others (exact when N_p = 0).
+        """
+        nu, nu1, nu2 = self._nu_derivatives(u)
+        m, m1, m2 = -self.p * nu, nu1, -self.p * nu2  # d/du = −p d/dz
+        r = 1.0 / (2.0 - u)
+        s = u * r
+        q1 = 2.0 - 2.0 * u
+        with np.errstate(all="ignore"):
+            return self._dV_terms(u, second, m, m1, m2, r, s, q1)
+
+    def _dV_terms(self, u, second, m, m1, m2, r, s, q1):
+        """The sums of :meth:`_dV` (K differentiated term by term)."""
+        w = self.w
+        ratio = 0.0 if self.N_p == 0.0 else self.N_p / (u * (2.0 - u))  # N_p/q
+        if not second:
+            k = -ratio * ratio * q1 + 2.0 * self.N_p * (m1 * r + m * r * r)
+            k += 2.0 * m * m1 * s + 2.0 * m * m * r * r
+            return w.mgR * w.top.alpha * self.p + w.C * k
+        q = u * (2.0 - u)
+        k = 0.0 if self.N_p == 0.0 else ratio * ratio * (2.0 * q1 * q1 + 2.0 * q) / q
+        k += 2.0 * self.N_p * (m2 * r + 2.0 * m1 * r * r + 2.0 * m * r * r * r)
+        k += (2.0 * m1 * m1 + 2.0 * m * m2) * s + 8.0 * m * m1 * r * r + 4.0 * m * m * r * r * r
+        return w.C * k
+
+    def steady(self, u_hint: float) -> tuple[float, float, float]:
+        """(u_m, ω², φ̇) of steady precession at the bottom u_m of the well next to the pole.
+
+        u_m is the root of dV/du (solved in u to full relative precision, also far below one ulp
+        of z); the small-oscillation limit of the period is 2π/ω with ω² = (1 − z²) V''/(2 g)
+        there. At the pole itself (N_p = 0, V rising away from it with slope s = dV/du(0) > 0)
+        u̇² ≈ 2u(ε − s u)/g, so u = x² with x harmonic at √(s/(2g)) and u at twice that:
+        ω² = 2 s/g(p). That is the limit of the interior formula as N_p → 0 (u_m ∝ |N_p|,
+        V'' ≈ 2 s/u_m, 1 − z² ≈ 2 u_m), so both are one continuous branch.
+        φ̇ is φ̇(u_m), at the pole the limit :meth:`phidot_limit` (the mean of its two sides).
+        """
+        top = self.w.top
+        g_p = float(fm.g(top, self.p))
+        if self.N_p == 0.0:
+            s = float(self._dV(0.0))
+            if s > 0.0:
+                return 0.0, 2.0 * s / g_p, self.phidot_limit()
+        # a sign change − → + of dV/du: bracket it on a log grid of u, nearest the hint
+        grid = np.logspace(-320, -0.5, 960)
+        vals = self._dV(grid)
+        up = np.flatnonzero((vals[:-1] < 0.0) & (vals[1:] >= 0.0))
+        if up.size == 0:
+            return math.nan, math.nan, math.nan
+        i = up[0]
+        if u_hint > 0.0:
+            i = up[np.argmin(np.abs(np.log(grid[up]) - math.log(u_hint)))]
+        u_m = optimize.brentq(
+            lambda x: float(self._dV(x)),
+            float(grid[i]),
+            float(grid[i + 1]),
+            xtol=1e-300,
+            rtol=4 * _EPS,
+        )
+        z = self.p * (1.0 - u_m)
+        curv = float(self._dV(u_m, second=True))
+        omega2 = u_m * (2.0 - u_m) * curv / (2.0 * float(fm.g(top, z)))
+        return u_m, omega2, float(self.phidot(u_m))
 
     def root(self, u_guess: float, u_in: float) -> float:
         """The turning point u_t near ``u_guess`` (P(u_in) > 0), solved in u to full relative precision."""
