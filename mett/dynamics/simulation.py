@@ -38,7 +38,15 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
-from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
+from .registry import (
+    MODELS,
+    JumpFailed,
+    Model,
+    Phase,
+    check_friction,
+    lookup,
+    validate_options,
+)
 from .trajectory import ConstantSolution, SegmentedSolution, Trajectory
 
 __all__ = [
@@ -351,7 +359,9 @@ def simulate(
         ``rtol`` outside [100 ε, 1) (:data:`RTOL_MIN`), ``atol`` ≤ 0 or below ε times a state
         component's typical magnitude, bad ``t_eval``, an unknown model, method or backend,
         ``backend="compiled"`` with a method other than DOP853, an option of another model or out
-        of its range, an event ``terminal`` < 0, or a state the model cannot represent.
+        of its range, a required option missing, a friction law the model does not run (e.g.
+        ``model="coulomb"`` without ``friction=Coulomb(mu)``: the message names the model and the
+        law it needs), an event ``terminal`` < 0, or a state the model cannot represent.
     TypeError
         If ``top`` is not a :class:`~mett.TippeTop`, a tolerance is not a real number, an option
         has the wrong type (``vertical_cm="no"``), an event is not callable or its ``terminal`` is
@@ -478,6 +488,7 @@ def prepare_run(
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(BACKENDS)}")
     if friction is not None:
         friction = _friction.check_law(friction)
+        check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
         if isinstance(friction, _friction.Viscous):
             if friction.mu is not None:
                 top = dataclasses.replace(top, mu=friction.mu)
@@ -490,14 +501,9 @@ def prepare_run(
 
                 viscous_force(traj)
             return traj
-        # a dry law: the registered model that declares the option ``friction`` and accepts it
-        # ("coulomb", "coulomb-regularised", :mod:`.stickslip`) runs instead of "gliding"
+        # a dry law given to "gliding": the registered model that declares the option
+        # ``friction`` and runs the law ("coulomb", "coulomb-regularised", :mod:`.stickslip`)
         if not _declares(mdl, "friction"):
-            if mdl.name != "gliding":
-                raise ValueError(
-                    f"friction={friction!r} applies to model 'gliding' (or a model that declares "
-                    f"the option friction); got model {mdl.name!r}"
-                )
             mdl = _model_of_law(friction)
         options = {**options, "friction": friction}
     model_options = validate_options(mdl, options)
@@ -1081,14 +1087,13 @@ def _declares(mdl: Model, option: str) -> bool:
 
 
 def _model_of_law(law: Any) -> Model:
-    """The first registered model whose option ``friction`` accepts ``law``."""
+    """The first registered model that declares the option ``friction`` and needs ``law``'s kind
+    (:attr:`Model.friction`; a model that also runs without a law, as "stemmed", is skipped)."""
     for mdl in MODELS.values():
-        for opt in mdl.options:
-            if opt.name != "friction":
-                continue
-            try:
-                opt.check("friction", law)
-            except (TypeError, ValueError):
-                continue
+        if (
+            _declares(mdl, "friction")
+            and type(None) not in mdl.friction
+            and isinstance(law, mdl.friction)
+        ):
             return mdl
     raise ValueError(f"no registered model runs friction={law!r}")

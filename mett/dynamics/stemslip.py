@@ -55,7 +55,16 @@ from scipy.integrate import solve_ivp
 
 from ..friction import Coulomb
 from . import stem, stickslip
-from .registry import Event, JumpFailed, Model, Option, Phase, positive_length, register
+from .registry import (
+    Event,
+    JumpFailed,
+    Model,
+    Option,
+    Phase,
+    friction_law,
+    positive_length,
+    register,
+)
 from .stem import apply_impulse, ball_clearance, impact_frame, stem_clearance
 from .stickslip import (
     cone_event,
@@ -420,14 +429,6 @@ def _finish(traj: Any) -> None:
     traj.stopping_band = p[10]
 
 
-def _check_law(name: str, value: Any) -> Coulomb:
-    if not isinstance(value, Coulomb):
-        raise TypeError(
-            f"{name} of model 'stemmed-coulomb' must be a mett.friction.Coulomb; got {value!r}"
-        )
-    return value
-
-
 PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling")
 
 _TOUCHDOWN = Event(
@@ -463,11 +464,12 @@ MODEL = register(
             _TOUCHDOWN,
         ),
         options=(
-            Option("friction", _check_law, None, "the Coulomb law"),
+            Option("friction", friction_law, None, "the Coulomb law"),
             Option("stopping_band", positive_length, None, "slip speed (m/s) of the stop"),
-            Option("stem_radius", positive_length, None, "stem sphere radius r_s (m)"),
-            Option("stem_distance", positive_length, None, "ball centre to stem centre l_s (m)"),
+            stem.STEM_RADIUS,
+            stem.STEM_DISTANCE,
         ),
+        friction=(Coulomb,),
         phase="ball-sliding",
         phases=(
             Phase(

@@ -88,7 +88,7 @@ from scipy.optimize import brentq
 
 from ..friction import Coulomb, RegularisedCoulomb
 from . import gliding
-from .registry import Event, Model, Option, Phase, register
+from .registry import Event, Model, Option, Phase, friction_law, register
 
 __all__ = [
     "CONTENSOU",
@@ -530,11 +530,7 @@ def to_gliding(Y: Any, p: tuple) -> np.ndarray:
 
 
 def _params(top: Any, options: dict) -> tuple:
-    law = options.get("friction")
-    if law is None:
-        raise ValueError(
-            "the dry-friction models need friction=Coulomb(...) or RegularisedCoulomb(...)"
-        )
+    law = options["friction"]  # a law of the model's kind (registry.check_friction)
     band = options.get("stopping_band")
     if band is None:  # without an rtol to tie it to: 1e-9 of the velocity scale √(g R)
         band = 1e-9 * math.sqrt(top.g * top.R)
@@ -701,21 +697,6 @@ def viscous_force(traj: Any) -> None:
     traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
 
 
-def _check_coulomb(name: str, value: Any) -> Coulomb:
-    if not isinstance(value, Coulomb):
-        raise TypeError(f"{name} of model 'coulomb' must be a mett.friction.Coulomb; got {value!r}")
-    return value
-
-
-def _check_regularised(name: str, value: Any) -> RegularisedCoulomb:
-    if not isinstance(value, RegularisedCoulomb):
-        raise TypeError(
-            f"{name} of model 'coulomb-regularised' must be a mett.friction.RegularisedCoulomb; "
-            f"got {value!r}"
-        )
-    return value
-
-
 def _check_band(name: str, value: Any) -> float:
     from .registry import positive_length
 
@@ -750,7 +731,8 @@ MODEL = register(
             Event(_stop_event, -1.0, "switch", target="rolling", jump=_stop_jump),
             Event(_reversal_event, -1.0, "switch", target="sliding", jump=_reversal_jump),
         ),
-        options=(Option("friction", _check_coulomb, None, "the Coulomb law"), _BAND),
+        options=(Option("friction", friction_law, None, "the Coulomb law"), _BAND),
+        friction=(Coulomb,),
         phase="sliding",
         phases=(
             Phase(
@@ -812,7 +794,8 @@ REGULARISED = register(
         scales=_scales,
         conserved_lengths=((7, 8, 9),),
         events=(Event(_contact_sliding, -1.0, "contact_lost"),),
-        options=(Option("friction", _check_regularised, None, "the regularised law"),),
+        options=(Option("friction", friction_law, None, "the regularised law"),),
+        friction=(RegularisedCoulomb,),
         conserves=("lam",),
         finish=_finish_regularised,
     )
