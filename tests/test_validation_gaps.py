@@ -8,10 +8,12 @@ never mett's own earlier output.
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 import warnings
 
+import numpy as np
 import pytest
 
 import mett
@@ -110,3 +112,64 @@ def test_a_required_option_is_checked_before_a_friction_law_it_does_not_concern(
         warnings.simplefilter("error")
         tr = mett.simulate(TOP, S, 0.01, model="coulomb", friction=Coulomb(0.3))
     assert tr.status == "completed"
+
+
+# --- F8: Coulomb(0) is frictionless sliding, on every backend, also at a pole ----------------------
+
+RTOL = 1e-10  # simulate's default
+T_POLE = 0.2  # s
+
+
+@pytest.mark.parametrize("backend", ["scipy", "compiled", "taylor"])
+@pytest.mark.parametrize("theta0", [0.0, 5e-324, 1e-300, math.pi - 1e-15, math.pi, 0.5])
+def test_coulomb_mu_zero_is_the_frictionless_gliding_top_on_every_backend(backend, theta0):
+    """μ = 0 is a friction cone of radius 0: frictionless sliding throughout, no switch.
+
+    The reference is the "gliding" model with μ = 0 (its own equations, with L_z in the state
+    where the stick–slip model carries λ), integrated at rtol = 1e-12. Both conserve E exactly,
+    so E may drift by the integration error only; the contact-point velocity ν and θ agree to the
+    global error of two rtol-controlled runs, K rtol × scale with K = 100 for the accumulation of
+    local errors over the run (scale: R|ω3| for ν, 1 rad for θ). At a pole every start used to
+    stop the scipy backend (a 0/0 restart direction, a Brent sign error) and gave the Taylor
+    backend spurious "reversal" switches of margin −inf.
+    """
+    nu_x = 0.01 if theta0 == 0.5 else 0.0  # one generic, slipping start besides the poles
+    state = mett.State(theta=theta0, omega3=155.0, nu_x=nu_x)
+    t_eval = np.linspace(0.0, T_POLE, 21)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning either
+        run = mett.simulate(TOP, state, T_POLE, friction=Coulomb(0.0), backend=backend,
+                            t_eval=t_eval)  # fmt: skip
+        ref = mett.simulate(TOP, state, T_POLE, friction=Viscous(0.0), t_eval=t_eval, rtol=1e-12)
+    assert run.status == "completed", run.message
+    assert run.switches == [] and set(run.phase) == {"sliding"}
+    assert np.all(run.margin <= 0.0)  # the sliding force on a zero cone: μ g_n − |F_t| = 0
+    np.testing.assert_array_equal(run.F_x, 0.0)
+    np.testing.assert_array_equal(run.F_y, 0.0)
+    E0 = ref.E[0]
+    assert np.max(np.abs(run.E - E0)) <= 100 * RTOL * E0
+    v_scale = TOP.R * 155.0
+    for name in ("nu_x", "nu_y"):
+        np.testing.assert_allclose(getattr(run, name), getattr(ref, name), rtol=0,
+                                   atol=100 * RTOL * v_scale, err_msg=name)  # fmt: skip
+    np.testing.assert_allclose(run.theta, ref.theta, rtol=0, atol=100 * RTOL)
+
+
+def test_stemmed_coulomb_mu_zero_impacts_are_the_frictionless_ones():
+    """Through five touchdowns and landings, Coulomb(0) on a stemmed top is the stemmed model
+    with μ = 0 (frictionless Darboux–Keller impacts, its own impact code): the same impact times,
+    no tangential impulse, and θ to the global error of the runs (1000 rtol: ten impacts, each
+    located to the integration tolerance, with the error growth between them). Stops at 0.25 s,
+    before a touchdown that grazes the stem by 1e-11 rad (a measure-zero tangency)."""
+    ball = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=0.3)
+    top = ball.with_stem(radius=0.005, distance=0.016)
+    state = mett.State(theta=2.2, thetadot=8.0, phidot=110.0, omega3=-76.0, nu_y=0.16)
+    t_eval = np.linspace(0.0, 0.25, 26)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run = mett.simulate(top, state, 0.25, friction=Coulomb(0.0), t_eval=t_eval)
+        ref = mett.simulate(top, state, 0.25, friction=Viscous(0.0), t_eval=t_eval, rtol=1e-12)
+    assert run.status == "completed" and ref.touchdowns.size == 5
+    np.testing.assert_allclose(run.touchdowns, ref.touchdowns, rtol=0, atol=1e-9)
+    assert all(math.isnan(s.margin) for s in run.switches)  # no cone at μ = 0
+    np.testing.assert_allclose(run.theta, ref.theta, rtol=0, atol=1000 * RTOL)

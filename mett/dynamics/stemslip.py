@@ -210,6 +210,8 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
 
     Raises :class:`~mett.dynamics.registry.JumpFailed` if the impulse equations cannot be solved.
     """
+    if mu == 0.0:  # frictionless: the normal impulse that ends the compression, nothing else
+        return np.array([0.0, 0.0, -f.v[2] / f.W[2, 2]]), 0.0, False
     k = 4 if r_star > 0.0 else 3
     tang = [0, 1, 3] if k == 4 else [0, 1]
 
@@ -415,13 +417,14 @@ def _finish(traj: Any) -> None:
             why = "touchdown" if c1 == "stem" else "landing"
             y_imp, P, Q = impact(y_ev, p, c1)
             Pt = math.hypot(P[0], P[1], Q / p[7]) if p[7] > 0.0 else math.hypot(P[0], P[1])
-            margin = (p[6] * P[2] - Pt) / (p[6] * P[2]) if P[2] > 0.0 else math.nan
+            mu_pn = p[6] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
+            margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
             speed = float(np.linalg.norm(stickslip.slip(y_imp, q)))
         else:
             why = _REASONS[(f0, f1)]
             y_dec = y_ev if why == "cone" else stickslip.set_slip(y_ev, q, np.zeros(3))
             gn, _, m = stickslip.required(y_dec, q)
-            margin = float(m / (p[6] * gn))
+            margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan
             speed = float(np.linalg.norm(stickslip.slip(y_ev, q)))
         records.append(stickslip.Switch(t, before, after, why, float(margin), speed))
     traj.switches = records

@@ -57,6 +57,9 @@ Switching, all by events located by the integrator (:func:`mett.simulate` runs t
   logarithmic in (initial slip)/δ; a slip that starts at the cone's edge (zero acceleration,
   |v_A| − 2δ ∝ t²) costs ∝ δ^(−1/2) steps (docs/theory/friction.md, "Frequent switching").
 
+μ = 0 (``Coulomb(0.0)``) is a cone of radius 0: frictionless sliding throughout, no switch
+(:func:`_frictionless`), the same motion as the "gliding" model with μ = 0.
+
 The start (:func:`_initial`, ``start_phase``): a state whose slip is within the band starts
 rolling (after the stopping impulse) if the cone holds, else sliding from 2δ in the excess-force
 direction. After a run (``Model.finish``, :func:`_finish`) the trajectory carries ``phase``, the
@@ -220,6 +223,9 @@ def _law(y: Any, p: tuple, kin: tuple | None = None) -> tuple:
     """(fx, fy, fm): the sliding law per unit normal force at state(s) ``y``."""
     mu, rs, eps, law = p[6], p[7], p[8], p[9]
     e, w, de, a, nu, h, c = _kinematics(y, p) if kin is None else kin
+    if mu == 0.0:  # frictionless: no force, also at zero slip (where −μ v̂_A would be 0/0)
+        zero = 0.0 * nu[0]
+        return zero, zero, zero
     if law == _REGULARISED:
         k = -mu / (nu[0] * nu[0] + nu[1] * nu[1] + eps * eps) ** 0.5
         return k * nu[0], k * nu[1], 0.0 * k
@@ -379,11 +385,15 @@ def _positive_part(x: Any) -> Any:
 
 def _stop_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is outside the cone: "stop" → rolling."""
+    if p[6] == 0.0:  # μ = 0: a cone of radius 0, no stop (see _frictionless)
+        return 1.0 + 0.0 * y[0]  # never 0 (a constant: no series of |γ| near 0)
     return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(-_margin(y, p))
 
 
 def _reversal_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is inside the cone: "reversal"."""
+    if p[6] == 0.0:  # μ = 0: no friction to reverse the slip (see _frictionless)
+        return 1.0 + 0.0 * y[0]  # never 0 (a constant: no series of |γ| near 0)
     return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(_margin(y, p))
 
 
@@ -426,7 +436,8 @@ def _excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarr
     grid = np.linspace(0.0, 2.0 * math.pi, 73)
     cr = np.array([vdot(ph)[0] for ph in grid])
     best, best_s = None, 0.0
-    for i in np.flatnonzero(cr[:-1] * cr[1:] <= 0.0):
+    sign = np.sign(cr)  # not cr[:-1] * cr[1:]: that product underflows to 0 near a pole
+    for i in np.flatnonzero(sign[:-1] * sign[1:] <= 0.0):
         if cr[i] == 0.0:
             phi = grid[i]
         elif cr[i + 1] == 0.0:
@@ -542,6 +553,19 @@ def _params(top: Any, options: dict) -> tuple:
     return (top.m, top.R, l, top.I1, top.I3, top.g, law.mu, r_star, eps, code, band)
 
 
+def _frictionless(p: tuple) -> bool:
+    """μ = 0: the friction cone has radius 0, so the motion is frictionless sliding throughout.
+
+    Rolling would need a tangential force of exactly 0; where it does (a spin exactly at a pole)
+    rolling and frictionless sliding are the same motion. So no phase switch ever happens: the
+    start is not settled (a stopping impulse would be a tangential impulse, which the zero cone
+    cannot transmit), the run starts sliding, and the stop and reversal events never fire. The
+    law itself is 0 (:func:`_law`); without this, a spin at a pole started rolling, crossed the
+    zero cone at once, and its restart direction was 0/0.
+    """
+    return p[6] == 0.0
+
+
 def settle(y: np.ndarray, p: tuple) -> np.ndarray:
     """``y`` with a slip within the stopping band settled (``y`` itself if the slip is larger).
 
@@ -550,6 +574,8 @@ def settle(y: np.ndarray, p: tuple) -> np.ndarray:
     is the phase it starts. Used at the start of a run and after an impact (the stemmed top,
     :mod:`.stemslip`). ``y`` may carry components beyond the ten of the state (kept).
     """
+    if _frictionless(p):
+        return y
     if p[9] == _COULOMB and float(np.linalg.norm(_slip(y, p))) <= p[10]:
         y = _set_slip(y, p, np.zeros(3))
         if _required(y, p)[2] < 0.0:
@@ -563,6 +589,8 @@ def _initial(state: Any, p: tuple) -> np.ndarray:
 
 
 def _start_phase(y0: np.ndarray, p: tuple) -> str:
+    if _frictionless(p):
+        return "sliding"
     return "rolling" if float(np.linalg.norm(_slip(y0, p))) <= p[10] else "sliding"
 
 
@@ -572,7 +600,7 @@ def _rolling_guess(Y: np.ndarray, p: tuple) -> np.ndarray:
     slip = np.sqrt(np.sum(_slip(Y, p) ** 2, axis=0))
     with np.errstate(divide="ignore", invalid="ignore"):
         margin = _required(Y, p)[2]
-    return (slip <= p[10]) & (margin >= 0.0) & (p[9] == _COULOMB)
+    return (slip <= p[10]) & (margin >= 0.0) & (p[9] == _COULOMB) & (not _frictionless(p))
 
 
 def _normal_force(y: np.ndarray, p: tuple) -> Any:
@@ -637,7 +665,8 @@ class Switch(NamedTuple):
     required force left the cone) or "reversal" (|v_A| fell to the band with the required force
     outside the cone: sliding restarts in the direction of the excess force)."""
     margin: float
-    """Cone margin of the force rolling needs, (μ g_n − |F_t|)/(μ g_n), at the switch state."""
+    """Cone margin of the force rolling needs, (μ g_n − |F_t|)/(μ g_n), at the switch state
+    (NaN where there is no cone: μ = 0, or an impact without a normal impulse)."""
     slip: float
     """|v_A| (m/s) at the event that triggered the switch."""
 
@@ -665,7 +694,8 @@ def _finish(traj: Any) -> None:
         y_dec = y_ev if why == "cone" else _set_slip(y_ev, p, np.zeros(3))
         gn, _, m = _required(y_dec, p)
         speed = float(np.linalg.norm(_slip(y_ev, p)))
-        records.append(Switch(t, before, after, why, float(m / (p[6] * gn)), speed))
+        margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan  # no cone at μ = 0
+        records.append(Switch(t, before, after, why, margin, speed))
     traj.switches = records
     traj.stopping_band = p[10]
 
