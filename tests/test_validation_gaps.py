@@ -173,3 +173,41 @@ def test_stemmed_coulomb_mu_zero_impacts_are_the_frictionless_ones():
     np.testing.assert_allclose(run.touchdowns, ref.touchdowns, rtol=0, atol=1e-9)
     assert all(math.isnan(s.margin) for s in run.switches)  # no cone at μ = 0
     np.testing.assert_allclose(run.theta, ref.theta, rtol=0, atol=1000 * RTOL)
+
+
+# --- F15: an array state obeys the type rules of State's fields ------------------------------------
+
+_GOOD = [0.1, 0.0, 0.0, 155.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [
+        (["0.1", "0", "0", "155", "0", "0"], "str"),
+        ([b"0.1", b"0", b"0", b"155", b"0", b"0"], "S"),
+        (np.array([True, False, False, True, False, False]), "bool"),
+        ([0.1, True, 0.0, 155.0, 0.0, 0.0], "bool"),
+        (np.array(_GOOD, dtype=complex), "complex"),
+        ([0.1, 0.0, 0.0, 155.0 + 1e-3j, 0.0, 0.0], "complex"),
+        ([0.1, None, 0.0, 155.0, 0.0, 0.0], "None"),
+        (None, "None"),
+    ],
+)
+def test_an_array_state_of_non_numbers_is_a_type_error_naming_the_argument(value, shown):
+    """As ``State(thetadot=True)`` is: a string is not parsed, a boolean is not 1, an imaginary
+    part is not dropped, None is not NaN."""
+    with pytest.raises(TypeError, match=r"^y must be (a )?real numbers?; got .*" + shown):
+        mett.State.from_array(value)
+    with pytest.raises(TypeError, match=r"^state must be (a )?real numbers?; got .*" + shown):
+        mett.simulate(TOP, value, 0.01)
+
+
+def test_an_array_state_of_real_numbers_is_the_state():
+    assert mett.State.from_array(_GOOD) == mett.State(theta=0.1, omega3=155.0)
+    assert mett.State.from_array(np.array([0, 0, 0, 155, 0, 0])) == mett.State(0.0, omega3=155.0)
+    with pytest.raises(
+        ValueError, match="state must be a State or an array of leading dimension 6"
+    ):
+        mett.simulate(TOP, [0.1, 0.0, 155.0], 0.01)
+    with pytest.raises(ValueError, match="thetadot must be finite; got nan"):
+        mett.State.from_array([0.1, math.nan, 0.0, 155.0, 0.0, 0.0])
