@@ -72,6 +72,7 @@ if TYPE_CHECKING:
     from .top import TippeTop
 
 __all__ = [
+    "CLASSIFY_MAX",
     "SAMPLE_POINTS",
     "SUBGROUPS",
     "SubgroupBoundaries",
@@ -161,6 +162,12 @@ def _span(x: np.ndarray) -> str:
     return repr(float(x)) if x.ndim == 0 else f"values in [{x.min():g}, {x.max():g}]"
 
 
+CLASSIFY_MAX = 1e100
+"""Largest α and γ :func:`classify` takes: the criteria are quadratic in them, so every term stays
+below ~1e201, finite; wider than any top's (α <= 1e50 on a stem, γ = I1/I3 <= 1e100 with I1, I3 in
+:data:`mett.top.FIELD_RANGE`)."""
+
+
 def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     """Class (``"Ia"`` … ``"III"``) of tops with eccentricity ``alpha`` and γ = I1/I3 = ``gamma``.
 
@@ -171,14 +178,14 @@ def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        If alpha or gamma is not positive and finite.
+        If alpha or gamma is not in (0, :data:`CLASSIFY_MAX`].
     """
     a = _validate.as_finite_array("alpha", alpha)
     g = _validate.as_finite_array("gamma", gamma)
-    if np.any(a <= 0.0):
-        raise ValueError(f"alpha must lie in (0, inf); got {_span(a)}")
-    if np.any(g <= 0.0):
-        raise ValueError(f"gamma must lie in (0, inf); got {_span(g)}")
+    if np.any((a <= 0.0) | (a > CLASSIFY_MAX)):
+        raise ValueError(f"alpha must lie in (0, {CLASSIFY_MAX:g}]; got {_span(a)}")
+    if np.any((g <= 0.0) | (g > CLASSIFY_MAX)):
+        raise ValueError(f"gamma must lie in (0, {CLASSIFY_MAX:g}]; got {_span(g)}")
     a, g = np.broadcast_arrays(a, g)
     s_up, s_inv = _S(a, g, 1.0), _S(a, g, -1.0)
     out = np.where(

@@ -211,3 +211,86 @@ def test_an_array_state_of_real_numbers_is_the_state():
         mett.simulate(TOP, [0.1, 0.0, 155.0], 0.01)
     with pytest.raises(ValueError, match="thetadot must be finite; got nan"):
         mett.State.from_array([0.1, math.nan, 0.0, 155.0, 0.0, 0.0])
+
+
+# --- F19: the submodules' bounds ------------------------------------------------------------------
+
+
+def test_a_stem_contact_top_has_the_bounds_of_a_top():
+    from mett.stem import StemContactTop
+
+    big = dict(m=1e300, R=1e300, alpha=1e300, I1=1e300, I3=1e300)
+    with pytest.raises(ValueError, match=r"^m must lie in \[1e-50, 1e\+50\] kg; got 1e\+300"):
+        StemContactTop(**big)
+    ok = dict(m=0.02, R=0.005, I1=3e-6, I3=3.2e-6)
+    with pytest.raises(ValueError, match=r"^alpha must lie in \[2e-48, 1e\+50\]"):
+        StemContactTop(alpha=1e60, **ok)  # α within 1e50, and α R = 0.005 α m above 1e-50 m
+    with pytest.raises(ValueError, match=r"^alpha must lie in \[1e-50, 1e\+40\]"):
+        StemContactTop(alpha=1e45, **{**ok, "R": 1e10})  # α R = 1e55 m: beyond 1e50 m
+    with pytest.raises(ValueError, match=r"^g must lie in \[1e-50, 1e\+50\]"):
+        StemContactTop(alpha=5.0, g=1e60, **ok)
+    # the extreme corner that is allowed computes without overflow
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        corner = StemContactTop(m=1e50, R=1e-50, alpha=1e50, I1=1e50, I3=1e50, g=1e50)
+        assert math.isfinite(corner.lambda_0) and corner.lambda_thres > 0.0
+        assert corner.subgroup in mett.classification.SUBGROUPS
+
+
+@pytest.mark.parametrize(
+    ("radius", "distance", "message"),
+    [
+        (1e300, 3e300, r"^radius must lie in \[1e-50, 1e\+50\] m; got 1e\+300"),
+        (5e-324, 0.021, r"^radius must lie in \[1e-50, 1e\+50\] m; got 5e-324"),
+        (0.005, 1e60, r"^distance must lie in \[1e-50, 1e\+50\] m; got 1e\+60"),
+        (1e-50, 1e50, r"^radius and distance must keep the top on its stem within mett's range"),
+    ],
+)
+def test_with_stem_names_the_arguments_the_user_passed(radius, distance, message):
+    """Never 'alpha must be finite' about the stem top's α the user never gave."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow RuntimeWarning on the way
+        with pytest.raises(ValueError, match=message):
+            TOP.with_stem(radius, distance)
+
+
+def test_classify_bounds_alpha_and_gamma_instead_of_overflowing():
+    from mett.classification import classify
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"^alpha must lie in \(0, 1e\+100\]; got 1e\+300"):
+            classify(1e300, 0.9)
+        with pytest.raises(ValueError, match=r"^gamma must lie in \(0, 1e\+100\]; got 1e\+300"):
+            classify(0.3, 1e300)
+        # at the bounds: γ ≥ 1 + α is group III (module table), computed without overflow
+        assert str(classify(1e99, 1e100)) == "III"
+        assert str(classify(0.3, 1e100)) == "III"
+
+
+def test_classify_end_refuses_a_nan_end_angle_of_a_completed_run():
+    from decimal import Decimal
+
+    from mett.sweeps import classify_end
+
+    for bad in (math.nan, Decimal("NaN"), math.inf):
+        with pytest.raises(ValueError, match="theta_end must be finite"):
+            classify_end(bad, "completed")
+    with pytest.raises(ValueError, match=r"theta_end must lie in \[0, pi\]"):
+        classify_end(4.0, "completed")
+    with pytest.raises(TypeError, match="status must be a str"):
+        classify_end(0.0, None)
+    # a run that did not complete is labelled by its status, whatever its θ (NaN at a failure)
+    assert classify_end(math.nan, "failed") == "failed"
+    assert classify_end(Decimal("3.14159"), "completed") == "inverted"
+    assert classify_end(0.0, "completed") == "upright"
+
+
+def test_rtol_beyond_a_percent_is_refused_before_any_work():
+    with pytest.raises(ValueError, match=r"^rtol must lie in \[2\.22e-14, 0\.01\]"):
+        mett.simulate(TOP, S, 1.0, rtol=0.9999)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy RuntimeWarning at the loosest rtol accepted
+        for backend in ("compiled", "scipy"):
+            run = mett.simulate(TOP, S, 0.5, rtol=1e-2, backend=backend)
+            assert run.status == "completed"

@@ -107,11 +107,20 @@ RTOL_MIN = 100.0 * float(np.finfo(float).eps)
 rounding noise and the step size collapses (scipy clamps to the same bound)."""
 
 
+RTOL_MAX = 1e-2
+"""Largest relative tolerance. Above it a run is no accuracy request: the default absolute
+tolerances (rtol times each component's typical magnitude) allow errors of a percent of the state
+per step, the dry-friction stopping band (10 rtol times the velocity scale) reaches a tenth of the
+slip it is to detect, and runs near rtol = 1 ended in overflow, numpy RuntimeWarnings or a raw
+RuntimeError of scipy's event location instead of a status."""
+
+
 def _check_rtol(rtol: Any) -> float:
     rtol = _real_scalar("rtol", rtol)
-    if not RTOL_MIN <= rtol < 1.0:
+    if not RTOL_MIN <= rtol <= RTOL_MAX:
         raise ValueError(
-            f"rtol must lie in [{RTOL_MIN:.3g}, 1) (at least 100 machine epsilons); got {rtol!r}"
+            f"rtol must lie in [{RTOL_MIN:.3g}, {RTOL_MAX:g}] (at least 100 machine epsilons, at "
+            f"most a percent); got {rtol!r}"
         )
     return rtol
 
@@ -279,7 +288,8 @@ def simulate(
         * ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"``: dry friction, chosen
           by ``friction=`` (below).
     rtol : float, default 1e-10
-        Relative tolerance, in [100 ε, 1) = [2.2e-14, 1). The default is converged for the thesis run: the first time
+        Relative tolerance, in [100 ε, 1e-2] = [2.2e-14, 0.01] (:data:`RTOL_MIN`,
+        :data:`RTOL_MAX`). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
     atol : float or array_like, optional
         Absolute tolerance (scalar or one per model state component). By default
@@ -356,7 +366,7 @@ def simulate(
         Bad input, before any work: non-finite state or θ outside [0, π], a state rate beyond
         :data:`RATE_MAX` times the top's natural scale, ``t_end <= 0``, ``t_end / max_step``
         above :data:`MAX_STEPS`,
-        ``rtol`` outside [100 ε, 1) (:data:`RTOL_MIN`), ``atol`` ≤ 0 or below ε times a state
+        ``rtol`` outside [100 ε, 1e-2] (:data:`RTOL_MIN`, :data:`RTOL_MAX`), ``atol`` ≤ 0 or below ε times a state
         component's typical magnitude, bad ``t_eval``, an unknown model, method or backend,
         ``backend="compiled"`` with a method other than DOP853, an option of another model or out
         of its range, a required option missing, a friction law the model does not run (e.g.

@@ -634,7 +634,8 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     Y = np.asarray(Y, dtype=float)
     Y = Y.reshape(Y.shape[0], -1)
     rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
-    with np.errstate(divide="ignore", invalid="ignore"):  # the sliding law at v_A = 0
+    # the sliding law at v_A = 0; the states of a run that blew up (its status says so)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         s = _slide_law(Y, p)
         r = _stick(Y, p)
     gn = np.where(rolling, r[1], s[1])
