@@ -56,8 +56,8 @@ class StemContactTop(TippeTop):
     The equations of motion, integrals, thresholds and classes of mett do not assume α < 1.
 
     The fields obey the bounds of :class:`~mett.TippeTop` (``FIELD_RANGE`` = [1e-50, 1e50] for m,
-    R, I1, I3, g; μ in [0, 1e50]); α, unbounded above by geometry, must keep α and the CM's
-    distance αR from the sphere's centre within FIELD_RANGE, so that the products of the formulas
+    R, I1, I3, g; μ in [0, 1e50]); α > 0, unbounded above by geometry, must keep α and the CM's
+    distance αR from the sphere's centre at most 1e50, so that the products of the formulas
     (m g R³ I3 α in λ_thres, (1 + α)², …) stay finite as they do for a ball.
     """
 
@@ -66,13 +66,13 @@ class StemContactTop(TippeTop):
         for name in ("m", "R", "I1", "I3", "g"):
             value = _validate.bounded_scalar(name, getattr(self, name), lo, hi, unit=_UNITS[name])
             object.__setattr__(self, name, value)
-        # α and αR in FIELD_RANGE: α in [max(lo, lo/R), min(hi, hi/R)]
-        a_lo, a_hi = max(lo, lo / self.R), min(hi, hi / self.R)
+        # α > 0 as for a ball; α and αR at most FIELD_RANGE's top
+        a_hi = min(hi, hi / self.R)
         alpha = _validate.finite_scalar("alpha", self.alpha)
-        if not a_lo <= alpha <= a_hi:
+        if not 0.0 < alpha <= a_hi:
             raise ValueError(
-                f"alpha must lie in [{a_lo:g}, {a_hi:g}] (alpha and alpha*R = {self.R:g} alpha m "
-                f"within [{lo:g}, {hi:g}]); got {alpha!r}"
+                f"alpha must lie in (0, {a_hi:g}] (alpha and alpha*R = {self.R:g} alpha m at most "
+                f"{hi:g}); got {alpha!r}"
             )
         object.__setattr__(self, "alpha", alpha)
         mu = _validate.bounded_scalar("mu", self.mu, 0.0, hi, unit="s/m")
@@ -97,7 +97,7 @@ class StemmedTop:
         Distance l_s (m) from the ball's centre to the stem sphere's centre, along the symmetry axis
         away from the CM, in [1e-50, 1e50]. The stem must stick out of the ball without containing
         it: |R − r_s| < l_s; and the top on its stem (:attr:`stem_top`) must be one mett can
-        compute with: α' = (αR + l_s)/r_s and α'r_s = αR + l_s within [1e-50, 1e50].
+        compute with: α' = (αR + l_s)/r_s and α'r_s = αR + l_s at most 1e50.
 
     Examples
     --------
@@ -124,12 +124,11 @@ class StemmedTop:
                 f"the ball (or contains it) and never touches the plane first; got {ls!r}"
             )
         offset = self.ball.alpha * R + ls  # the CM's distance from the stem sphere's centre
-        if not (offset <= hi and lo <= offset / r <= hi):
+        if not (offset <= hi and offset / r <= hi):
             raise ValueError(
                 f"radius and distance must keep the top on its stem within mett's range: "
-                f"alpha*R + distance = {offset:g} m at most {hi:g} m and "
-                f"(alpha*R + distance)/radius = {offset / r:g} in [{lo:g}, {hi:g}]; "
-                f"got radius = {r!r}, distance = {ls!r}"
+                f"alpha*R + distance = {offset:g} m and (alpha*R + distance)/radius = "
+                f"{offset / r:g} at most {hi:g}; got radius = {r!r}, distance = {ls!r}"
             )
         object.__setattr__(self, "radius", r)
         object.__setattr__(self, "distance", ls)
