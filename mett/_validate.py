@@ -34,6 +34,7 @@ __all__ = [
     "positive_int",
     "positive_jellett",
     "positive_scalar",
+    "real_array",
     "theta",
     "warn",
 ]
@@ -202,6 +203,21 @@ def as_finite_array(name: str, value: Any) -> np.ndarray:
         if not math.isfinite(value):
             raise ValueError(f"{name} must be finite; got {float(value)!r}")
         return np.array(float(value))
+    arr = real_array(name, value)
+    if not np.all(np.isfinite(arr)):
+        bad = arr[~np.isfinite(arr)].ravel()[0].item()
+        raise ValueError(f"{name} must be finite; got {bad!r}")
+    return arr
+
+
+def real_array(name: str, value: Any) -> np.ndarray:
+    """A new float array of real numbers (NaN and ±inf allowed: the caller checks them).
+
+    The type rules of :func:`finite_scalar`, element by element: ``TypeError`` naming ``name``
+    for strings, bytes, booleans, None or complex values (``np.asarray(..., dtype=float)`` would
+    parse the strings, read booleans as 0/1 and drop imaginary parts), ``ValueError`` for a
+    ragged nesting.
+    """
     _reject_non_real(name, value)
     try:
         raw = np.asarray(value)
@@ -209,16 +225,34 @@ def as_finite_array(name: str, value: Any) -> np.ndarray:
         raise ValueError(f"{name} must be a rectangular array of real numbers") from None
     kind = raw.dtype.kind
     if kind in "USbcVMm" or (kind == "O" and any(_is_non_real(v) for v in raw.ravel())):
-        example = raw.ravel()[0] if raw.size else raw
+        bad = raw.ravel()
+        if kind == "O":
+            bad = [v for v in bad if _is_non_real(v)]
+        example = bad[0] if len(bad) else raw
         raise TypeError(f"{name} must be real numbers; got dtype {raw.dtype} (e.g. {example!r})")
+    if isinstance(value, (list, tuple)) and kind in "iuf":  # numpy made [0.1, True] floats
+        example = _first_non_real(value)
+        if example is not None:
+            raise TypeError(f"{name} must be real numbers; got {_type_name(example)} {example!r}")
     try:
-        arr = np.array(raw, dtype=float, copy=True)
+        return np.array(raw, dtype=float, copy=True)
     except (TypeError, ValueError, OverflowError):
         raise TypeError(f"{name} must be real numbers; got {value!r}") from None
-    if not np.all(np.isfinite(arr)):
-        bad = arr[~np.isfinite(arr)].ravel()[0].item()
-        raise ValueError(f"{name} must be finite; got {bad!r}")
-    return arr
+
+
+def _first_non_real(seq: Any) -> Any:
+    """The first boolean (or other non-number) in nested lists/tuples, else None."""
+    for v in seq:
+        if isinstance(v, (list, tuple)):
+            found = _first_non_real(v)
+            if found is not None:
+                return found
+        elif isinstance(v, np.ndarray):
+            if v.dtype.kind not in "iuf":
+                return v.ravel()[0]
+        elif _is_non_real(v):
+            return v
+    return None
 
 
 def _is_non_real(v: Any) -> bool:

@@ -72,6 +72,7 @@ if TYPE_CHECKING:
     from .top import TippeTop
 
 __all__ = [
+    "CLASSIFY_MAX",
     "SAMPLE_POINTS",
     "SUBGROUPS",
     "SubgroupBoundaries",
@@ -161,6 +162,12 @@ def _span(x: np.ndarray) -> str:
     return repr(float(x)) if x.ndim == 0 else f"values in [{x.min():g}, {x.max():g}]"
 
 
+CLASSIFY_MAX = 1e100
+"""Largest α and γ :func:`classify` takes: the criteria are quadratic in them, so every term stays
+below ~1e201, finite; wider than any top's (α <= 1e50 on a stem, γ = I1/I3 <= 1e100 with I1, I3 in
+:data:`mett.top.FIELD_RANGE`)."""
+
+
 def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     """Class (``"Ia"`` … ``"III"``) of tops with eccentricity ``alpha`` and γ = I1/I3 = ``gamma``.
 
@@ -171,14 +178,14 @@ def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        If alpha or gamma is not positive and finite.
+        If alpha or gamma is not in (0, :data:`CLASSIFY_MAX`].
     """
     a = _validate.as_finite_array("alpha", alpha)
     g = _validate.as_finite_array("gamma", gamma)
-    if np.any(a <= 0.0):
-        raise ValueError(f"alpha must lie in (0, inf); got {_span(a)}")
-    if np.any(g <= 0.0):
-        raise ValueError(f"gamma must lie in (0, inf); got {_span(g)}")
+    if np.any((a <= 0.0) | (a > CLASSIFY_MAX)):
+        raise ValueError(f"alpha must lie in (0, {CLASSIFY_MAX:g}]; got {_span(a)}")
+    if np.any((g <= 0.0) | (g > CLASSIFY_MAX)):
+        raise ValueError(f"gamma must lie in (0, {CLASSIFY_MAX:g}]; got {_span(g)}")
     a, g = np.broadcast_arrays(a, g)
     s_up, s_inv = _S(a, g, 1.0), _S(a, g, -1.0)
     out = np.where(
@@ -305,13 +312,19 @@ def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
     """Every tumbling state with Jellett integral ``lam``, by increasing θ_t (0, 1 or 2 of them).
 
     The family is cut at its fold (if any) into monotone pieces and λ(θ_t) = lam is solved on each
-    with Brent's method; the spins themselves (θ_t = 0, π) are not included.
+    with Brent's method; the spins themselves (θ_t = 0, π) are not included, nor a root within
+    the rounding of λ at a pole (there the family joins the spin, see :func:`stable_states`).
 
     Raises
     ------
     ValueError
         If ``lam`` is not positive and finite.
     """
+    return _tumbling_roots(top, lam)[0]
+
+
+def _tumbling_roots(top: TippeTop, lam: float) -> tuple[list[TumblingState], list[float]]:
+    """(:func:`tumbling_states`, the poles 0 or π where a root was taken for the spin itself)."""
     from scipy import optimize
 
     from .thresholds import tumbling_lambda
@@ -330,7 +343,7 @@ def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
         v = resid(t)
         return math.inf if math.isnan(v) else v  # λ → ∞ at θ_f, the family's open end
 
-    out = []
+    out, at_poles = [], []
     for a, b in itertools.pairwise(cuts):
         ra, rb = end_value(a), end_value(b)
         if math.isinf(ra) or math.isinf(rb):
@@ -358,12 +371,13 @@ def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
         # a root at a pole is the spin itself (λ = λ_0 or λ_thres exactly), not a tumbling state
         tol = 1e-12 * lam
         if (a == 0.0 and abs(ra) <= tol) or (b == math.pi and abs(rb) <= tol):
+            at_poles.append(0.0 if a == 0.0 and abs(ra) <= tol else math.pi)
             continue
         if ra * rb < 0.0:
             th = optimize.brentq(resid, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
             if 0.0 < th < math.pi:
                 out.append(_state_from_lambda(top, th, lam))
-    return sorted(out, key=lambda s: s.theta)
+    return sorted(out, key=lambda s: s.theta), at_poles
 
 
 def stable_states(top: TippeTop, lam: float) -> list[AsymptoticState]:
@@ -372,20 +386,35 @@ def stable_states(top: TippeTop, lam: float) -> list[AsymptoticState]:
     The upright spin counts for λ <= λ_0, the inverted one for λ >= λ_thres (the tumbling branch
     that ends there joins it), and the tumbling states with λ'(θ_t) > 0 (:func:`tumbling_is_stable`).
     There is always at least one; two means the end state depends on the start (bistable).
+
+    Within the rounding of λ at a pole (|λ(θ_t) − λ| <= 1e-12 λ at θ_t = 0 or π) a tumbling state
+    is not told from the spin it joins: a stable branch's root there stands for that spin. So one
+    or two ulps of λ below λ_thres (above λ_0), where the stable branch ends in a tumbling state
+    within ~1e-8 rad of the pole, the answer is that pole's spin, the limit of the branch, rather
+    than no state at all.
     """
     from .thresholds import AsymptoticState
 
     lam = _validate.positive_jellett(lam)
     R, I3, a = top.R, top.I3, top.alpha
+    tumbling, at_poles = _tumbling_roots(top, lam)
+    # a stable branch ending at a pole within rounding: its state is that spin
+    joins = {pole for pole in at_poles if bool(tumbling_is_stable(top, _off_pole(pole)))}
     out = []
-    if lam <= top.lambda_0:
+    if lam <= top.lambda_0 or 0.0 in joins:
         out.append(AsymptoticState("upright", 0.0, lam / (R * I3 * (1.0 - a))))
-    for st in tumbling_states(top, lam):
+    for st in tumbling:
         if tumbling_is_stable(top, st.theta):
             out.append(AsymptoticState("tumbling", st.theta, st.omega3))
-    if lam >= top.lambda_thres:
+    if lam >= top.lambda_thres or math.pi in joins:
         out.append(AsymptoticState("inverted", math.pi, -lam / (R * I3 * (1.0 + a))))
     return out
+
+
+def _off_pole(pole: float) -> float:
+    """A θ_t just off ``pole`` (0 or π) on the tumbling family, where its stability is that of the
+    branch ending at the pole (S(cos θ_t) is continuous; at the pole itself S(±1) may be 0)."""
+    return 1e-6 if pole == 0.0 else math.pi - 1e-6
 
 
 def bistable_range(top: TippeTop) -> tuple[float, float] | None:

@@ -103,10 +103,33 @@ class State:
 
     @classmethod
     def from_array(cls, y: ArrayLike) -> State:
-        """Inverse of :meth:`as_array`."""
-        y = np.asarray(y, dtype=float)
+        """Inverse of :meth:`as_array`.
+
+        Parameters
+        ----------
+        y : array_like, shape (6, ...)
+            ``[theta, thetadot, phidot, omega3, nu_x, nu_y]`` (rad, rad/s, m/s), real numbers.
+
+        Raises
+        ------
+        TypeError
+            If ``y`` holds strings, bytes, booleans, None or complex numbers (as for the fields
+            of :class:`State`: ``np.asarray(y, dtype=float)`` would parse the strings, read
+            booleans as 0/1 and drop imaginary parts).
+        ValueError
+            If the leading dimension is not 6, or a field is out of range (named).
+        """
+        return cls._from_array("y", y)
+
+    @classmethod
+    def _from_array(cls, name: str, y: ArrayLike) -> State:
+        """:meth:`from_array` with the messages naming the caller's argument ``name``."""
+        y = _validate.real_array(name, y)
         if y.shape[:1] != (6,):
-            raise ValueError(f"state array must have leading dimension 6; got shape {y.shape}")
+            raise ValueError(
+                f"{name} must be a State or an array of leading dimension 6 "
+                f"([theta, thetadot, phidot, omega3, nu_x, nu_y]); got shape {y.shape}"
+            )
         return cls(*y)
 
     @classmethod

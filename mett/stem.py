@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate
-from .top import TippeTop
+from .top import _UNITS, FIELD_RANGE, TippeTop
 
 if TYPE_CHECKING:
     from .state import State
@@ -54,13 +54,29 @@ class StemContactTop(TippeTop):
     of it; unlike a ball, ``alpha`` may exceed 1 (the CM lies outside the stem sphere), and no
     PhysicalityWarning is raised for I3 > m R² (the body is the whole top, not a ball of radius R).
     The equations of motion, integrals, thresholds and classes of mett do not assume α < 1.
+
+    The fields obey the bounds of :class:`~mett.TippeTop` (``FIELD_RANGE`` = [1e-50, 1e50] for m,
+    R, I1, I3, g; μ in [0, 1e50]); α > 0, unbounded above by geometry, must keep α and the CM's
+    distance αR from the sphere's centre at most 1e50, so that the products of the formulas
+    (m g R³ I3 α in λ_thres, (1 + α)², …) stay finite as they do for a ball.
     """
 
     def __post_init__(self) -> None:
+        lo, hi = FIELD_RANGE
         for name in ("m", "R", "I1", "I3", "g"):
-            object.__setattr__(self, name, _validate.positive_scalar(name, getattr(self, name)))
-        object.__setattr__(self, "alpha", _validate.positive_scalar("alpha", self.alpha))
-        object.__setattr__(self, "mu", _validate.positive_scalar("mu", self.mu, allow_zero=True))
+            value = _validate.bounded_scalar(name, getattr(self, name), lo, hi, unit=_UNITS[name])
+            object.__setattr__(self, name, value)
+        # α > 0 as for a ball; α and αR at most FIELD_RANGE's top
+        a_hi = min(hi, hi / self.R)
+        alpha = _validate.finite_scalar("alpha", self.alpha)
+        if not 0.0 < alpha <= a_hi:
+            raise ValueError(
+                f"alpha must lie in (0, {a_hi:g}] (alpha and alpha*R = {self.R:g} alpha m at most "
+                f"{hi:g}); got {alpha!r}"
+            )
+        object.__setattr__(self, "alpha", alpha)
+        mu = _validate.bounded_scalar("mu", self.mu, 0.0, hi, unit="s/m")
+        object.__setattr__(self, "mu", mu)
         if self.I3 > 2.0 * self.I1:
             raise ValueError(
                 f"I3 must lie in (0, 2*I1] = (0, {2.0 * self.I1!r}] for a rigid body; got {self.I3!r}"
@@ -76,11 +92,12 @@ class StemmedTop:
     ball : TippeTop
         The top resting on its ball.
     radius : float
-        Stem sphere radius r_s (m), > 0.
+        Stem sphere radius r_s (m), in ``FIELD_RANGE`` = [1e-50, 1e50] as the ball's R.
     distance : float
         Distance l_s (m) from the ball's centre to the stem sphere's centre, along the symmetry axis
-        away from the CM. The stem must stick out of the ball without containing it:
-        |R − r_s| < l_s.
+        away from the CM, in [1e-50, 1e50]. The stem must stick out of the ball without containing
+        it: |R − r_s| < l_s; and the top on its stem (:attr:`stem_top`) must be one mett can
+        compute with: α' = (αR + l_s)/r_s and α'r_s = αR + l_s at most 1e50.
 
     Examples
     --------
@@ -97,13 +114,21 @@ class StemmedTop:
     def __post_init__(self) -> None:
         if not isinstance(self.ball, TippeTop):
             raise TypeError(f"ball must be a TippeTop; got {type(self.ball).__name__}")
-        r = _validate.positive_scalar("radius", self.radius)
-        ls = _validate.positive_scalar("distance", self.distance)
+        lo, hi = FIELD_RANGE
+        r = _validate.bounded_scalar("radius", self.radius, lo, hi, unit="m")
+        ls = _validate.bounded_scalar("distance", self.distance, lo, hi, unit="m")
         R = self.ball.R
         if not abs(R - r) < ls:
             raise ValueError(
                 f"distance must exceed |R - radius| = {abs(R - r)!r} m, or the stem sphere lies inside "
                 f"the ball (or contains it) and never touches the plane first; got {ls!r}"
+            )
+        offset = self.ball.alpha * R + ls  # the CM's distance from the stem sphere's centre
+        if not (offset <= hi and offset / r <= hi):
+            raise ValueError(
+                f"radius and distance must keep the top on its stem within mett's range: "
+                f"alpha*R + distance = {offset:g} m and (alpha*R + distance)/radius = "
+                f"{offset / r:g} at most {hi:g}; got radius = {r!r}, distance = {ls!r}"
             )
         object.__setattr__(self, "radius", r)
         object.__setattr__(self, "distance", ls)

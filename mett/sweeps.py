@@ -80,11 +80,22 @@ def classify_end(theta_end: float, status: str, *, settled: bool = True) -> str:
 
     The run's status instead if it did not complete, and :data:`NOT_SETTLED` if it completed
     before θ settled (``settled=False``), since θ at ``t_end`` is then not an end state.
+
+    Raises
+    ------
+    TypeError
+        If ``status`` is not a str, or ``theta_end`` of a completed run is not a real number.
+    ValueError
+        If ``theta_end`` of a completed, settled run is not in [0, π] (NaN included: a completed
+        run has a finite θ, so NaN is no end state to label).
     """
+    if not isinstance(status, str):
+        raise TypeError(f"status must be a str (a Trajectory status); got {status!r}")
     if status != "completed":
         return status
     if not settled:
         return NOT_SETTLED
+    theta_end = float(_validate.theta(theta_end, "theta_end"))
     if theta_end < _POLE_TOL:
         return "upright"
     if theta_end > math.pi - _POLE_TOL:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -47,3 +49,50 @@ def test_thesis_run_ends_inverted_with_the_jellett_spin(thesis_trajectory):
     # not "about −85" (docs/theory/notes.md#notes)
     assert pred.omega3 == pytest.approx(-82.866, abs=1e-3)
     assert traj.omega3[-1] == pytest.approx(pred.omega3, rel=1e-4)
+
+
+def _tops_for_threshold_ulps() -> dict[str, mett.TippeTop]:
+    """Every preset (maple-tippe-top with α = 0.3, its source gives none) and one top per class."""
+    from mett.classification import SAMPLE_POINTS
+
+    tops = {}
+    for name in mett.presets.names():
+        extra = {"alpha": 0.3} if name == "maple-tippe-top" else {}
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mett.PhysicalityWarning)  # maple's I3 > m R²
+            tops[name] = mett.presets.get(name, **extra)
+    for cls, (alpha, gamma) in SAMPLE_POINTS.items():
+        tops[cls] = mett.TippeTop(m=0.02, R=0.02, alpha=alpha, I1=gamma * 3.2e-6, I3=3.2e-6)
+    return tops
+
+
+def _ulps(x: float, k: int) -> float:
+    for _ in range(abs(k)):
+        x = float(np.nextafter(x, np.inf if k > 0 else -np.inf))
+    return x
+
+
+@pytest.mark.parametrize(("name", "top"), list(_tops_for_threshold_ulps().items()))
+@pytest.mark.parametrize("threshold", ["lambda_thres", "lambda_0"])
+def test_the_end_state_next_to_a_threshold_is_the_limit_of_its_branch(name, top, threshold):
+    """±1, ±2 ulps of λ_thres and λ_0: "bistable" only with two candidates, never none.
+
+    Reference: the stable states at λ (1 ± 1e-8), on the same side but outside the rounding
+    band: the stable branches are continuous in λ, and a tumbling branch that ends at a pole
+    with λ(θ_t) ≈ λ_pole − c (θ_t − θ_pole)² is within √(1e-8) ~ 1e-4 rad of it there, so every
+    candidate at the ulps lies within 1e-3 rad of one there, and their number is the same.
+    """
+    L = getattr(top, threshold)
+    if not np.isfinite(L):
+        pytest.skip(f"{threshold} is infinite for class {mett.classification.subgroup(top)}")
+    for k in (-2, -1, 1, 2):
+        st = mett.asymptotic_state(top, _ulps(L, k))
+        assert len(st.candidates) in (1, 2), (k, st)
+        assert (st.kind == "bistable") == (len(st.candidates) == 2), (k, st)
+        if st.kind != "bistable":
+            only = st.candidates[0]
+            assert (only.kind, only.theta) == (st.kind, st.theta) and np.isfinite(st.theta)
+        ref = mett.asymptotic_state(top, L * (1.0 + np.sign(k) * 1e-8))
+        assert len(ref.candidates) == len(st.candidates), (k, st, ref)
+        for got, want in zip(st.candidates, ref.candidates, strict=True):
+            assert abs(got.theta - want.theta) < 1e-3, (k, got, want)

@@ -219,7 +219,7 @@ def test_bad_input():
     with pytest.raises(ValueError, match="stem_radius"):
         simulate(TOP, s, 1.0, stem_radius=0.004)
     # dry friction runs (tests/test_stem_friction.py); a law without a stemmed model is refused
-    with pytest.raises(TypeError, match="friction"):
+    with pytest.raises(ValueError, match="model 'stemmed' takes friction="):
         simulate(TOP, s, 1.0, friction=mett.friction.RegularisedCoulomb(0.3, eps=1e-3))
     with pytest.raises(ValueError, match="stem_radius and stem_distance"):
         simulate(BALL, s, 1.0, model="stemmed")

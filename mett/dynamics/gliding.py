@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..friction import Coulomb, RegularisedCoulomb, Viscous
 from ._model import (
     add_integrals,
     axis_theta,
@@ -211,5 +212,7 @@ MODEL = register(
         vectors=VECTORS,
         cos_theta=_cos_theta,
         conserved_lengths=((7, 8, 9),),
+        # a dry law hands the run over to the model that runs it (mett.simulate)
+        friction=(type(None), Viscous, Coulomb, RegularisedCoulomb),
     )
 )

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..friction import Viscous
 from . import gliding
 from ._model import add_integrals, euler_params, lab_vectors, scales_from_state
 from .registry import Event, Model, Option, positive_length, register
@@ -109,6 +110,7 @@ HST = register(
         params=hst_params,
         options=(Option("l", positive_length, None, "tip distance (m); default R alpha"),),
         conserves=("lam", "omega3"),
+        friction=(type(None), Viscous),  # no dry-law handover, unlike "gliding"
     )
 )
 

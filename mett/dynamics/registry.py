@@ -54,6 +54,13 @@ The compiled kernels of a phase may call functions of other mett modules importe
 friction model can call ``gliding_normal_force``): :mod:`._kernels` inlines them and keys its cache
 on their source files too.
 
+**Friction laws.** ``friction`` lists the law types (:mod:`mett.friction`, or ``type(None)``
+for "no law given") that ``simulate(..., model=name, friction=law)`` accepts for the model; the
+default, ``(type(None), Viscous)``, is that of a model whose contact has no law of its own (the
+viscous law's μ replaces the top's). :func:`check_friction` refuses any other pairing, before
+any work, with one ``ValueError`` naming the model and what it needs, e.g. ``model 'coulomb'
+needs friction=mett.friction.Coulomb(mu); got None``.
+
 **Variants.** An option can change which equations run, not only their parameters (a friction
 law object choosing between the viscous model and a stick–slip hybrid): ``variant(options)``
 returns the model that runs instead, and :func:`mett.simulate` validates the options again
@@ -70,6 +77,8 @@ from typing import Any
 
 import numpy as np
 
+from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
+
 __all__ = [
     "ACTIONS",
     "MODELS",
@@ -79,6 +88,8 @@ __all__ = [
     "Option",
     "Phase",
     "boolean",
+    "check_friction",
+    "friction_law",
     "lookup",
     "positive_length",
     "register",
@@ -170,12 +181,16 @@ class Option:
         The value ``params`` sees when the option is not given (or given as None).
     doc : str
         One line for the error messages and the docs.
+    required : bool
+        The model cannot run without it: :func:`validate_options` refuses a run that does not
+        give it, naming the model and the option (``doc`` says what it is).
     """
 
     name: str
     check: Callable[[str, Any], Any]
     default: Any = None
     doc: str = ""
+    required: bool = False
 
 
 @dataclass(frozen=True)
@@ -239,6 +254,11 @@ class Model:
         Index tuples of state components that form one physical vector (a position, velocity,
         angular momentum, unit axis): the Taylor backend measures a vector's truncation error
         against its length (:func:`mett.dynamics.taylor.kernel`). Default: none.
+    friction : tuple of type
+        The friction-law types (:mod:`mett.friction`; ``type(None)``: no law given) the model runs
+        with, checked by :func:`check_friction` before any work. Default: none or
+        :class:`~mett.friction.Viscous` (its μ replaces the top's), as for a model without a law
+        of its own. A model that declares the option ``friction`` receives the law there.
     conserved_lengths : tuple of tuple of int
         Index tuples of state vectors whose Euclidean length the equations conserve for every
         state, not only |3̂| = 1: the rate of the vector is perpendicular to it (3̂̇ = ω × 3̂/|3̂|,
@@ -276,10 +296,18 @@ class Model:
     vectors: tuple[tuple[int, ...], ...] = ()
     cos_theta: Callable[[float, Any, Any], Any] | None = None
     conserved_lengths: tuple[tuple[int, ...], ...] = ()
+    friction: tuple[type, ...] = (type(None), Viscous)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"Model.name must be a non-empty str; got {self.name!r}")
+        object.__setattr__(self, "friction", tuple(self.friction))
+        for law in self.friction:
+            if law not in _LAW_SPELLING:
+                raise ValueError(
+                    f"model {self.name!r}: friction must list types among "
+                    f"{', '.join(c.__name__ for c in _LAW_SPELLING)}; got {law!r}"
+                )
         if not getattr(self.derive, "chunked", False):
             object.__setattr__(self, "derive", _chunked(self.derive))
         for attr in ("events", "options", "conserves", "phases"):
@@ -385,12 +413,41 @@ def lookup(model: str | Model) -> Model:
     return _REGISTRY[model]
 
 
+_LAW_SPELLING = {
+    type(None): "None (the top's mu)",
+    Viscous: "mett.friction.Viscous(mu)",
+    Coulomb: "mett.friction.Coulomb(mu)",
+    RegularisedCoulomb: "mett.friction.RegularisedCoulomb(mu, eps)",
+}
+
+
+def check_friction(model: Model, law: Any) -> Any:
+    """``law`` itself if ``model`` runs with it (:attr:`Model.friction`), else ``ValueError``.
+
+    The one place where a model and a friction law are matched: ``simulate(model="coulomb")``
+    without a law, or with ``Viscous(mu)``, is refused here before any work, naming the
+    argument, the model and what it needs. ``law`` must already be a law or None
+    (:func:`mett.friction.check_law`, a ``TypeError`` otherwise).
+    """
+    if isinstance(law, model.friction):
+        return law
+    spelled = [_LAW_SPELLING[c] for c in model.friction]
+    needs = spelled[0] if len(spelled) == 1 else ", ".join(spelled[:-1]) + " or " + spelled[-1]
+    verb = "takes" if type(None) in model.friction else "needs"
+    owners = [m.name for m in _REGISTRY.values() if law is not None and isinstance(law, m.friction)]
+    more = ", ..." if len(owners) > 3 else ""
+    hint = f" (it runs with model {', '.join(map(repr, owners[:3]))}{more})" if owners else ""
+    raise ValueError(f"model {model.name!r} {verb} friction={needs}; got {law!r}{hint}")
+
+
 def validate_options(model: Model, given: Mapping[str, Any]) -> dict[str, Any]:
     """The model's options from keyword arguments ``given``, validated, defaults filled in.
 
     A value of None means "not given". A keyword the model does not declare is a ``ValueError``
     if another registered model declares it (naming those models), else a ``TypeError`` (an
-    unexpected keyword argument, as Python would say).
+    unexpected keyword argument, as Python would say). A required option not given, or a
+    friction law the model does not run with (:func:`check_friction`), is a ``ValueError``
+    naming the model.
     """
     declared = {o.name: o for o in model.options}
     out: dict[str, Any] = {}
@@ -409,7 +466,23 @@ def validate_options(model: Model, given: Mapping[str, Any]) -> dict[str, Any]:
             out[key] = opt.check(key, value)
     for opt in model.options:
         out.setdefault(opt.name, opt.default)
+    if "friction" in declared:
+        check_friction(model, out["friction"])
+    required = [o for o in model.options if o.required]
+    missing = [o.name for o in required if out.get(o.name) is None]
+    if missing:
+        what = "; ".join(f"{o.name}: {o.doc}" for o in required)
+        raise ValueError(
+            f"model {model.name!r} needs {' and '.join(o.name for o in required)} ({what}); "
+            f"{' and '.join(missing)} not given"
+        )
     return out
+
+
+def friction_law(name: str, value: Any) -> Any:
+    """:attr:`Option.check` of an option ``friction``: a law of :mod:`mett.friction`
+    (``TypeError`` otherwise); which laws the model runs with is :func:`check_friction`'s."""
+    return check_law(value)
 
 
 # --- validators for Option.check ---------------------------------------------------------------

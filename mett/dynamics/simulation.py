@@ -39,7 +39,15 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
-from .registry import MODELS, JumpFailed, Model, Phase, lookup, validate_options
+from .registry import (
+    MODELS,
+    JumpFailed,
+    Model,
+    Phase,
+    check_friction,
+    lookup,
+    validate_options,
+)
 from .trajectory import ConstantSolution, SegmentedSolution, Trajectory
 
 __all__ = [
@@ -66,7 +74,7 @@ BACKENDS = ("auto", "compiled", "scipy", "taylor")
 def _check_state(state: Any) -> State:
     if not isinstance(state, State):
         # State validates finiteness and θ ∈ [0, π] with messages that name the field
-        state = State.from_array(state)
+        state = State._from_array("state", state)
     if state.shape != ():
         raise ValueError(f"simulate needs a single State; got fields of shape {state.shape}")
     return state
@@ -100,11 +108,20 @@ RTOL_MIN = 100.0 * float(np.finfo(float).eps)
 rounding noise and the step size collapses (scipy clamps to the same bound)."""
 
 
+RTOL_MAX = 1e-2
+"""Largest relative tolerance. Above it a run is no accuracy request: the default absolute
+tolerances (rtol times each component's typical magnitude) allow errors of a percent of the state
+per step, the dry-friction stopping band (10 rtol times the velocity scale) reaches a tenth of the
+slip it is to detect, and runs near rtol = 1 ended in overflow, numpy RuntimeWarnings or a raw
+RuntimeError of scipy's event location instead of a status."""
+
+
 def _check_rtol(rtol: Any) -> float:
     rtol = _real_scalar("rtol", rtol)
-    if not RTOL_MIN <= rtol < 1.0:
+    if not RTOL_MIN <= rtol <= RTOL_MAX:
         raise ValueError(
-            f"rtol must lie in [{RTOL_MIN:.3g}, 1) (at least 100 machine epsilons); got {rtol!r}"
+            f"rtol must lie in [{RTOL_MIN:.3g}, {RTOL_MAX:g}] (at least 100 machine epsilons, at "
+            f"most a percent); got {rtol!r}"
         )
     return rtol
 
@@ -260,7 +277,8 @@ def simulate(
         * ``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"``: dry friction, chosen
           by ``friction=`` (below).
     rtol : float, default 1e-10
-        Relative tolerance, in [100 ε, 1) = [2.2e-14, 1). The default is converged for the thesis run: the first time
+        Relative tolerance, in [100 ε, 1e-2] = [2.2e-14, 0.01] (:data:`RTOL_MIN`,
+        :data:`RTOL_MAX`). The default is converged for the thesis run: the first time
         θ reaches π/2 moves by less than 1e-4 s when rtol is tightened tenfold (see the tests).
     atol : float or array_like, optional
         Absolute tolerance (scalar or one per model state component). By default
@@ -340,10 +358,12 @@ def simulate(
         Bad input, before any work: non-finite state or θ outside [0, π], a state rate beyond
         :data:`RATE_MAX` times the top's natural scale, ``t_end <= 0``, ``t_end / max_step``
         above :data:`MAX_STEPS`,
-        ``rtol`` outside [100 ε, 1) (:data:`RTOL_MIN`), ``atol`` ≤ 0 or below ε times a state
+        ``rtol`` outside [100 ε, 1e-2] (:data:`RTOL_MIN`, :data:`RTOL_MAX`), ``atol`` ≤ 0 or below ε times a state
         component's typical magnitude, bad ``t_eval``, an unknown model, method or backend,
         ``backend="compiled"`` with a method other than DOP853, an option of another model or out
-        of its range, an event ``terminal`` < 0, or a state the model cannot represent.
+        of its range, a required option missing, a friction law the model does not run (e.g.
+        ``model="coulomb"`` without ``friction=Coulomb(mu)``: the message names the model and the
+        law it needs), an event ``terminal`` < 0, or a state the model cannot represent.
     TypeError
         If ``top`` is not a :class:`~mett.TippeTop`, a tolerance is not a real number, an option
         has the wrong type (``vertical_cm="no"``), an event is not callable or its ``terminal`` is
@@ -473,6 +493,7 @@ def prepare_run(
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(BACKENDS)}")
     if friction is not None:
         friction = _friction.check_law(friction)
+        check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
         if isinstance(friction, _friction.Viscous):
             if friction.mu is not None:
                 top = dataclasses.replace(top, mu=friction.mu)
@@ -485,14 +506,9 @@ def prepare_run(
 
                 viscous_force(traj)
             return traj
-        # a dry law: the registered model that declares the option ``friction`` and accepts it
-        # ("coulomb", "coulomb-regularised", :mod:`.stickslip`) runs instead of "gliding"
+        # a dry law given to "gliding": the registered model that declares the option
+        # ``friction`` and runs the law ("coulomb", "coulomb-regularised", :mod:`.stickslip`)
         if not _declares(mdl, "friction"):
-            if mdl.name != "gliding":
-                raise ValueError(
-                    f"friction={friction!r} applies to model 'gliding' (or a model that declares "
-                    f"the option friction); got model {mdl.name!r}"
-                )
             mdl = _model_of_law(friction)
         options = {**options, "friction": friction}
     model_options = validate_options(mdl, options)
@@ -1204,14 +1220,13 @@ def _declares(mdl: Model, option: str) -> bool:
 
 
 def _model_of_law(law: Any) -> Model:
-    """The first registered model whose option ``friction`` accepts ``law``."""
+    """The first registered model that declares the option ``friction`` and needs ``law``'s kind
+    (:attr:`Model.friction`; a model that also runs without a law, as "stemmed", is skipped)."""
     for mdl in MODELS.values():
-        for opt in mdl.options:
-            if opt.name != "friction":
-                continue
-            try:
-                opt.check("friction", law)
-            except (TypeError, ValueError):
-                continue
+        if (
+            _declares(mdl, "friction")
+            and type(None) not in mdl.friction
+            and isinstance(law, mdl.friction)
+        ):
             return mdl
     raise ValueError(f"no registered model runs friction={law!r}")

@@ -35,6 +35,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..friction import Coulomb, Viscous
 from ._model import lab_vectors, scales_from_state, unit_axis
 from .gliding import gliding_core, gliding_series
 from .registry import (
@@ -43,6 +44,7 @@ from .registry import (
     Model,
     Option,
     Phase,
+    friction_law,
     lookup,
     positive_length,
     register,
@@ -323,15 +325,12 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     )
 
 
-def _check_dry_law(name: str, value: Any) -> Any:
-    """The dry law of a stemmed run: Coulomb (the viscous law runs this model with top.mu)."""
-    from ..friction import Coulomb
-
-    if not isinstance(value, Coulomb):
-        raise TypeError(
-            f"{name} of a top with a stem must be mett.friction.Viscous or Coulomb; got {value!r}"
-        )
-    return value
+STEM_RADIUS = Option(
+    "stem_radius", positive_length, None, "stem sphere radius r_s (m), from top.with_stem", True
+)
+STEM_DISTANCE = Option(
+    "stem_distance", positive_length, None, "ball centre to stem centre l_s (m)", True
+)
 
 
 def _dry_variant(options: dict) -> Model | None:
@@ -361,10 +360,11 @@ MODEL = register(
             Event(_touchdown, -1.0, "switch", target="stem", jump=_to_stem),
         ),
         options=(
-            Option("stem_radius", positive_length, None, "stem sphere radius r_s (m)"),
-            Option("stem_distance", positive_length, None, "ball centre to stem centre l_s (m)"),
-            Option("friction", _check_dry_law, None, "a dry law: runs 'stemmed-coulomb'"),
+            STEM_RADIUS,
+            STEM_DISTANCE,
+            Option("friction", friction_law, None, "a dry law: runs 'stemmed-coulomb'"),
         ),
+        friction=(type(None), Viscous, Coulomb),
         phase="ball",
         phases=(
             Phase(

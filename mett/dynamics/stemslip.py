@@ -55,7 +55,16 @@ from scipy.integrate import solve_ivp
 
 from ..friction import Coulomb
 from . import stem, stickslip
-from .registry import Event, JumpFailed, Model, Option, Phase, positive_length, register
+from .registry import (
+    Event,
+    JumpFailed,
+    Model,
+    Option,
+    Phase,
+    friction_law,
+    positive_length,
+    register,
+)
 from .stem import apply_impulse, ball_clearance, impact_frame, stem_clearance
 from .stickslip import (
     cone_event,
@@ -201,6 +210,8 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
 
     Raises :class:`~mett.dynamics.registry.JumpFailed` if the impulse equations cannot be solved.
     """
+    if mu == 0.0:  # frictionless: the normal impulse that ends the compression, nothing else
+        return np.array([0.0, 0.0, -f.v[2] / f.W[2, 2]]), 0.0, False
     k = 4 if r_star > 0.0 else 3
     tang = [0, 1, 3] if k == 4 else [0, 1]
 
@@ -406,27 +417,20 @@ def _finish(traj: Any) -> None:
             why = "touchdown" if c1 == "stem" else "landing"
             y_imp, P, Q = impact(y_ev, p, c1)
             Pt = math.hypot(P[0], P[1], Q / p[7]) if p[7] > 0.0 else math.hypot(P[0], P[1])
-            margin = (p[6] * P[2] - Pt) / (p[6] * P[2]) if P[2] > 0.0 else math.nan
+            mu_pn = p[6] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
+            margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
             speed = float(np.linalg.norm(stickslip.slip(y_imp, q)))
         else:
             why = _REASONS[(f0, f1)]
             y_dec = y_ev if why == "cone" else stickslip.set_slip(y_ev, q, np.zeros(3))
             gn, _, m = stickslip.required(y_dec, q)
-            margin = float(m / (p[6] * gn))
+            margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan
             speed = float(np.linalg.norm(stickslip.slip(y_ev, q)))
         t_sw = stickslip.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
         records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
     traj.switches = records
     traj.touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
     traj.stopping_band = p[10]
-
-
-def _check_law(name: str, value: Any) -> Coulomb:
-    if not isinstance(value, Coulomb):
-        raise TypeError(
-            f"{name} of model 'stemmed-coulomb' must be a mett.friction.Coulomb; got {value!r}"
-        )
-    return value
 
 
 PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling")
@@ -464,11 +468,12 @@ MODEL = register(
             _TOUCHDOWN,
         ),
         options=(
-            Option("friction", _check_law, None, "the Coulomb law"),
+            Option("friction", friction_law, None, "the Coulomb law"),
             Option("stopping_band", positive_length, None, "slip speed (m/s) of the stop"),
-            Option("stem_radius", positive_length, None, "stem sphere radius r_s (m)"),
-            Option("stem_distance", positive_length, None, "ball centre to stem centre l_s (m)"),
+            stem.STEM_RADIUS,
+            stem.STEM_DISTANCE,
         ),
+        friction=(Coulomb,),
         phase="ball-sliding",
         phases=(
             Phase(

@@ -59,6 +59,9 @@ Switching, all by events located by the integrator (:func:`mett.simulate` runs t
   logarithmic in (initial slip)/δ; a slip that starts at the cone's edge (zero acceleration,
   |v_A| − 2δ ∝ t²) costs ∝ δ^(−1/2) steps (docs/theory/friction.md, "Frequent switching").
 
+μ = 0 (``Coulomb(0.0)``) is a cone of radius 0: frictionless sliding throughout, no switch
+(:func:`_frictionless`), the same motion as the "gliding" model with μ = 0.
+
 The start (:func:`_initial`, ``start_phase``): a state whose slip is within the band starts
 rolling (after the stopping impulse) if the cone holds, else sliding from 2δ in the excess-force
 direction. After a run (``Model.finish``, :func:`_finish`) the trajectory carries ``phase``, the
@@ -90,7 +93,7 @@ from scipy.optimize import brentq
 
 from ..friction import Coulomb, RegularisedCoulomb
 from . import gliding
-from .registry import Event, Model, Option, Phase, register
+from .registry import Event, Model, Option, Phase, friction_law, register
 
 __all__ = [
     "CONTENSOU",
@@ -223,6 +226,9 @@ def _law(y: Any, p: tuple, kin: tuple | None = None) -> tuple:
     """(fx, fy, fm): the sliding law per unit normal force at state(s) ``y``."""
     mu, rs, eps, law = p[6], p[7], p[8], p[9]
     e, w, de, a, nu, h, c = _kinematics(y, p) if kin is None else kin
+    if mu == 0.0:  # frictionless: no force, also at zero slip (where −μ v̂_A would be 0/0)
+        zero = 0.0 * nu[0]
+        return zero, zero, zero
     if law == _REGULARISED:
         k = -mu / (nu[0] * nu[0] + nu[1] * nu[1] + eps * eps) ** 0.5
         return k * nu[0], k * nu[1], 0.0 * k
@@ -382,11 +388,15 @@ def _positive_part(x: Any) -> Any:
 
 def _stop_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is outside the cone: "stop" → rolling."""
+    if p[6] == 0.0:  # μ = 0: a cone of radius 0, no stop (see _frictionless)
+        return 1.0 + 0.0 * y[0]  # never 0 (a constant: no series of |γ| near 0)
     return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(-_margin(y, p))
 
 
 def _reversal_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is inside the cone: "reversal"."""
+    if p[6] == 0.0:  # μ = 0: no friction to reverse the slip (see _frictionless)
+        return 1.0 + 0.0 * y[0]  # never 0 (a constant: no series of |γ| near 0)
     return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(_margin(y, p))
 
 
@@ -429,7 +439,8 @@ def _excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarr
     grid = np.linspace(0.0, 2.0 * math.pi, 73)
     cr = np.array([vdot(ph)[0] for ph in grid])
     best, best_s = None, 0.0
-    for i in np.flatnonzero(cr[:-1] * cr[1:] <= 0.0):
+    sign = np.sign(cr)  # not cr[:-1] * cr[1:]: that product underflows to 0 near a pole
+    for i in np.flatnonzero(sign[:-1] * sign[1:] <= 0.0):
         if cr[i] == 0.0:
             phi = grid[i]
         elif cr[i + 1] == 0.0:
@@ -570,11 +581,7 @@ def to_gliding(Y: Any, p: tuple) -> np.ndarray:
 
 
 def _params(top: Any, options: dict) -> tuple:
-    law = options.get("friction")
-    if law is None:
-        raise ValueError(
-            "the dry-friction models need friction=Coulomb(...) or RegularisedCoulomb(...)"
-        )
+    law = options["friction"]  # a law of the model's kind (registry.check_friction)
     band = options.get("stopping_band")
     if band is None:  # without an rtol to tie it to: 1e-9 of the velocity scale √(g R)
         band = 1e-9 * math.sqrt(top.g * top.R)
@@ -586,6 +593,19 @@ def _params(top: Any, options: dict) -> tuple:
     return (top.m, top.R, l, top.I1, top.I3, top.g, law.mu, r_star, eps, code, band)
 
 
+def _frictionless(p: tuple) -> bool:
+    """μ = 0: the friction cone has radius 0, so the motion is frictionless sliding throughout.
+
+    Rolling would need a tangential force of exactly 0; where it does (a spin exactly at a pole)
+    rolling and frictionless sliding are the same motion. So no phase switch ever happens: the
+    start is not settled (a stopping impulse would be a tangential impulse, which the zero cone
+    cannot transmit), the run starts sliding, and the stop and reversal events never fire. The
+    law itself is 0 (:func:`_law`); without this, a spin at a pole started rolling, crossed the
+    zero cone at once, and its restart direction was 0/0.
+    """
+    return p[6] == 0.0
+
+
 def settle(y: np.ndarray, p: tuple) -> np.ndarray:
     """``y`` with a slip within the stopping band settled (``y`` itself if the slip is larger).
 
@@ -594,6 +614,8 @@ def settle(y: np.ndarray, p: tuple) -> np.ndarray:
     is the phase it starts. Used at the start of a run and after an impact (the stemmed top,
     :mod:`.stemslip`). ``y`` may carry components beyond the ten of the state (kept).
     """
+    if _frictionless(p):
+        return y
     if p[9] == _COULOMB and float(np.linalg.norm(_slip(y, p))) <= p[10]:
         y = _set_slip(y, p, np.zeros(3))
         if _required(y, p)[2] < 0.0:
@@ -607,6 +629,8 @@ def _initial(state: Any, p: tuple) -> np.ndarray:
 
 
 def _start_phase(y0: np.ndarray, p: tuple) -> str:
+    if _frictionless(p):
+        return "sliding"
     return "rolling" if float(np.linalg.norm(_slip(y0, p))) <= p[10] else "sliding"
 
 
@@ -616,7 +640,7 @@ def _rolling_guess(Y: np.ndarray, p: tuple) -> np.ndarray:
     slip = np.sqrt(np.sum(_slip(Y, p) ** 2, axis=0))
     with np.errstate(divide="ignore", invalid="ignore"):
         margin = _required(Y, p)[2]
-    return (slip <= p[10]) & (margin >= 0.0) & (p[9] == _COULOMB)
+    return (slip <= p[10]) & (margin >= 0.0) & (p[9] == _COULOMB) & (not _frictionless(p))
 
 
 def _normal_force(y: np.ndarray, p: tuple) -> Any:
@@ -650,7 +674,8 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     Y = np.asarray(Y, dtype=float)
     Y = Y.reshape(Y.shape[0], -1)
     rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
-    with np.errstate(divide="ignore", invalid="ignore"):  # the sliding law at v_A = 0
+    # the sliding law at v_A = 0; the states of a run that blew up (its status says so)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         s = _slide_law(Y, p)
         r = _stick(Y, p)
     gn = np.where(rolling, r[1], s[1])
@@ -682,7 +707,8 @@ class Switch(NamedTuple):
     required force left the cone) or "reversal" (|v_A| fell to the band with the required force
     outside the cone: sliding restarts in the direction of the excess force)."""
     margin: float
-    """Cone margin of the force rolling needs, (μ g_n − |F_t|)/(μ g_n), at the switch state."""
+    """Cone margin of the force rolling needs, (μ g_n − |F_t|)/(μ g_n), at the switch state
+    (NaN where there is no cone: μ = 0, or an impact without a normal impulse)."""
     slip: float
     """|v_A| (m/s) at the event that triggered the switch."""
     t_event: float = math.nan
@@ -714,7 +740,8 @@ def _finish(traj: Any) -> None:
         gn, _, m = _required(y_dec, p)
         speed = float(np.linalg.norm(_slip(y_ev, p)))
         t_sw = t if why == "cone" else stop_time(t, y_ev, p)
-        records.append(Switch(t_sw, before, after, why, float(m / (p[6] * gn)), speed, t))
+        margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan  # no cone at μ = 0
+        records.append(Switch(t_sw, before, after, why, margin, speed, t))
     traj.switches = records
     traj.stopping_band = p[10]
 
@@ -744,21 +771,6 @@ def viscous_force(traj: Any) -> None:
     traj.F_y = -mu * traj.gn * nu[1]
     traj.M_n = np.zeros_like(traj.gn)
     traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
-
-
-def _check_coulomb(name: str, value: Any) -> Coulomb:
-    if not isinstance(value, Coulomb):
-        raise TypeError(f"{name} of model 'coulomb' must be a mett.friction.Coulomb; got {value!r}")
-    return value
-
-
-def _check_regularised(name: str, value: Any) -> RegularisedCoulomb:
-    if not isinstance(value, RegularisedCoulomb):
-        raise TypeError(
-            f"{name} of model 'coulomb-regularised' must be a mett.friction.RegularisedCoulomb; "
-            f"got {value!r}"
-        )
-    return value
 
 
 def _check_band(name: str, value: Any) -> float:
@@ -795,7 +807,8 @@ MODEL = register(
             Event(_stop_event, -1.0, "switch", target="rolling", jump=_stop_jump),
             Event(_reversal_event, -1.0, "switch", target="sliding", jump=_reversal_jump),
         ),
-        options=(Option("friction", _check_coulomb, None, "the Coulomb law"), _BAND),
+        options=(Option("friction", friction_law, None, "the Coulomb law"), _BAND),
+        friction=(Coulomb,),
         phase="sliding",
         phases=(
             Phase(
@@ -857,7 +870,8 @@ REGULARISED = register(
         scales=_scales,
         conserved_lengths=((7, 8, 9),),
         events=(Event(_contact_sliding, -1.0, "contact_lost"),),
-        options=(Option("friction", _check_regularised, None, "the regularised law"),),
+        options=(Option("friction", friction_law, None, "the regularised law"),),
+        friction=(RegularisedCoulomb,),
         conserves=("lam",),
         finish=_finish_regularised,
     )
