@@ -97,9 +97,13 @@ def _positive(text: str) -> float:
 
 
 def _rtol(text: str) -> float:
+    from .dynamics.simulation import RTOL_MAX, RTOL_MIN  # the range simulate accepts
+
     x = _real(text)
-    if not 0.0 < x < 1.0:
-        raise argparse.ArgumentTypeError(f"must lie in (0, 1); got {text!r}")
+    if not RTOL_MIN <= x <= RTOL_MAX:
+        raise argparse.ArgumentTypeError(
+            f"must lie in [{RTOL_MIN:.3g}, {RTOL_MAX:g}]; got {text!r}"
+        )
     return x
 
 
@@ -603,7 +607,12 @@ def _build_parser() -> argparse.ArgumentParser:
     _add_state_arguments(p, required=True)
     p.add_argument("--t-end", type=_positive, required=True, help="simulated time [s]")
     p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
-    p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
+    p.add_argument(
+        "--rtol",
+        type=_rtol,
+        default=1e-10,
+        help="relative tolerance, in [100 machine epsilons, 1e-2]",
+    )
     p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
     p.add_argument(
         "--out",
@@ -635,7 +644,12 @@ def _build_parser() -> argparse.ArgumentParser:
         help="ω3(0) [rad/s] (default: 155; not with a lam_ratio grid, which sets it)",
     )  # fmt: skip
     p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
-    p.add_argument("--rtol", type=_rtol, default=1e-10, help="relative tolerance, in (0, 1)")
+    p.add_argument(
+        "--rtol",
+        type=_rtol,
+        default=1e-10,
+        help="relative tolerance, in [100 machine epsilons, 1e-2]",
+    )
     p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
     p.add_argument("--out", default="sweep.csv", help="output CSV")
     p.add_argument("--workers", type=_workers, default=1, help="processes on this machine")
