@@ -451,9 +451,12 @@ def test_grazing_slip_found_without_a_max_step(depth):
     tr = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu))
     ref = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu), max_step=2e-5)
     assert [s.reason for s in tr.switches] == [s.reason for s in ref.switches] == ["cone", "stop"]
-    # the zero of a shallow excursion is ill-conditioned (the margin's slope there ∝ √depth):
-    # measured 3e-10 s apart at depth 1e-4, 2.3e-8 s at 1e-7
-    assert abs(tr.switches[0].t - ref.switches[0].t) < 1e-7
+    # the zero of a shallow excursion is ill-conditioned: an error ε in the force ratio
+    # r = |F_t|/g_n moves it by ε/|ṙ|, ṙ its rate at the crossing (∝ √depth; from the dense
+    # rolling run). ε: 10 rtol (the default rtol = 1e-10), the allowance of the stopping band.
+    ratio = np.hypot(roll.F_x, roll.F_y) / roll.gn
+    rate = np.gradient(ratio, tev)[np.searchsorted(tev, ref.switches[0].t)]
+    assert abs(tr.switches[0].t - ref.switches[0].t) < 10.0 * 1e-10 / abs(rate)
     assert abs(tr.theta[-1] - ref.theta[-1]) < 1e-9  # measured 1.6e-11
     # μ just above the largest ratio: no excursion, no slip
     above = mett.simulate(THESIS, st, 0.04, friction=Coulomb(mu / (1.0 - depth) * (1.0 + depth)))
@@ -568,24 +571,42 @@ def test_stick_slip_runs_compiled_and_both_backends_agree(stick_slip_run):
     assert [(s.before, s.after, s.reason) for s in ref.switches] == [
         (s.before, s.after, s.reason) for s in tr.switches
     ]
-    # The two take the same steps only while their rounding agrees (it need not across machines
-    # and builds), so they agree to the integration error of each switch time, not to rounding:
-    # that of the slip (below the band δ, the band's premise) over the rate a at which it falls
-    # for a stop, that of θ (below 1e-8 rad, asserted below) over |θ̇| for a cone switch.
-    for a, b, (y_ev, _) in zip(ref.switches, tr.switches, tr.jumps, strict=True):
-        assert abs(a.t - b.t) <= 2.0 * _switch_time_error(tr, b, y_ev), (a, b)
+    # Tolerances from the error analysis, not from one machine's output. A stop fires when the
+    # slip speed |v_A|, falling at the rate a (m/s², read off the run), is in the stopping band
+    # [0, δ], δ = 10 rtol × the velocity scale: up to δ/a early (where in the band is stickslip's
+    # choice). The error of v_A there is at most the local error allowed per step, rtol × the
+    # velocity scale = δ/10, over the N steps of that slide: N δ/(10 a). Every later switch
+    # inherits the shift, and the integration error elsewhere is estimated by the run at
+    # rtol/100. The two backends run the same DOP853 and agree to rounding while they take the
+    # same steps, but a rounding difference (another CPU's libm or BLAS) may send them down
+    # other step sequences: they then differ by up to the sum of their errors.
+    rtol = 1e-10
+    y0 = gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {}))
+    band = 10.0 * rtol * gliding.MODEL.scales(y0, gliding.MODEL.params(THESIS, {}))[2]
+    h = 1e-4  # s: short against the slip's deceleration time, long against δ/a
+    stop_shift, start = 0.0, 0.0
+    for s in tr.switches:
+        if s.reason == "stop":
+            slip = tr.at(np.array([s.t - 2.0 * h, s.t - h]))
+            speed = np.hypot(slip.nu_x, slip.nu_y)
+            steps = np.count_nonzero((tr.t > start) & (tr.t <= s.t))
+            stop_shift += (1.0 + steps / 10.0) * band / ((speed[0] - speed[1]) / h)
+        start = s.t
+    fine = mett.simulate(THESIS, st, 0.8, friction=Coulomb(0.02), rtol=rtol / 100)
+    assert [s.reason for s in fine.switches] == [s.reason for s in tr.switches]
+    t_err = max(abs(a.t - b.t) for a, b in zip(tr.switches, fine.switches, strict=True))
+    t_tol = 2.0 * (t_err + stop_shift)
+    for a, b in zip(ref.switches, tr.switches, strict=True):
+        assert a.t == pytest.approx(b.t, abs=t_tol)
     tev = np.linspace(0.0, 0.8, 81)
-    assert np.max(np.abs(ref.theta_at(tev) - tr.theta_at(tev))) < 1e-8
-
-
-def _switch_time_error(tr, sw, y_ev, dtheta=1e-8):
-    """The integration error bound of a switch time (s): δ/a for a stop (the slip's error is
-    below the band δ, the band's premise; a = −d|v_A|/dt of the sliding law at the band), and
-    for a cone switch the bound ``dtheta`` on θ's error over |θ̇| there (the rolling top's cone
-    margin is a function of its nutation phase)."""
-    if sw.reason == "cone":
-        return dtheta / abs(tr.at(sw.t).thetadot)
-    return tr.stopping_band / stickslip._slip_rate(y_ev, tr.params)
+    # θ: each run's error (estimated as above) plus the switch shifts times the fastest |θ̇|
+    theta_err = np.max(np.abs(tr.theta_at(tev) - fine.theta_at(tev)))
+    theta_tol = 2.0 * theta_err + np.max(np.abs(tr.thetadot)) * t_tol
+    assert np.max(np.abs(ref.theta_at(tev) - tr.theta_at(tev))) < theta_tol
+    # the switch times of the separate scipy stick–slip integrator this model replaced (measured
+    # with it at the same rtol): an independent run whose errors have the same bound
+    want = [0.7110961630734645, 0.7177052060410428, 0.7428335721022588, 0.7482683691563087]
+    assert [s.t for s in tr.switches] == pytest.approx(want, abs=t_tol)
 
 
 def test_user_events_run_across_the_phases():
