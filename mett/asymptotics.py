@@ -149,10 +149,10 @@ def _check(top: TippeTop, theta0: float, omega3: float, phidot0: float, hs: High
     # overflow at extreme spins gives non-finite values, left out below, not RuntimeWarnings)
     try:
         with np.errstate(all="ignore"):
-            per = _api._solve(top, E, D, lam, z0, "period")
-            _api._raise_first(per)
-            pre = _api._solve(top, E, D, lam, z0, "precession")
-            _api._raise_first(pre)
+            per = _api.solve(top, E, D, lam, z0, "period")
+            _api.raise_first(per)
+            pre = _api.solve(top, E, D, lam, z0, "precession")
+            _api.raise_first(pre)
     except ValueError as exc:
         _validate.warn(
             f"high_spin(theta0={theta0!r}, omega3={omega3!r}, phidot0={phidot0!r}): the "
@@ -173,7 +173,7 @@ def _check(top: TippeTop, theta0: float, omega3: float, phidot0: float, hs: High
     # rounding of the energy terms has no exact value in double to compare with: left out
     if z_high - z_low <= 2.0**22 * math.ulp(max(abs(z_low), abs(z_high))):
         del exact["width"]
-    if _wells._conditioning(top, E, D, lam, exact["depth"]) > 1e-6:
+    if _wells.conditioning(top, E, D, lam, exact["depth"]) > 1e-6:
         del exact["depth"]
     # ⟨φ̇⟩ ~ m g R α/(I3 ω3) is a remainder of N, whose terms are ~ω3: rounding ~ε|ω3|/(1 − z0²)
     if abs(exact["precession"]) * math.sin(theta0) ** 2 <= 2.0**20 * _EPS * abs(omega3):

@@ -102,13 +102,15 @@ class State:
         return np.array([getattr(self, name) for name in _FIELDS], dtype=float)
 
     @classmethod
-    def from_array(cls, y: ArrayLike) -> State:
+    def from_array(cls, y: ArrayLike, *, name: str = "y") -> State:
         """Inverse of :meth:`as_array`.
 
         Parameters
         ----------
         y : array_like, shape (6, ...)
             ``[theta, thetadot, phidot, omega3, nu_x, nu_y]`` (rad, rad/s, m/s), real numbers.
+        name : str, optional
+            The argument's name in error messages (``"y"``; a caller passes its own).
 
         Raises
         ------
@@ -119,11 +121,6 @@ class State:
         ValueError
             If the leading dimension is not 6, or a field is out of range (named).
         """
-        return cls._from_array("y", y)
-
-    @classmethod
-    def _from_array(cls, name: str, y: ArrayLike) -> State:
-        """:meth:`from_array` with the messages naming the caller's argument ``name``."""
         y = _validate.real_array(name, y)
         if y.shape[:1] != (6,):
             raise ValueError(

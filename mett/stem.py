@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate
-from .top import _UNITS, FIELD_RANGE, TippeTop
+from .top import FIELD_RANGE, FIELD_UNITS, TippeTop
 
 if TYPE_CHECKING:
     from .state import State
@@ -64,7 +64,9 @@ class StemContactTop(TippeTop):
     def __post_init__(self) -> None:
         lo, hi = FIELD_RANGE
         for name in ("m", "R", "I1", "I3", "g"):
-            value = _validate.bounded_scalar(name, getattr(self, name), lo, hi, unit=_UNITS[name])
+            value = _validate.bounded_scalar(
+                name, getattr(self, name), lo, hi, unit=FIELD_UNITS[name]
+            )
             object.__setattr__(self, name, value)
         # α > 0 as for a ball; α and αR at most FIELD_RANGE's top
         a_hi = min(hi, hi / self.R)

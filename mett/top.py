@@ -28,7 +28,7 @@ FIELD_RANGE = (1e-50, 1e50)
 """Valid magnitudes of m, R, I1, I3, g (μ: [0, 1e50]), in their SI units: wide enough for any
 unit system, narrow enough that every product of a few of them (m g R, m R², λ², …) stays finite."""
 
-_UNITS = {"m": "kg", "R": "m", "I1": "kg m^2", "I3": "kg m^2", "g": "m/s^2"}
+FIELD_UNITS = {"m": "kg", "R": "m", "I1": "kg m^2", "I3": "kg m^2", "g": "m/s^2"}
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,7 @@ class TippeTop:
     def __post_init__(self) -> None:
         for name in ("m", "R", "I1", "I3", "g"):
             value = _validate.bounded_scalar(
-                name, getattr(self, name), *FIELD_RANGE, unit=_UNITS[name]
+                name, getattr(self, name), *FIELD_RANGE, unit=FIELD_UNITS[name]
             )
             object.__setattr__(self, name, value)
         alpha = _validate.finite_scalar("alpha", self.alpha)

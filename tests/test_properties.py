@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mett
-from mett.separation import _conditioning
+from mett.separation import conditioning
 
 # derandomize: CI must be reproducible; explore more locally with --hypothesis-seed and a profile.
 SETTINGS = settings(
@@ -96,7 +96,7 @@ def test_turning_points_bracket_the_start(top, s):
         band = mett.band(top, E, D, lam, z0=z0)
     width = max(zh - zl, 1e-300)
     # The inputs' own rounding limits how well the band is defined (conditioning, not error).
-    tol = width * (1e-7 + _conditioning(top, E, D, lam, band.depth)) + 1e-13
+    tol = width * (1e-7 + conditioning(top, E, D, lam, band.depth)) + 1e-13
     assert zl - tol <= z0 <= zh + tol
     assert -1 <= zl <= zh <= 1
     if s.thetadot == 0:  # the start is itself a turning point

@@ -188,13 +188,13 @@ def test_bands_equal_scalar_reference(name, top, E, D, lam):
     np.testing.assert_array_equal(b.kind, ref.kind)
     for field in ("z_low", "z_high", "z_min"):
         np.testing.assert_allclose(getattr(b, field), getattr(ref, field), rtol=0, atol=RTOL)
-    # depth = Ẽ − V(z_min) is a difference of terms of size S (see _conditioning): compare on S
+    # depth = Ẽ − V(z_min) is a difference of terms of size S (see conditioning): compare on S
     S = np.abs(E) + D * D / (2 * top.I1) + top.m * lam * lam / (2 * top.I1 * top.I3)
     assert np.all(np.abs(b.depth - ref.depth) <= RTOL * S)
     np.testing.assert_array_equal(mett.classify_motion(top, E, D, lam), ref.kind)
     # only bands ending in the layer of a pole (integrated about the pole) and wells hugging a
     # pole (classified in the pole form) leave the array path
-    sol = sep._solve(top, E, D, lam, None)
+    sol = sep.solve(top, E, D, lam, None)
     bands = [sep._reference_band(top, e, d, la) for e, d, la in zip(
         E[sol.scalar], D[sol.scalar], lam[sol.scalar], strict=True)]  # fmt: skip
     assert all(any(sep._pole_layer(b)) or 1.0 - abs(b.z_min) < sep._NEAR_POLE for b in bands)
@@ -355,8 +355,8 @@ def test_elements_passed_to_the_scalar_path_give_the_same_results(monkeypatch):
         return zm, single
 
     T_vec = mett.nutation_period(top, E, D, lam)
-    monkeypatch.setattr(sep._api, "_locate_wells", half)  # where _solve looks it up
-    sol = sep._solve(top, E, D, lam, None, "period")
+    monkeypatch.setattr(sep._api, "_locate_wells", half)  # where solve looks it up
+    sol = sep.solve(top, E, D, lam, None, "period")
     assert sol.scalar[::2].all()  # forced; the others only for pole-layer bands
     assert sol.scalar.sum() <= (E.size + 1) // 2 + sum(
         any(sep._pole_layer(sep._reference_band(top, e, d, la)))

@@ -74,7 +74,7 @@ BACKENDS = ("auto", "compiled", "scipy", "taylor")
 def _check_state(state: Any) -> State:
     if not isinstance(state, State):
         # State validates finiteness and θ ∈ [0, π] with messages that name the field
-        state = State._from_array("state", state)
+        state = State.from_array(state, name="state")
     if state.shape != ():
         raise ValueError(f"simulate needs a single State; got fields of shape {state.shape}")
     return state

@@ -48,7 +48,6 @@ from ._api import (
     _reference_mean_precession,
     _reference_nutation_period,
     _reference_turning_points,
-    _solve,
     _start_energy,
     band,
     classify_motion,
@@ -56,6 +55,7 @@ from ._api import (
     mean_precession,
     minima,
     nutation_period,
+    solve,
     turning_points,
 )
 from ._exact import _EPS, _shift, _shifted_energy
@@ -64,12 +64,12 @@ from ._roots import _brentq
 from ._wells import (
     _NEAR_POLE,
     Band,
-    _conditioning,
     _locate_wells,
     _pole_layer,
     _pole_N,
     _PoleForm,
     _steady_tolerance,
+    conditioning,
 )
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""The public functions of :mod:`mett.separation`, the array path (:func:`_solve`) and the
+"""The public functions of :mod:`mett.separation`, the array path (:func:`solve`) and the
 per-element path for the elements it passes on (and the ``_reference_*`` functions the tests
 compare with). Both run the same array algorithms, the per-element path on one element.
 """
@@ -22,7 +22,6 @@ from ._roots import _turning_points
 from ._wells import (
     _NEAR_POLE,
     Band,
-    _conditioning,
     _kinetic_at,
     _layer_ends,
     _locate_wells,
@@ -36,6 +35,7 @@ from ._wells import (
     _well,
     _Wells,
     _wells,
+    conditioning,
 )
 
 _NONE, _STEADY, _NUTATION = 0, 1, 2
@@ -75,7 +75,7 @@ def _band_ends(W: _Wells, zm) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _holds_start(top: TippeTop, E, D, lam, z_low, z_high, depth, z0):
     """Whether the start z0 lies in the band, up to the rounding of (E, D, λ) themselves, which
     moves the turning points by ~ (rounding of the energy terms / depth) of the band width."""
-    slack = (z_high - z_low) * (1e-6 + _conditioning(top, E, D, lam, depth)) + 1e-12
+    slack = (z_high - z_low) * (1e-6 + conditioning(top, E, D, lam, depth)) + 1e-12
     return (z_low - slack <= z0) & (z0 <= z_high + slack)
 
 
@@ -227,7 +227,7 @@ def _broadcast(E, D, lam, z0=None):
 
 # --- the scalar reference implementation --------------------------------------------------
 # One element at a time: the public functions below use the array path and come here only for
-# elements it passes on (see _solve); the tests compare the two paths.
+# elements it passes on (see solve); the tests compare the two paths.
 
 
 def _elements(E, D, lam, z0):
@@ -325,7 +325,7 @@ def _no_motion_message(E, D, lam, depth, z_min) -> str:
 
 
 class _Solution(NamedTuple):
-    """Flat results of :func:`_solve` (broadcast shape ``shape``)."""
+    """Flat results of :func:`solve` (broadcast shape ``shape``)."""
 
     shape: tuple
     kind: np.ndarray  # _NONE, _STEADY, _NUTATION
@@ -338,7 +338,7 @@ class _Solution(NamedTuple):
     scalar: np.ndarray  # elements computed by the per-element path
 
 
-def _solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solution:
+def solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solution:
     """Bands of all elements (and ``quantity``: "period" or "precession"), array path first.
 
     The steps: validate and flatten; locate the wells; classify them; turning points (and the
@@ -455,7 +455,7 @@ def _solve_one(top: TippeTop, E, D, lam, z0, i: int, sol: _Solution, quantity) -
         sol.value[i] = _value_one(top, e, dd, la, b, quantity, zz)
 
 
-def _raise_first(sol: _Solution, *, band_only: bool = False) -> None:
+def raise_first(sol: _Solution, *, band_only: bool = False) -> None:
     """Raise the error of the first failing element (C order), as the element loop did."""
     bad = [i for i, (_, in_band) in sol.errors.items() if in_band or not band_only]
     if bad:
@@ -488,8 +488,8 @@ def band(
     Band
         Fields are arrays of the broadcast shape (floats for scalar input).
     """
-    sol = _solve(top, E, D, lam, z0)
-    _raise_first(sol, band_only=True)
+    sol = solve(top, E, D, lam, z0)
+    raise_first(sol, band_only=True)
     kinds = _KINDS[sol.kind]
     if sol.shape == ():
         return Band(str(kinds[0]), *(float(a[0]) for a in sol[2:6]))
@@ -558,8 +558,8 @@ def turning_points(
     >>> mett.turning_points(top, E, D, lam).round(6)
     array([0.540302, 0.613785])
     """
-    sol = _solve(top, E, D, lam, z0)
-    _raise_first(sol)
+    sol = solve(top, E, D, lam, z0)
+    raise_first(sol)
     return np.stack([sol.z_low, sol.z_high], axis=-1).reshape((*sol.shape, 2))
 
 
@@ -594,8 +594,8 @@ def nutation_period(
     >>> round(float(T), 6)
     0.055014
     """
-    sol = _solve(top, E, D, lam, z0, "period")
-    _raise_first(sol)
+    sol = solve(top, E, D, lam, z0, "period")
+    raise_first(sol)
     return _shaped(sol, sol.value)
 
 
@@ -620,6 +620,6 @@ def mean_precession(
     small-oscillation period for the steady spin; where the band is itself only a few ulps wide
     (a start within ~1e-7 rad of a pole at high spin) the exact inputs also reshape it.
     """
-    sol = _solve(top, E, D, lam, z0, "precession")
-    _raise_first(sol)
+    sol = solve(top, E, D, lam, z0, "precession")
+    raise_first(sol)
     return _shaped(sol, sol.value)

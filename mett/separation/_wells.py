@@ -315,7 +315,7 @@ def _wells(w: _Wells) -> list[float]:
     return sorted({float(z) for z in mins})
 
 
-def _conditioning(top: TippeTop, E, D, lam, depth):
+def conditioning(top: TippeTop, E, D, lam, depth):
     """Relative uncertainty of a band's width caused by rounding (E, D, λ) to doubles.
 
     The depth Ẽ − V_min is a difference of terms of size S = |Ẽ| + D²/(2 I1) + m λ²/(2 I1 I3);
