@@ -6,6 +6,8 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 
 from . import analysis, friction, presets
 from ._validate import AccuracyWarning, MettDeprecationWarning, MettWarning, PhysicalityWarning
+from ._version import __version__ as __version__
+from ._versions import show_versions
 from .asymptotics import HighSpin, high_spin
 from .classification import subgroup, tumbling_eigenvalues
 from .dynamics import Trajectory, simulate
@@ -32,9 +34,6 @@ from .thresholds import (
     tumbling_state,
 )
 from .top import TippeTop
-
-__version__ = "0.1.0.dev0"
-
 
 _LAZY_MODULES = ("plotting", "gallery", "symbolic", "sweeps", "cli")
 
@@ -89,6 +88,7 @@ __all__ = [
     "potential_minimum",
     "presets",
     "routh",
+    "show_versions",
     "simulate",
     "spin_eigenvalues",
     "subgroup",
