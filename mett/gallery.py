@@ -3,7 +3,8 @@ surface (Rutstam 2012), the potential map with the run's path, the deforming pot
 separation equation.
 
 ``mett figures --out DIR`` (or :func:`generate`) writes them as PNG (and one GIF), with an index
-:data:`INDEX_NAME`; the checked-in copies live in ``figures/`` at the top of the repository. Only
+:data:`INDEX_NAME`; the checked-in copies (the docs' gallery) live in ``docs/figures/`` and are
+regenerated on purpose with ``mett figures --out docs/figures``. Only
 files of mett's own names (:func:`file_names`) are written, so ``--out .`` never replaces a file of
 the user's such as ``README.md``. ``generate(out, top=...)`` draws the same
 figures for any top: the run then starts at θ = 0.1 rad with λ = 2 λ_thres (the thesis run has

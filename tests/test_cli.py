@@ -550,12 +550,14 @@ def test_figures_never_replace_a_file_of_the_user_s(tmp_path, capsys, monkeypatc
 
 
 def test_the_repository_figure_index_is_the_one_mett_writes():
-    # figures/ (the README's main job writes it) holds the index under mett's name, as generated
+    # docs/figures (the gallery's reference images, regenerated on purpose with `mett figures
+    # --out docs/figures`) holds the index under mett's name, as generated; the README's main job
+    # writes figures/, which is not tracked, so a fresh clone stays clean after it
     from pathlib import Path
 
     from mett import gallery
 
-    root = Path(__file__).resolve().parents[1] / "figures"
+    root = Path(__file__).resolve().parents[1] / "docs" / "figures"
     assert not (root / "README.md").exists()
     paths = [root / f"{n}.png" for n in gallery.FIGURES] + [root / "deforming_potential.gif"]
     assert (root / gallery.INDEX_NAME).read_text() == gallery.index_markdown(paths)
