@@ -123,6 +123,34 @@ def _workers(text: str) -> int:
     return n
 
 
+def _friction(text: str) -> Any:
+    """``NAME:ARGS`` of a law of :data:`mett.friction.LAWS`, e.g. ``coulomb-contensou:0.3,5e-4``."""
+    from .friction import LAWS
+
+    forms = ", ".join(f"{f.spelled(n)} [{', '.join(f.units)}]" for n, f in LAWS.items())
+    name, _, rest = text.strip().partition(":")
+    form = LAWS.get(name.strip())
+    values = [v.strip() for v in rest.split(",")] if rest.strip() else []
+    if form is None or len(values) != len(form.args) or not all(map(_FLOAT.fullmatch, values)):
+        raise argparse.ArgumentTypeError(f"invalid value {text!r}; give one of {forms}")
+    try:
+        return form.build(*map(float, values))
+    except (TypeError, ValueError) as exc:  # the law's own range check, naming the argument
+        raise argparse.ArgumentTypeError(f"{_one_line(str(exc))} in {text!r}") from None
+
+
+def _stem(text: str) -> tuple[float, float]:
+    """``RADIUS,DISTANCE`` (m) of :meth:`mett.TippeTop.with_stem`."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"give RADIUS,DISTANCE in m (two numbers); got {text!r}")
+    try:
+        radius, distance = (_positive(x) for x in parts)
+    except argparse.ArgumentTypeError as exc:
+        raise argparse.ArgumentTypeError(f"RADIUS,DISTANCE (m): {exc}") from None
+    return radius, distance
+
+
 # --- paths: checked before any work, so nothing is computed that cannot be written -------------
 def _check_output_file(option: str, path: str, suffixes: Sequence[str] | None = None) -> Path:
     p = Path(path)
@@ -247,6 +275,46 @@ def _state_from_args(args: argparse.Namespace, top: TippeTop):
     return State(theta=args.theta0, omega3=args.omega3, thetadot=args.thetadot, phidot=args.phidot)
 
 
+def _model_options(args: argparse.Namespace, top: TippeTop) -> tuple[str, dict[str, Any]]:
+    """The model and the keyword arguments of :func:`mett.simulate` that --model, --friction and
+    --stem give, or a ``ValueError`` saying what the model needs, before any run.
+
+    Which laws a model runs with is the registry's (:func:`mett.dynamics.registry.check_friction`,
+    whose message is kept); which models take a stem, those that declare ``stem_radius``.
+    """
+    from .dynamics import MODELS
+    from .dynamics.registry import check_friction
+    from .friction import LAWS
+
+    name = args.model or ("stemmed" if args.stem is not None else "gliding")
+    model = MODELS[name]
+    law = args.friction
+    if law is not None and args.mu is not None:
+        raise ValueError("--mu is ignored with --friction (the law's mu replaces the top's); "
+                         "leave --mu out")  # fmt: skip
+    try:
+        check_friction(model, law)
+    except ValueError as exc:
+        forms = " or ".join(f.spelled(n) for n, f in LAWS.items() if f.law in model.friction)
+        if type(None) in model.friction:
+            forms += " (or no --friction)"
+        raise ValueError(f"--model {name} takes --friction {forms}: {exc}") from None
+    options = {o.name: o for o in model.options}
+    stemmed = [m.name for m in MODELS.values() if any(o.name == "stem_radius" for o in m.options)]
+    kw: dict[str, Any] = {"model": name}
+    if law is not None:
+        kw["friction"] = law
+    if "stem_radius" in options:
+        if args.stem is None:
+            doc = f"{options['stem_radius'].doc}; {options['stem_distance'].doc}"
+            raise ValueError(f"--model {name} needs --stem RADIUS,DISTANCE ({doc})")
+        top.with_stem(*args.stem)  # the stem's geometry, checked before any run
+        kw["stem_radius"], kw["stem_distance"] = args.stem
+    elif args.stem is not None:
+        raise ValueError(f"--stem applies to --model {', '.join(stemmed)} only; got --model {name}")
+    return name, kw
+
+
 # --- commands ------------------------------------------------------------------------------------
 def _cmd_info(args: argparse.Namespace) -> int:
     top = _top_from_args(args)
@@ -304,14 +372,19 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     plot = None if args.plot is None else _check_output_file("--plot", args.plot, _image_suffixes())
     top = _top_from_args(args)
     state = _state_from_args(args, top)
+    name, kw = _model_options(args, top)
 
     import numpy as np
 
     from .dynamics import simulate
+    from .dynamics.stem import MODEL as STEMMED
     from .integrals import jellett
     from .thresholds import asymptotic_state
 
-    traj = simulate(top, state, args.t_end, model=args.model, rtol=args.rtol, backend=args.backend)
+    run_top: Any = top
+    if name == STEMMED.name:  # as mett.simulate(top.with_stem(r, d), ...): contact, touchdowns
+        run_top = top.with_stem(kw.pop("stem_radius"), kw.pop("stem_distance"))
+    traj = simulate(run_top, state, args.t_end, rtol=args.rtol, backend=args.backend, **kw)
     written = []
     if out is not None:
         if out.suffix.lower() == ".npz":
@@ -494,12 +567,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                 f"point); leave --{option} out"
             )
     top = _top_from_args(args)
+    _, model_kw = _model_options(args, top)
 
     from .sweeps import sweep
 
     kw = dict(
         t_end=args.t_end, progress=_progress_enabled(args.progress), checkpoint=args.checkpoint,
-        model=args.model, rtol=args.rtol,
+        rtol=args.rtol, **model_kw,
     )  # fmt: skip
     for name in ("theta0", "omega3"):  # the library's defaults unless given
         if getattr(args, name) is not None:
@@ -587,7 +661,21 @@ def _build_parser() -> argparse.ArgumentParser:
         return p
 
     json_help = "print JSON (SI units; null where a value is infinite or undefined)"
-    model_help = "the dynamical model (see mett.simulate)"
+    model_help = (
+        "the dynamical model (see mett.simulate); a model that needs a friction law or a stem is "
+        "refused without it, saying which (default: gliding, or stemmed with --stem)"
+    )
+    from .friction import LAWS
+
+    friction_help = (
+        "the contact's friction law (default: viscous with the top's mu): one of "
+        + ", ".join(f"{f.spelled(n)} [{', '.join(f.units)}]" for n, f in LAWS.items())
+        + "; a dry law runs the dry-friction model"
+    )
+    stem_help = (
+        "a stem (mett.TippeTop.with_stem): its sphere's radius and the distance from the ball's "
+        "centre to the stem sphere's centre [m]"
+    )
     progress_help = "progress bar on stderr (default: only when stderr is a terminal)"
 
     p = add("info", "parameters, thresholds and group of a top", _cmd_info)
@@ -606,7 +694,10 @@ def _build_parser() -> argparse.ArgumentParser:
     _add_top_arguments(p)
     _add_state_arguments(p, required=True)
     p.add_argument("--t-end", type=_positive, required=True, help="simulated time [s]")
-    p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
+    p.add_argument("--model", default=None, choices=sorted(MODELS), help=model_help)
+    p.add_argument("--friction", type=_friction, default=None, metavar="LAW:ARGS",
+                   help=friction_help)  # fmt: skip
+    p.add_argument("--stem", type=_stem, default=None, metavar="RADIUS,DISTANCE", help=stem_help)
     p.add_argument(
         "--rtol",
         type=_rtol,
@@ -643,7 +734,10 @@ def _build_parser() -> argparse.ArgumentParser:
         "--omega3", type=_real, default=None,
         help="ω3(0) [rad/s] (default: 155; not with a lam_ratio grid, which sets it)",
     )  # fmt: skip
-    p.add_argument("--model", default="gliding", choices=sorted(MODELS), help=model_help)
+    p.add_argument("--model", default=None, choices=sorted(MODELS), help=model_help)
+    p.add_argument("--friction", type=_friction, default=None, metavar="LAW:ARGS",
+                   help=friction_help)  # fmt: skip
+    p.add_argument("--stem", type=_stem, default=None, metavar="RADIUS,DISTANCE", help=stem_help)
     p.add_argument(
         "--rtol",
         type=_rtol,

@@ -33,8 +33,10 @@ the ellipsoid.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from types import MappingProxyType
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,9 +44,11 @@ from . import _validate
 
 __all__ = [
     "CONTENSOU_UNIFORM",
+    "LAWS",
     "LAW_NAMES",
     "Coulomb",
     "FrictionLaw",
+    "LawForm",
     "RegularisedCoulomb",
     "Viscous",
     "check_law",
@@ -191,6 +195,40 @@ def from_name(name: str, mu: float, contensou_radius: float = 0.0) -> FrictionLa
     if name == "coulomb":
         return Coulomb(mu, contensou_radius=contensou_radius)
     raise ValueError(f"friction must be one of {', '.join(LAW_NAMES)}; got {name!r}")
+
+
+class LawForm(NamedTuple):
+    """How a law is written by name (:data:`LAWS`): its constructor and its positional arguments."""
+
+    law: type
+    """The law's class (a constructor of :mod:`mett.friction`)."""
+    args: tuple[str, ...]
+    """Names of the constructor's arguments, in the order they are written."""
+    units: tuple[str, ...]
+    """Unit of each argument ("1": dimensionless)."""
+
+    def build(self, *values: float) -> FrictionLaw:
+        """The law with ``values`` as its arguments (``TypeError`` for a wrong count)."""
+        if len(values) != len(self.args):
+            raise TypeError(f"{self.law.__name__} takes {', '.join(self.args)}; got {values!r}")
+        return self.law(**dict(zip(self.args, values, strict=True)))
+
+    def spelled(self, name: str) -> str:
+        """``name:ARG,ARG``, e.g. ``"coulomb-contensou:MU,CONTENSOU_RADIUS"``."""
+        return f"{name}:{','.join(a.upper() for a in self.args)}"
+
+
+LAWS: Mapping[str, LawForm] = MappingProxyType(
+    {
+        "viscous": LawForm(Viscous, ("mu",), ("s/m",)),
+        "coulomb": LawForm(Coulomb, ("mu",), ("1",)),
+        "coulomb-contensou": LawForm(Coulomb, ("mu", "contensou_radius"), ("1", "m")),
+        "regularised": LawForm(RegularisedCoulomb, ("mu", "eps"), ("1", "m/s")),
+    }
+)
+"""Every law by name, with its arguments: the one table of the command line's ``--friction
+NAME:ARGS`` (``coulomb-contensou:0.3,5e-4`` is ``Coulomb(0.3, contensou_radius=5e-4)``). A law
+added to this module is added here, and the command line accepts it by this name."""
 
 
 def describe(friction: FrictionLaw) -> str:

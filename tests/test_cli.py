@@ -10,6 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mett.friction import Coulomb, RegularisedCoulomb, Viscous
+
 
 def run(*args: str) -> subprocess.CompletedProcess:
     # the timeout guards against a hang only: a fresh clone compiles its kernels in the first
@@ -181,7 +183,7 @@ def test_help_shows_defaults(capsys):
     assert code == 0
     out = " ".join(out.split())  # undo the line wrapping
     assert "--thetadot THETADOT θ̇(0) [rad/s] (default: 0.0)" in out
-    assert "(default: 1e-10)" in out and "(default: gliding)" in out
+    assert "(default: 1e-10)" in out and "(default: gliding, or stemmed with --stem)" in out
     assert "(default: None)" not in out and "(default: False)" not in out
     code, out, _ = call(["sweep", "--help"], capsys)
     out = " ".join(out.split())
@@ -570,3 +572,189 @@ def test_a_grid_product_over_the_maximum_is_one_line(tmp_path, capsys):
             "--t-end", "1", "--out", tmp_path / "s.csv"]  # fmt: skip
     assert_error(call(argv, capsys), "100000 x 100000 = 10000000000 points; at most MAX_POINTS")
     assert list(tmp_path.iterdir()) == []
+
+
+# --- every model and friction law from the command line ----------------------------------------------
+LAW_FORMS = [
+    ("viscous:0.3", Viscous(0.3)),
+    ("coulomb:0.3", Coulomb(0.3)),
+    ("coulomb-contensou:0.3,5e-4", Coulomb(0.3, contensou_radius=5e-4)),
+    ("regularised:0.3,1e-3", RegularisedCoulomb(0.3, eps=1e-3)),
+]
+
+
+@pytest.mark.parametrize(("spec", "direct"), LAW_FORMS)
+def test_each_friction_form_is_the_law_built_directly(spec, direct):
+    from mett.cli import _build_parser
+
+    args = _build_parser().parse_args([*SIM, "--friction", spec])
+    assert args.friction == direct and type(args.friction) is type(direct)
+
+
+def test_every_law_of_the_name_table_is_accepted_by_its_name(capsys):
+    # the CLI has no list of its own: a law added to mett.friction.LAWS is a --friction form
+    from mett.cli import _build_parser
+    from mett.friction import LAWS
+
+    for name, form in LAWS.items():
+        spec = f"{name}:" + ",".join(["0.25"] * len(form.args))
+        law = _build_parser().parse_args([*SIM, "--friction", spec]).friction
+        assert law == form.law(*[0.25] * len(form.args))
+    code, out, err = call(["simulate", "--help"], capsys)
+    assert code == 0 and all(form.spelled(n) in " ".join(out.split()) for n, form in LAWS.items())
+
+
+def _cli_and_library(tmp_path, capsys, extra, **kw):
+    """The trajectory of ``mett simulate ... extra --out t.npz`` and of mett.simulate(**kw)."""
+    import mett
+
+    path = tmp_path / "t.npz"
+    code, _, err = call([*SIM[:-1], "0.02", *extra, "--out", path], capsys)
+    assert code == 0, err
+    top = kw.pop("top", mett.presets.get("rutstam2013"))
+    state = kw.pop("state", mett.State(theta=0.1, omega3=155.0))
+    return mett.Trajectory.load(path), mett.simulate(top, state, 0.02, **kw)
+
+
+@pytest.mark.parametrize(
+    ("extra", "model", "law"),
+    [
+        ([], None, None),
+        (["--friction", "viscous:0.3"], None, Viscous(0.3)),
+        (["--friction", "coulomb:0.3"], None, Coulomb(0.3)),
+        (["--model", "coulomb", "--friction", "coulomb:0.3"], "coulomb", Coulomb(0.3)),
+        (["--model", "coulomb-contensou", "--friction", "coulomb-contensou:0.3,5e-4"],
+         "coulomb-contensou", Coulomb(0.3, contensou_radius=5e-4)),
+        (["--model", "coulomb-regularised", "--friction", "regularised:0.3,1e-3"],
+         "coulomb-regularised", RegularisedCoulomb(0.3, eps=1e-3)),
+        (["--model", "rolling"], "rolling", None),
+        (["--model", "gliding-hst", "--friction", "viscous:0.2"], "gliding-hst", Viscous(0.2)),
+        (["--model", "gliding-euler"], "gliding-euler", None),
+        (["--model", "frictionless-routhian"], "frictionless-routhian", None),
+    ],
+)  # fmt: skip
+def test_each_model_and_law_runs_as_the_library_does(tmp_path, capsys, extra, model, law):
+    kw = {} if model is None else {"model": model}
+    if law is not None:
+        kw["friction"] = law
+    got, want = _cli_and_library(tmp_path, capsys, extra, **kw)
+    assert got.model == want.model and got.status == want.status == "completed"
+    np.testing.assert_array_equal(got.t, want.t)
+    np.testing.assert_array_equal(got.states, want.states)  # same process: bit for bit
+
+
+def test_the_cylinder_runs_on_its_subspace(tmp_path, capsys):
+    import mett
+
+    path = tmp_path / "c.npz"
+    argv = ["simulate", *THESIS, "--theta0", "0.5", "--omega3", "0", "--t-end", "0.02",
+            "--model", "cylinder", "--out", path]  # fmt: skip
+    code, _, err = call(argv, capsys)
+    assert code == 0, err
+    want = mett.simulate(mett.presets.get("rutstam2013"), mett.State(theta=0.5, omega3=0.0),
+                         0.02, model="cylinder")  # fmt: skip
+    np.testing.assert_array_equal(mett.Trajectory.load(path).states, want.states)
+
+
+@pytest.mark.parametrize(
+    ("extra", "model", "law"),
+    [
+        ([], "stemmed", None),
+        (["--model", "stemmed", "--friction", "coulomb:0.3"], "stemmed", Coulomb(0.3)),
+        (["--model", "stemmed-coulomb", "--friction", "coulomb:0.3"], "stemmed-coulomb",
+         Coulomb(0.3)),
+        (["--model", "stemmed-coulomb-contensou", "--friction", "coulomb-contensou:0.3,5e-4"],
+         "stemmed-coulomb-contensou", Coulomb(0.3, contensou_radius=5e-4)),
+    ],
+)  # fmt: skip
+def test_a_stemmed_run_with_stem(tmp_path, capsys, extra, model, law):
+    import mett
+
+    ball = mett.presets.get("rutstam2013")
+    kw = {} if law is None else {"friction": law}
+    if model == "stemmed":  # the library's way: a StemmedTop
+        kw.update(top=ball.with_stem(0.005, 0.02))
+    else:
+        kw.update(model=model, stem_radius=0.005, stem_distance=0.02)
+    got, want = _cli_and_library(tmp_path, capsys, ["--stem", "0.005,0.02", *extra], **kw)
+    assert got.model == want.model and got.model.startswith("stemmed")
+    np.testing.assert_array_equal(got.states, want.states)
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--friction", "bogus:0.3"], "argument --friction: invalid value 'bogus:0.3'; give one of"),
+        (["--friction", "coulomb:0.3,1"], "coulomb-contensou:MU,CONTENSOU_RADIUS [1, m]"),
+        (["--friction", "regularised:0.3"], "regularised:MU,EPS [1, m/s]"),
+        (["--friction", "viscous:abc"], "viscous:MU [s/m]"),
+        (["--friction", "coulomb"], "invalid value 'coulomb'"),
+        (["--friction", "coulomb:-0.3"], "argument --friction: mu must lie in [0, inf)"),
+        (["--friction", "regularised:0.3,0"], "argument --friction: eps must lie in (0, inf)"),
+        (["--model", "coulomb"], "--model coulomb takes --friction coulomb:MU or "
+         "coulomb-contensou:MU,CONTENSOU_RADIUS: model 'coulomb' needs friction="
+         "mett.friction.Coulomb(mu); got None"),
+        (["--model", "coulomb-regularised", "--friction", "viscous:0.3"], "regularised:MU,EPS"),
+        (["--model", "rolling", "--friction", "coulomb:0.3"],
+         "--model rolling takes --friction viscous:MU (or no --friction)"),
+        (["--model", "stemmed"], "--model stemmed needs --stem RADIUS,DISTANCE"),
+        (["--model", "stemmed-coulomb", "--friction", "coulomb:0.3"], "needs --stem"),
+        (["--model", "gliding", "--stem", "0.005,0.02"], "--stem applies to --model stemmed, "),
+        (["--stem", "0.005"], "argument --stem: give RADIUS,DISTANCE"),
+        (["--stem", "0.005,-1"], "argument --stem: RADIUS,DISTANCE (m): must lie in (0, inf)"),
+        (["--stem", "0.005,0.001"], "distance must exceed |R - radius|"),
+        (["--friction", "coulomb:0.3", "--mu", "0.2"], "--mu is ignored with --friction"),
+    ],
+)  # fmt: skip
+def test_bad_friction_model_and_stem_forms_exit_2_with_one_line(extra, needle, capsys, monkeypatch):
+    import mett.dynamics
+
+    monkeypatch.setattr(mett.dynamics, "simulate", lambda *a, **k: pytest.fail("ran"))
+    assert_error(call([*SIM, *extra], capsys), needle)
+
+
+def test_every_registered_model_runs_or_is_refused_with_one_line(capsys, monkeypatch):
+    # without --friction and --stem: each model either starts its run or says what it needs
+    import mett.dynamics
+    from mett.dynamics import MODELS
+
+    ran = []
+    monkeypatch.setattr(mett.dynamics, "simulate", lambda *a, **k: ran.append(k) or 1 / 0)
+    for name in MODELS:
+        code, _, err = call([*SIM, "--model", name], capsys)
+        if ran and ran[-1].get("model") == name:
+            continue  # it ran (and the stand-in failed)
+        assert code == 2 and len(err.strip().splitlines()) == 1, (name, err)
+        assert f"--model {name} " in err and ("--friction" in err or "--stem" in err), err
+
+
+def test_sweep_with_a_fixed_law_is_the_library_s_sweep(tmp_path, capsys):
+    import mett
+
+    path = tmp_path / "s.csv"
+    code, _, err = call(["sweep", *THESIS, "--grid", "theta0=0.1:0.2:2", "--t-end", "0.02",
+                         "--friction", "coulomb:0.3", "--out", path], capsys)  # fmt: skip
+    assert code == 0, err
+    want = mett.sweep(mett.presets.get("rutstam2013"), {"theta0": np.linspace(0.1, 0.2, 2)},
+                      t_end=0.02, friction=Coulomb(0.3), progress=False)  # fmt: skip
+    np.testing.assert_array_equal(pd.read_csv(path)["theta_end"], want["theta_end"])
+    # a grid axis mu with a law that fixes mu: refused as the library refuses it
+    with pytest.raises(ValueError, match="fixes mu") as lib:
+        mett.sweep(mett.presets.get("rutstam2013"), {"mu": [0.1, 0.2]}, t_end=0.02,
+                   friction=Coulomb(0.3))  # fmt: skip
+    result = call([*SWEEP, "--friction", "coulomb:0.3", "--out", path], capsys)
+    assert_error(result, str(lib.value))
+
+
+def test_sweep_of_a_stemmed_top(tmp_path, capsys):
+    import mett
+
+    path = tmp_path / "s.csv"
+    code, _, err = call(["sweep", *THESIS, "--grid", "theta0=0.1:0.2:2", "--t-end", "0.02",
+                         "--stem", "0.005,0.02", "--out", path], capsys)  # fmt: skip
+    assert code == 0, err
+    want = mett.sweep(mett.presets.get("rutstam2013"), {"theta0": np.linspace(0.1, 0.2, 2)},
+                      t_end=0.02, model="stemmed", stem_radius=0.005, stem_distance=0.02,
+                      progress=False)  # fmt: skip
+    np.testing.assert_array_equal(pd.read_csv(path)["theta_end"], want["theta_end"])
+    assert_error(call([*SWEEP, "--model", "stemmed", "--out", path], capsys), "needs --stem")
