@@ -24,6 +24,7 @@ everything else stays strict. Empty the list as the fixes land.
 from __future__ import annotations
 
 import dataclasses
+import io
 import math
 import re
 import warnings
@@ -354,6 +355,11 @@ API: dict[str, tuple[Callable, st.SearchStrategy]] = {
     "State.psidot": (
         lambda s: s.psidot,
         _call(states().filter(lambda s: isinstance(s, mett.State))),
+    ),
+    # bug reports: printed into a buffer, or only returned
+    "show_versions": (
+        mett.show_versions,
+        _call(file=st.builds(io.StringIO), quiet=st.booleans()),
     ),
     # integrals of a state
     "energy": (mett.energy, _call(tops(), states())),
