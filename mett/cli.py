@@ -690,21 +690,28 @@ def _build_parser() -> argparse.ArgumentParser:
         "integrator: auto (the compiled DOP853), compiled, scipy, or taylor (Taylor series; "
         "sweeps run four points at a time on it, the fastest way through a grid)"
     )
+
+    def add_run_options(p: argparse.ArgumentParser) -> None:
+        """The options of a run that simulate and sweep share: model, law, stem, rtol, backend."""
+        p.add_argument("--model", default=None, choices=sorted(MODELS), help=model_help)
+        p.add_argument("--friction", type=_friction, default=None, metavar="LAW:ARGS",
+                       help=friction_help)  # fmt: skip
+        p.add_argument(
+            "--stem", type=_stem, default=None, metavar="RADIUS,DISTANCE", help=stem_help
+        )
+        p.add_argument(
+            "--rtol",
+            type=_rtol,
+            default=1e-10,
+            help="relative tolerance, in [100 machine epsilons, 1e-2]",
+        )
+        p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
+
     p = add("simulate", "simulate a top; print the inversion time and end state", _cmd_simulate)
     _add_top_arguments(p)
     _add_state_arguments(p, required=True)
     p.add_argument("--t-end", type=_positive, required=True, help="simulated time [s]")
-    p.add_argument("--model", default=None, choices=sorted(MODELS), help=model_help)
-    p.add_argument("--friction", type=_friction, default=None, metavar="LAW:ARGS",
-                   help=friction_help)  # fmt: skip
-    p.add_argument("--stem", type=_stem, default=None, metavar="RADIUS,DISTANCE", help=stem_help)
-    p.add_argument(
-        "--rtol",
-        type=_rtol,
-        default=1e-10,
-        help="relative tolerance, in [100 machine epsilons, 1e-2]",
-    )
-    p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
+    add_run_options(p)
     p.add_argument(
         "--out",
         default=None,
@@ -734,17 +741,7 @@ def _build_parser() -> argparse.ArgumentParser:
         "--omega3", type=_real, default=None,
         help="ω3(0) [rad/s] (default: 155; not with a lam_ratio grid, which sets it)",
     )  # fmt: skip
-    p.add_argument("--model", default=None, choices=sorted(MODELS), help=model_help)
-    p.add_argument("--friction", type=_friction, default=None, metavar="LAW:ARGS",
-                   help=friction_help)  # fmt: skip
-    p.add_argument("--stem", type=_stem, default=None, metavar="RADIUS,DISTANCE", help=stem_help)
-    p.add_argument(
-        "--rtol",
-        type=_rtol,
-        default=1e-10,
-        help="relative tolerance, in [100 machine epsilons, 1e-2]",
-    )
-    p.add_argument("--backend", default="auto", choices=BACKENDS, help=backend_help)
+    add_run_options(p)
     p.add_argument("--out", default="sweep.csv", help="output CSV")
     p.add_argument("--workers", type=_workers, default=1, help="processes on this machine")
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
