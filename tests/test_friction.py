@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+import stop_bounds
 
 import mett
 from mett.dynamics import gliding, stickslip
@@ -581,17 +582,7 @@ def test_stick_slip_runs_compiled_and_both_backends_agree(stick_slip_run):
     # same steps, but a rounding difference (another CPU's libm or BLAS) may send them down
     # other step sequences: they then differ by up to the sum of their errors.
     rtol = 1e-10
-    y0 = gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {}))
-    band = 10.0 * rtol * gliding.MODEL.scales(y0, gliding.MODEL.params(THESIS, {}))[2]
-    h = 1e-4  # s: short against the slip's deceleration time, long against δ/a
-    stop_shift, start = 0.0, 0.0
-    for s in tr.switches:
-        if s.reason == "stop":
-            slip = tr.at(np.array([s.t - 2.0 * h, s.t - h]))
-            speed = np.hypot(slip.nu_x, slip.nu_y)
-            steps = np.count_nonzero((tr.t > start) & (tr.t <= s.t))
-            stop_shift += (1.0 + steps / 10.0) * band / ((speed[0] - speed[1]) / h)
-        start = s.t
+    stop_shift = stop_bounds.stop_shift(tr)  # δ = tr.stopping_band
     fine = mett.simulate(THESIS, st, 0.8, friction=Coulomb(0.02), rtol=rtol / 100)
     assert [s.reason for s in fine.switches] == [s.reason for s in tr.switches]
     t_err = max(abs(a.t - b.t) for a, b in zip(tr.switches, fine.switches, strict=True))

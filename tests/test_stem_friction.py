@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+import stop_bounds
 from scipy.integrate import solve_ivp
 
 import mett
@@ -254,15 +255,7 @@ def test_compiled_equals_python(run):
     # inherit the shift; the integration error elsewhere is estimated by the run at rtol/100.
     fine = simulate(TOP, NEAR, 0.5, friction=LAW, rtol=1e-12)
     assert [s[1:4] for s in fine.switches] == [s[1:4] for s in run.switches]
-    h = 1e-4  # s: short against the deceleration time, long against δ/a
-    stop_shift, start = 0.0, 0.0
-    for sw in run.switches:
-        if sw.reason == "stop":
-            slip = run.at(np.array([sw.t - 2.0 * h, sw.t - h]))
-            speed = np.hypot(slip.nu_x, slip.nu_y)
-            steps = np.count_nonzero((run.t > start) & (run.t <= sw.t))
-            stop_shift += (1.0 + steps / 10.0) * run.stopping_band / ((speed[0] - speed[1]) / h)
-        start = sw.t
+    stop_shift = stop_bounds.stop_shift(run)
     t_err = max(abs(a.t - b.t) for a, b in zip(run.switches, fine.switches, strict=True))
     t_tol = 2.0 * (t_err + stop_shift)
     np.testing.assert_allclose([s.t for s in ref.switches], [s.t for s in run.switches],

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+import stop_bounds
 
 import mett
 from mett.dynamics import MODELS, simulate, taylor
@@ -286,10 +287,7 @@ def test_dry_friction_models_run_on_the_taylor_backend():
     fine = simulate(TOP, start, 0.8, friction=Coulomb(0.02), backend="compiled", rtol=1e-12)
     stop = b.switches[0]
     assert stop.reason == fine.switches[0].reason == "stop"
-    slip = b.at(np.array([stop.t - 2e-4, stop.t - 1e-4]))  # 0.1 ms apart: ≫ δ/a, ≪ v/a
-    speed = np.hypot(slip.nu_x, slip.nu_y)
-    steps = np.count_nonzero(b.t <= stop.t)
-    stop_shift = (1.0 + steps / 10.0) * b.stopping_band / ((speed[0] - speed[1]) / 1e-4)
+    stop_shift = stop_bounds.stop_shift(b, n=1)
     t_err = max(abs(x.t - y.t) for x, y in zip(b.switches[:2], fine.switches[:2], strict=True))
     t_tol = 2.0 * (t_err + stop_shift)
     np.testing.assert_allclose([s.t for s in a.switches[:2]], [s.t for s in b.switches[:2]],
