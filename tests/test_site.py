@@ -4,7 +4,7 @@
 synthetic site with one good page and one page per defect it must report (raw TeX, a TeX error,
 a request to another host, a broken image, a script error), so a checker that passes everything
 fails this test. The browser test needs Chromium, its driver and selenium (``sitecheck`` extra);
-it is marked slow and runs in ``.ci/run`` after the site check.
+it is marked slow; ``.ci/run`` runs this whole file after the site check.
 """
 
 from __future__ import annotations
