@@ -177,6 +177,8 @@ def check_page(drv, base: str, rel: str) -> list[str]:
 
 def check_site(site: Path, screenshots: Path | None = None, out=sys.stdout) -> int:
     """Check every page of the built ``site``; print a line per problem and a summary."""
+    from selenium.common.exceptions import TimeoutException
+
     urls = pages(site)
     if not urls:
         print(f"no HTML pages under {site}", file=out)
@@ -186,7 +188,10 @@ def check_site(site: Path, screenshots: Path | None = None, out=sys.stdout) -> i
     failed = n_formulas = n_images = 0
     try:
         for rel in urls:
-            problems = check_page(drv, base, rel)
+            try:
+                problems = check_page(drv, base, rel)
+            except TimeoutException:
+                problems = [f"not loaded and typeset within {PAGE_TIMEOUT:g} s"]
             stats = drv.execute_script(
                 "return [document.querySelectorAll('mjx-container').length, document.images.length]"
             )
