@@ -38,6 +38,7 @@ def _load(name):
         (r"$\Omega \le \pi$, $\sigma$, $\Sigma$", "Ω ≤ π, σ, Σ"),
         ("Reliability", "Reliability"),
         ("costs $5", "costs $5"),  # a lone dollar is not maths
+        ("from $5 to $6", "from $5 to $6"),
     ],
 )
 def test_page_titles_without_tex(tex, text):

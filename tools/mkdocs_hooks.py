@@ -35,7 +35,8 @@ _NBCONVERT_MATHJAX = re.compile(
 
 
 _TITLE = re.compile(r"<title>(.*?)</title>", re.DOTALL)
-_MATH = re.compile(r"\$\$(.+?)\$\$|\$(.+?)\$|\\\((.+?)\\\)|\\\[(.+?)\\\]", re.DOTALL)
+# TeX's $...$ opens and closes next to a non-space: "costs $5 and $6" holds no maths
+_MATH = re.compile(r"\$\$(.+?)\$\$|\$(?=\S)(.+?)(?<=\S)\$|\\\((.+?)\\\)|\\\[(.+?)\\\]", re.DOTALL)
 _GREEK = (
     "alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron pi rho "
     "sigma tau upsilon phi chi psi omega"
