@@ -14,9 +14,11 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
+
+_T = TypeVar("_T")
 
 __all__ = [
     "AccuracyWarning",
@@ -88,13 +90,13 @@ def warn(message: str, category: type[MettWarning] = MettWarning) -> None:
     warnings.warn(message, category, stacklevel=level)
 
 
-def instance(name: str, value: Any, cls_name: str) -> Any:
-    """``TypeError`` unless ``value`` is a mett ``cls_name`` (e.g. "TippeTop", "State", "Trajectory")."""
-    import mett
+def instance(name: str, value: _T, cls: type[_T]) -> _T:
+    """``TypeError`` unless ``value`` is an instance of ``cls`` (e.g. :class:`mett.TippeTop`).
 
-    cls = getattr(mett, cls_name)
+    The caller passes the class itself: this bottom floor imports nothing of mett.
+    """
     if not isinstance(value, cls):
-        raise TypeError(f"{name} must be a {cls_name}; got {_type_name(value)}")
+        raise TypeError(f"{name} must be a {cls.__name__}; got {_type_name(value)}")
     return value
 
 

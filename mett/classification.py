@@ -64,12 +64,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate
+from .top import TippeTop
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from .thresholds import AsymptoticState, TumblingState
-    from .top import TippeTop
 
 __all__ = [
     "CLASSIFY_MAX",
@@ -209,7 +209,7 @@ def subgroup(top: TippeTop) -> str:
 
     All presets shipped with mett are IIa (e.g. the thesis body, α = 0.3, γ = 0.936).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     return str(classify(top.alpha, top.gamma))
 
 
@@ -508,7 +508,7 @@ def tumbling_eigenvalues(top: TippeTop, theta: float) -> np.ndarray:
     ValueError
         If ``theta`` is not inside (0, π) or the family does not exist there.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     from scipy.linalg import null_space
 
     th = float(_validate.theta(theta))

@@ -20,10 +20,10 @@ import numpy as np
 
 from . import _validate
 from .thresholds import pole_spins
+from .top import TippeTop
 
 if TYPE_CHECKING:
     from .state import State
-    from .top import TippeTop
 
 __all__ = ["EscapeEstimate", "escape_time", "spin_eigenvalues", "spin_jacobian"]
 
@@ -53,7 +53,7 @@ def spin_jacobian(top: TippeTop, lam: float, pole: str = "inverted") -> np.ndarr
     """
     from .dynamics.gliding import gliding_rhs
 
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     lam = _validate.positive_jellett(lam)
     y0 = _spin_state(top, lam, pole)
     p = _params(top)

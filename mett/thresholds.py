@@ -8,15 +8,13 @@ derived in docs/theory/thresholds.md#thresholds.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate
-
-if TYPE_CHECKING:
-    from .top import TippeTop
+from .top import TippeTop
 
 __all__ = [
     "AsymptoticState",
@@ -46,7 +44,7 @@ def lambda_thres(top: TippeTop) -> float:
     The inverted spin (θ = π) of the gliding top is asymptotically stable iff λ > λ_thres. For
     γ >= 1 + α (group III) it is never stable and ``inf`` is returned.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     den = 1.0 + top.alpha - top.gamma
     if den <= 0.0:
         return math.inf
@@ -59,7 +57,7 @@ def lambda_0(top: TippeTop) -> float:
     The non-inverted spin (θ = 0) is unstable iff λ > λ_0. For γ <= 1 − α (group I) it is stable for
     every λ and ``inf`` is returned (docs/theory/thresholds.md#thresholds).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     den = top.alpha + top.gamma - 1.0
     if den <= 0.0:
         return math.inf
@@ -68,7 +66,7 @@ def lambda_0(top: TippeTop) -> float:
 
 def lambda_E(top: TippeTop) -> float:
     """λ_E = √(m g R³ I3) (1 − α²): the inverted spin has less energy (E1 < E0) iff λ > λ_E (§6)."""
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     return math.sqrt(top.m * top.g * top.R**3 * top.I3) * (1.0 - top.alpha**2)
 
 
@@ -77,7 +75,7 @@ def lambda_roll(top: TippeTop) -> float:
 
     λ_roll = 2√(m g R³ I3 α)(1 + α)√(γ + σ(1+α)²)/(1 + σ(1 + α)); λ_roll <= λ_thres always.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     a, gam, sig = top.alpha, top.gamma, top.sigma
     return (
         2.0 * _scale(top) * (1.0 + a) * math.sqrt(gam + sig * (1 + a) ** 2) / (1.0 + sig * (1 + a))
@@ -108,7 +106,7 @@ def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
     λ = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (docs/theory/model.md#conventions) at sin θ = 0. The one place of these
     formulas; plain arithmetic, so ``lam`` may be a float or an array (only ``top`` is checked).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     R, I3, a = top.R, top.I3, top.alpha
     return lam / (R * I3 * (1.0 - a)), -lam / (R * I3 * (1.0 + a))
 
@@ -119,7 +117,7 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     ``D0 = λ√d(1)/(R(1 − α))``, ``E0 = λ²/(2 I3 R²(1 − α)²) + m g R(1 − α)``,
     ``D1 = −λ√d(−1)/(R(1 + α))``, ``E1 = λ²/(2 I3 R²(1 + α)²) + m g R(1 + α)``.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     from .potential import d
 
     lam = _validate.as_finite_array("lam", lam)
@@ -168,7 +166,7 @@ def tumbling_lambda(top: TippeTop, theta: ArrayLike) -> np.ndarray:
 
     NaN where the family does not exist (α − (1 − γ) cos θ_t <= 0: beyond θ_f for groups I, III).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     th = _validate.theta(theta)
     c, s = np.cos(th), np.sin(th)
     den = top.alpha - (1.0 - top.gamma) * c
@@ -195,7 +193,7 @@ def tumbling_domain(top: TippeTop) -> tuple[float, float]:
     (lo, hi) : tuple of float
         Ends of the interval (rad); the family is a limit at both.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     a, gam = top.alpha, top.gamma
     if gam == 1.0 or abs(a / (1.0 - gam)) >= 1.0:
         return 0.0, math.pi
@@ -218,7 +216,7 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
     ValueError
         If ``lam`` is not a positive finite number.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     from scipy import optimize
 
     lam = _validate.positive_jellett(lam)
@@ -286,7 +284,7 @@ def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
         If ``lam`` is not a positive finite number, or so large that the end state's spin ω3
         overflows.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     lam = _validate.positive_jellett(lam)
     from .classification import stable_states
 
@@ -318,7 +316,7 @@ def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -
         If θ0 is outside [0, arccos α) (there the spin must point the other way, or λ does not
         depend on it), or on bad input.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     th = float(_validate.theta(theta0, "theta0"))
     phidot0 = _validate.finite_scalar("phidot0", phidot0)
     c = math.cos(th)
