@@ -14,15 +14,13 @@ In the horizontal frame (x̂, ŷ, ẑ) of docs/theory/model.md#conventions, ω �
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .potential import d_of
-
-if TYPE_CHECKING:
-    from .state import State
-    from .top import TippeTop
+from .state import State
+from .top import TippeTop
 
 __all__ = [
     "energy",
@@ -158,9 +156,6 @@ def _arrays(top: TippeTop, state: State) -> _Fields:
 
 
 def _check_types(top: TippeTop, state: State) -> None:
-    from .state import State
-    from .top import TippeTop
-
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
     if not isinstance(state, State):

@@ -13,14 +13,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _formulas as fm
 from . import _validate
 from .top import TippeTop
 
 __all__ = [
-    "AsymptoticState",
     "BoundaryValues",
     "TumblingState",
-    "asymptotic_state",
     "boundary_values",
     "lambda_0",
     "lambda_E",
@@ -34,10 +33,6 @@ __all__ = [
 ]
 
 
-def _scale(top: TippeTop) -> float:
-    return math.sqrt(top.m * top.g * top.R**3 * top.I3 * top.alpha)
-
-
 def lambda_thres(top: TippeTop) -> float:
     """λ_thres = √(m g R³ I3 α) (1 + α)² / √(1 + α − γ) (RR14 abstract; docs/theory/thresholds.md#thresholds).
 
@@ -45,10 +40,7 @@ def lambda_thres(top: TippeTop) -> float:
     γ >= 1 + α (group III) it is never stable and ``inf`` is returned.
     """
     _validate.instance("top", top, TippeTop)
-    den = 1.0 + top.alpha - top.gamma
-    if den <= 0.0:
-        return math.inf
-    return _scale(top) * (1.0 + top.alpha) ** 2 / math.sqrt(den)
+    return fm.lambda_thres(top)
 
 
 def lambda_0(top: TippeTop) -> float:
@@ -58,10 +50,7 @@ def lambda_0(top: TippeTop) -> float:
     every λ and ``inf`` is returned (docs/theory/thresholds.md#thresholds).
     """
     _validate.instance("top", top, TippeTop)
-    den = top.alpha + top.gamma - 1.0
-    if den <= 0.0:
-        return math.inf
-    return _scale(top) * (1.0 - top.alpha) ** 2 / math.sqrt(den)
+    return fm.lambda_0(top)
 
 
 def lambda_E(top: TippeTop) -> float:
@@ -78,7 +67,11 @@ def lambda_roll(top: TippeTop) -> float:
     _validate.instance("top", top, TippeTop)
     a, gam, sig = top.alpha, top.gamma, top.sigma
     return (
-        2.0 * _scale(top) * (1.0 + a) * math.sqrt(gam + sig * (1 + a) ** 2) / (1.0 + sig * (1 + a))
+        2.0
+        * fm.jellett_scale(top)
+        * (1.0 + a)
+        * math.sqrt(gam + sig * (1 + a) ** 2)
+        / (1.0 + sig * (1 + a))
     )
 
 
@@ -147,7 +140,7 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     return out
 
 
-# --- tumbling family and end states ----------------------------------------------------------
+# --- the tumbling family ----------------------------------------------------------
 
 
 class TumblingState(NamedTuple):
@@ -244,62 +237,6 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
             )
             return TumblingState(float(th), phidot, phidot * (math.cos(th) - top.alpha))
     return None
-
-
-class AsymptoticState(NamedTuple):
-    """Predicted end state of a gliding top with a given Jellett integral (docs/theory/thresholds.md#thresholds).
-
-    When two steady states are stable for that λ (the classes Ia, Ib, IIb, IIc of
-    :mod:`mett.classification`), ``kind`` is "bistable", ``theta`` and ``omega3`` are NaN (no single
-    answer) and ``candidates`` lists both; a top started close enough to θ = 0 then stays upright
-    whenever "upright" is among them.
-    """
-
-    kind: str
-    """"upright", "tumbling", "inverted" or "bistable"."""
-    theta: float
-    """θ∞ (rad): 0, θ_t(λ) or π; NaN if bistable."""
-    omega3: float
-    """ω3∞ (rad/s) from the Jellett integral: λ/(R I3 (1 − α)), the tumbling ω3, or −λ/(R I3 (1 + α));
-    NaN if bistable."""
-    candidates: tuple[AsymptoticState, ...] = ()
-    """Every stable steady state with this λ, by increasing θ (one entry, equal to this state, unless
-    bistable)."""
-
-
-def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
-    """End state of a gliding top with Jellett integral ``lam`` > 0, for every λ.
-
-    The candidates are the asymptotically stable steady states with this λ
-    (:func:`mett.classification.stable_states`): the upright spin for λ <= λ_0, the inverted spin
-    for λ >= λ_thres, and the tumbling states θ_t(λ) on a rising part of the tumbling family. For
-    the classic tops (class IIa, e.g. the thesis body) exactly one exists: upright up to λ_0,
-    tumbling between λ_0 and λ_thres, inverted above (docs/theory/thresholds.md#thresholds; Ueda–Sasaki–Watanabe's groups).
-    Where two exist the answer is kind "bistable" with both in ``candidates`` instead of a guess:
-    the end state then depends on the initial state, not on λ alone.
-
-    Raises
-    ------
-    ValueError
-        If ``lam`` is not a positive finite number, or so large that the end state's spin ω3
-        overflows.
-    """
-    _validate.instance("top", top, TippeTop)
-    lam = _validate.positive_jellett(lam)
-    from .classification import stable_states
-
-    with np.errstate(over="ignore"):  # a spin ω3 ∝ λ beyond the float range: checked here
-        found = stable_states(top, lam)
-    if not all(math.isfinite(st.omega3) for st in found):
-        lam_max = float(np.finfo(float).max) * top.R * top.I3 * (1.0 - top.alpha)
-        raise ValueError(
-            f"lam must be at most {lam_max:.3g} kg m^3/s for this top (beyond it the end state's "
-            f"spin omega3 overflows); got {lam!r}"
-        )
-    if len(found) == 1:
-        st = found[0]
-        return st._replace(candidates=(st,))
-    return AsymptoticState("bistable", math.nan, math.nan, tuple(found))
 
 
 def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -> float:
