@@ -14,6 +14,7 @@ import os
 import sys
 import warnings
 from pathlib import Path
+from types import FrameType
 from typing import Any, TypeVar
 
 import numpy as np
@@ -83,7 +84,8 @@ def warn(message: str, category: type[MettWarning] = MettWarning) -> None:
     """
     if not (isinstance(category, type) and issubclass(category, MettWarning)):
         raise TypeError(f"category must be a MettWarning subclass; got {category!r}")
-    level, frame = 2, sys._getframe(1)
+    level = 2
+    frame: FrameType | None = sys._getframe(1)
     while frame is not None and frame.f_globals.get("__name__", "").split(".")[0] in _INTERNAL:
         frame = frame.f_back
         level += 1
@@ -227,7 +229,7 @@ def real_array(name: str, value: Any) -> np.ndarray:
         raise ValueError(f"{name} must be a rectangular array of real numbers") from None
     kind = raw.dtype.kind
     if kind in "USbcVMm" or (kind == "O" and any(_is_non_real(v) for v in raw.ravel())):
-        bad = raw.ravel()
+        bad: Any = raw.ravel()
         if kind == "O":
             bad = [v for v in bad if _is_non_real(v)]
         example = bad[0] if len(bad) else raw

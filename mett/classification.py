@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -445,7 +445,7 @@ def bistable_range(top: TippeTop) -> tuple[float, float] | None:
         return None
     if cls in ("Ia", "IIc"):
         return (top.lambda_thres, top.lambda_0)
-    return (fold_lambda(top), top.lambda_0)
+    return (cast(float, fold_lambda(top)), top.lambda_0)  # Ib, IIb: the family has a fold
 
 
 # --- the figure ---------------------------------------------------------------------------------

@@ -151,7 +151,7 @@ class StemmedTop:
         th = _validate.theta(theta)
         return self.ball.R + self.distance * np.cos(th) - self.radius
 
-    def contact(self, theta: ArrayLike) -> np.ndarray:
+    def contact(self, theta: ArrayLike) -> np.ndarray | str:
         """Which sphere is the lower one at inclination θ: "ball" for θ <= θ_touch, else "stem"."""
         th = _validate.theta(theta)
         out = np.where(self.stem_clearance(th) >= 0.0, "ball", "stem")

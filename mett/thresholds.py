@@ -8,7 +8,7 @@ derived in docs/theory/thresholds.md#thresholds.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -92,7 +92,11 @@ class BoundaryValues(NamedTuple):
     """Spin ω3 = −λ/(R I3 (1 + α)) at θ = π."""
 
 
-def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
+@overload
+def pole_spins(top: TippeTop, lam: float) -> tuple[float, float]: ...
+@overload
+def pole_spins(top: TippeTop, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+def pole_spins(top: TippeTop, lam: float | np.ndarray) -> tuple[Any, Any]:
     """Spins ω3 (rad/s) of the steady spinning solutions at the poles with Jellett integral λ.
 
     ω3 = λ/(R I3 (1 − α)) upright (θ = 0) and ω3 = −λ/(R I3 (1 + α)) inverted (θ = π): Jellett's
