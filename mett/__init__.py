@@ -5,6 +5,7 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, friction, presets
+from . import stem as stem  # registers the class TippeTop.with_stem builds (top.register_stemmed)
 from ._validate import AccuracyWarning, MettDeprecationWarning, MettWarning, PhysicalityWarning
 from ._version import __version__ as __version__
 from ._versions import show_versions

@@ -145,6 +145,12 @@ def test_the_ground_floor_imports_nothing_above_it():
     assert edges["mett.top"] <= {"mett._validate", "mett._formulas"}
 
 
+def test_with_stem_builds_the_stem_module_class_without_importing_it():
+    top = mett.presets.get("rutstam2013")
+    assert type(top.with_stem(radius=0.005, distance=0.02)) is mett.stem.StemmedTop
+    assert "mett.stem" not in import_graph(_package_sources(ROOT))["mett.top"]
+
+
 def _probe(**modules: str) -> dict[str, tuple[bool, str]]:
     return {f"pkg.{m}": (False, text) for m, text in modules.items()} | {"pkg": (True, "")}
 
