@@ -5,11 +5,12 @@ numpy and scipy (numba for the compiled integrator, loaded on first use).
 """
 
 from . import analysis, friction, presets
+from . import stem as stem  # registers the class TippeTop.with_stem builds (top.register_stemmed)
 from ._validate import AccuracyWarning, MettDeprecationWarning, MettWarning, PhysicalityWarning
 from ._version import __version__ as __version__
 from ._versions import show_versions
 from .asymptotics import HighSpin, high_spin
-from .classification import subgroup, tumbling_eigenvalues
+from .classification import AsymptoticState, asymptotic_state, subgroup
 from .dynamics import Trajectory, simulate
 from .estimates import period_estimates, potential_minimum
 from .integrals import energy, jellett, modified_energy, routh
@@ -23,16 +24,9 @@ from .separation import (
     nutation_period,
     turning_points,
 )
-from .stability import escape_time, spin_eigenvalues
+from .stability import escape_time, spin_eigenvalues, tumbling_eigenvalues
 from .state import State
-from .thresholds import (
-    AsymptoticState,
-    TumblingState,
-    asymptotic_state,
-    boundary_values,
-    min_spin_for_inversion,
-    tumbling_state,
-)
+from .thresholds import TumblingState, boundary_values, min_spin_for_inversion, tumbling_state
 from .top import TippeTop
 
 _LAZY_MODULES = ("plotting", "gallery", "symbolic", "sweeps", "cli")

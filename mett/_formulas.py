@@ -1,12 +1,16 @@
-"""The formulas of the METT that :mod:`mett.potential` and :mod:`mett.separation` share, unvalidated.
+"""The closed forms that several floors of mett share, unvalidated.
 
-One place per formula (docs/theory/mett.md#the-main-equation): the public functions of
-:mod:`mett.potential` validate their arguments and call these; the separation layer calls them in
-its inner loops on arguments it has already checked. Plain arithmetic on floats or arrays.
+One place per formula (docs/theory/mett.md#the-main-equation, docs/theory/thresholds.md#thresholds):
+the public functions of :mod:`mett.potential`, :mod:`mett.thresholds` and
+:mod:`mett.classification` validate their arguments and call these; the separation layer calls them
+in its inner loops on arguments it has already checked, and :class:`mett.TippeTop`'s derived
+properties (``lambda_thres``, ``lambda_0``, ``subgroup``) call them on its own validated fields, so
+the ground floor needs none of the analyses built on it. Plain arithmetic on floats or arrays.
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -89,3 +93,62 @@ def check_integrals(top: TippeTop, **values: np.ndarray) -> None:
                 f"integrals of a spin up to {INTEGRAL_MAX:g} sqrt(g/R)); "
                 f"got {np.asarray(value)[big].ravel()[0].item()!r}"
             )
+
+
+# --- thresholds and classes (docs/theory/thresholds.md#thresholds) ---------------------------------
+
+
+def jellett_scale(top: TippeTop) -> float:
+    """√(m g R³ I3 α) (kg m³/s), the unit of the thresholds λ_thres, λ_0, λ_roll."""
+    return math.sqrt(top.m * top.g * top.R**3 * top.I3 * top.alpha)
+
+
+def lambda_thres(top: TippeTop) -> float:
+    """λ_thres = √(m g R³ I3 α) (1 + α)²/√(1 + α − γ); ``inf`` for γ >= 1 + α (Rauch-Wojciechowski
+    & Rutstam 2014, abstract)."""
+    den = 1.0 + top.alpha - top.gamma
+    if den <= 0.0:
+        return math.inf
+    return jellett_scale(top) * (1.0 + top.alpha) ** 2 / math.sqrt(den)
+
+
+def lambda_0(top: TippeTop) -> float:
+    """λ_0 = √(m g R³ I3 α) (1 − α)²/√(α + γ − 1); ``inf`` for γ <= 1 − α."""
+    den = top.alpha + top.gamma - 1.0
+    if den <= 0.0:
+        return math.inf
+    return jellett_scale(top) * (1.0 - top.alpha) ** 2 / math.sqrt(den)
+
+
+def fold_indicator(alpha, gamma, z):
+    """S(z) = u [γ (1 − z²) + (z − α)²] − 4 (α − u z)², u = 1 − γ: sign(S) = −sign(dλ/dθ_t) on the
+    tumbling family (:mod:`mett.classification`)."""
+    u = 1.0 - np.asarray(gamma, dtype=float)
+    a = np.asarray(alpha, dtype=float)
+    z = np.asarray(z, dtype=float)
+    q = (1.0 - u) * (1.0 - z * z) + (z - a) ** 2
+    return u * q - 4.0 * (a - u * z) ** 2
+
+
+def classes(a: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Class ("Ia" … "III", a str array) of tops with eccentricity ``a`` and γ = ``g``, float arrays
+    of one shape (the table of :mod:`mett.classification`)."""
+    s_up, s_inv = fold_indicator(a, g, 1.0), fold_indicator(a, g, -1.0)
+    out = np.where(
+        g <= 1.0 - a,
+        np.where(s_inv >= 0.0, "Ia", "Ib"),
+        np.where(
+            g >= 1.0 + a,
+            "III",
+            np.where(s_up <= 0.0, "IIa", np.where(s_inv >= 0.0, "IIc", "IIb")),
+        ),
+    )
+    return out.astype("<U3")
+
+
+def subgroup(top: TippeTop) -> str:
+    """Class of ``top`` (:func:`classes` at its α and γ)."""
+    a, g = np.broadcast_arrays(
+        np.asarray(top.alpha, dtype=float), np.asarray(top.gamma, dtype=float)
+    )
+    return str(classes(a, g))

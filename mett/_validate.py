@@ -14,9 +14,12 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any
+from types import FrameType
+from typing import Any, TypeVar
 
 import numpy as np
+
+_T = TypeVar("_T")
 
 __all__ = [
     "AccuracyWarning",
@@ -81,20 +84,21 @@ def warn(message: str, category: type[MettWarning] = MettWarning) -> None:
     """
     if not (isinstance(category, type) and issubclass(category, MettWarning)):
         raise TypeError(f"category must be a MettWarning subclass; got {category!r}")
-    level, frame = 2, sys._getframe(1)
+    level = 2
+    frame: FrameType | None = sys._getframe(1)
     while frame is not None and frame.f_globals.get("__name__", "").split(".")[0] in _INTERNAL:
         frame = frame.f_back
         level += 1
     warnings.warn(message, category, stacklevel=level)
 
 
-def instance(name: str, value: Any, cls_name: str) -> Any:
-    """``TypeError`` unless ``value`` is a mett ``cls_name`` (e.g. "TippeTop", "State", "Trajectory")."""
-    import mett
+def instance(name: str, value: _T, cls: type[_T]) -> _T:
+    """``TypeError`` unless ``value`` is an instance of ``cls`` (e.g. :class:`mett.TippeTop`).
 
-    cls = getattr(mett, cls_name)
+    The caller passes the class itself: this bottom floor imports nothing of mett.
+    """
     if not isinstance(value, cls):
-        raise TypeError(f"{name} must be a {cls_name}; got {_type_name(value)}")
+        raise TypeError(f"{name} must be a {cls.__name__}; got {_type_name(value)}")
     return value
 
 
@@ -225,7 +229,7 @@ def real_array(name: str, value: Any) -> np.ndarray:
         raise ValueError(f"{name} must be a rectangular array of real numbers") from None
     kind = raw.dtype.kind
     if kind in "USbcVMm" or (kind == "O" and any(_is_non_real(v) for v in raw.ravel())):
-        bad = raw.ravel()
+        bad: Any = raw.ravel()
         if kind == "O":
             bad = [v for v in bad if _is_non_real(v)]
         example = bad[0] if len(bad) else raw

@@ -14,15 +14,13 @@ and shorter at the end (0.076 s against 0.092 s); :func:`period_comparison` sets
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate, estimates, potential, separation
-
-if TYPE_CHECKING:
-    from .dynamics import Trajectory
+from .dynamics import Trajectory
 
 __all__ = [
     "MAX_SUBDIVISION",
@@ -43,7 +41,7 @@ def mett_residual(traj: Trajectory, *, relative: bool = True) -> np.ndarray:
     Relative to Ẽ(t) by default. ~1e-13 for the thesis run; feeding E instead of Ẽ would give up to
     ~1e-1 (docs/theory/notes.md#energy-vs-modified-energy).
     """
-    _validate.instance("traj", traj, "Trajectory")
+    _validate.instance("traj", traj, Trajectory)
     z = np.cos(traj.theta)
     rhs = potential.g(traj.top, z) * traj.thetadot**2 + potential.V(traj.top, z, traj.D, traj.lam)
     res = traj.E_mod - rhs
@@ -72,7 +70,7 @@ def deforming_potential(
         If ``times`` or ``z`` have more than one dimension, or ``z`` leaves [−1, 1] (a scalar is a
         grid of one point).
     """
-    _validate.instance("traj", traj, "Trajectory")
+    _validate.instance("traj", traj, Trajectory)
     times = np.atleast_1d(_validate.as_finite_array("times", times))
     if z is None:
         z = np.linspace(-0.9995, 0.9995, 801)
@@ -99,7 +97,7 @@ def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarra
     Default: 200 times spread over the run. Moves from near 1 to near −1 during an inversion
     (RR14 §3; docs/theory/estimates.md#estimates).
     """
-    _validate.instance("traj", traj, "Trajectory")
+    _validate.instance("traj", traj, Trajectory)
     if times is None:
         times = np.linspace(traj.t[0], traj.t[-1], 200)
     else:
@@ -179,7 +177,7 @@ def theta_extrema(traj: Trajectory, *, subdivision: int = 4) -> TurningPoints:
     ValueError
         If ``subdivision`` is outside [1, 10 000].
     """
-    _validate.instance("traj", traj, "Trajectory")
+    _validate.instance("traj", traj, Trajectory)
     subdivision = _validate.positive_int("subdivision", subdivision)
     if subdivision > MAX_SUBDIVISION:
         raise ValueError(

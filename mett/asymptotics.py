@@ -27,20 +27,19 @@ an :class:`AsymptoticWarning` with the relative error of each quantity when the 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from . import _validate
 from .potential import d
+from .top import TippeTop
 
 WARN_ABOVE = 0.1
 _EPS = float(np.finfo(float).eps)
 """Relative error of the leading order (largest of width, depth, frequency, precession) above which
 :func:`high_spin` warns."""
 
-if TYPE_CHECKING:
-    from .top import TippeTop
 
 __all__ = ["WARN_ABOVE", "AsymptoticWarning", "HighSpin", "high_spin"]
 
@@ -99,7 +98,7 @@ def high_spin(
         If θ0 is a pole or outside [0, π], ω3 = 0, an input is not finite, or |ω3| is so small
         (or φ̇0 so large) that the expansion leaves double precision.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     th = float(_validate.theta(theta0, "theta0"))
     if th in (0.0, math.pi):
         raise ValueError(f"theta0 must lie in the open interval (0, pi); got {th!r}")

@@ -16,7 +16,7 @@ points the two spins. A tumbling state is a minimum of U_λ iff λ(θ_t) increas
 
     S(z) = u [γ (1 − z²) + (z − α)²] − 4 w²:   stable iff S < 0.
 
-The same answer comes from linearising the equations of motion: :func:`tumbling_eigenvalues`
+The same answer comes from linearising the equations of motion: :func:`mett.stability.tumbling_eigenvalues`
 linearises the vector form in the frame that precesses with the state and reduces it by the symmetry
 and the two integrals (|3̂| and λ), leaving five eigenvalues whose largest real part changes sign
 exactly where λ'(θ_t) does (checked in ``tests/test_classification.py`` against an independent
@@ -58,25 +58,27 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _formulas as fm
 from . import _validate
+from .thresholds import TumblingState, tumbling_domain, tumbling_lambda
+from .top import TippeTop
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-
-    from .thresholds import AsymptoticState, TumblingState
-    from .top import TippeTop
 
 __all__ = [
     "CLASSIFY_MAX",
     "SAMPLE_POINTS",
     "SUBGROUPS",
+    "AsymptoticState",
     "SubgroupBoundaries",
     "amended_potential",
+    "asymptotic_state",
     "bistable_range",
     "classify",
     "fold_lambda",
@@ -84,7 +86,6 @@ __all__ = [
     "stable_states",
     "subgroup",
     "subgroup_boundaries",
-    "tumbling_eigenvalues",
     "tumbling_is_stable",
     "tumbling_states",
 ]
@@ -134,15 +135,6 @@ def amended_potential(top: TippeTop, lam: float, theta: ArrayLike) -> np.ndarray
     return kinetic + top.m * top.g * top.R * (1.0 - top.alpha * c)
 
 
-def _S(alpha: ArrayLike, gamma: ArrayLike, z: ArrayLike) -> np.ndarray:
-    """Fold indicator: sign(S) = −sign(dλ/dθ_t) on the tumbling family (module docstring)."""
-    u = 1.0 - np.asarray(gamma, dtype=float)
-    a = np.asarray(alpha, dtype=float)
-    z = np.asarray(z, dtype=float)
-    q = (1.0 - u) * (1.0 - z * z) + (z - a) ** 2
-    return u * q - 4.0 * (a - u * z) ** 2
-
-
 def tumbling_is_stable(top: TippeTop, theta: ArrayLike) -> np.ndarray:
     """Whether the tumbling state at θ_t = ``theta`` is asymptotically stable (bool array).
 
@@ -152,7 +144,7 @@ def tumbling_is_stable(top: TippeTop, theta: ArrayLike) -> np.ndarray:
     th = _validate.theta(theta)
     z = np.cos(th)
     exists = top.alpha - (1.0 - top.gamma) * z > 0.0
-    return exists & (_S(top.alpha, top.gamma, z) < 0.0)
+    return exists & (fm.fold_indicator(top.alpha, top.gamma, z) < 0.0)
 
 
 # --- classes in the (α, γ) plane ------------------------------------------------------------
@@ -187,17 +179,7 @@ def classify(alpha: ArrayLike, gamma: ArrayLike) -> np.ndarray:
     if np.any((g <= 0.0) | (g > CLASSIFY_MAX)):
         raise ValueError(f"gamma must lie in (0, {CLASSIFY_MAX:g}]; got {_span(g)}")
     a, g = np.broadcast_arrays(a, g)
-    s_up, s_inv = _S(a, g, 1.0), _S(a, g, -1.0)
-    out = np.where(
-        g <= 1.0 - a,
-        np.where(s_inv >= 0.0, "Ia", "Ib"),
-        np.where(
-            g >= 1.0 + a,
-            "III",
-            np.where(s_up <= 0.0, "IIa", np.where(s_inv >= 0.0, "IIc", "IIb")),
-        ),
-    )
-    return out.astype("<U3")
+    return fm.classes(a, g)
 
 
 def subgroup(top: TippeTop) -> str:
@@ -209,7 +191,7 @@ def subgroup(top: TippeTop) -> str:
 
     All presets shipped with mett are IIa (e.g. the thesis body, α = 0.3, γ = 0.936).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     return str(classify(top.alpha, top.gamma))
 
 
@@ -257,8 +239,6 @@ def subgroup_boundaries(alpha: ArrayLike) -> SubgroupBoundaries:
 
 
 def _domain(top: TippeTop) -> tuple[float, float]:
-    from .thresholds import tumbling_domain
-
     return tumbling_domain(top)
 
 
@@ -281,28 +261,14 @@ def _fold_theta(top: TippeTop) -> float | None:
 
 def fold_lambda(top: TippeTop) -> float | None:
     """λ_min (kg m² s⁻¹) at the fold of the tumbling family (classes Ib, IIb), or None if monotone."""
-    from .thresholds import tumbling_lambda
-
     th = _fold_theta(top)
     return None if th is None else float(tumbling_lambda(top, th))
-
-
-def _state_at(top: TippeTop, th: float) -> TumblingState:
-    from .thresholds import TumblingState
-
-    a = top.alpha
-    phidot = math.sqrt(
-        top.m * top.g * top.R * a / (top.I3 * (a - (1.0 - top.gamma) * math.cos(th)))
-    )
-    return TumblingState(float(th), phidot, phidot * (math.cos(th) - a))
 
 
 def _state_from_lambda(top: TippeTop, th: float, lam: float) -> TumblingState:
     """The tumbling state at θ_t = ``th`` with its precession from λ = R φ̇ [I1 sin²θ + I3 (cos θ − α)²],
     so that its Jellett integral is ``lam`` to rounding even where λ(θ_t) is steep (near θ_f the
     closed form of φ̇ at the rounded θ_t is off by λ'(θ_t)·ulp(θ_t))."""
-    from .thresholds import TumblingState
-
     c, s = math.cos(th), math.sin(th)
     phidot = lam / (top.R * (top.I1 * s * s + top.I3 * (c - top.alpha) ** 2))
     return TumblingState(float(th), phidot, phidot * (c - top.alpha))
@@ -326,8 +292,6 @@ def tumbling_states(top: TippeTop, lam: float) -> list[TumblingState]:
 def _tumbling_roots(top: TippeTop, lam: float) -> tuple[list[TumblingState], list[float]]:
     """(:func:`tumbling_states`, the poles 0 or π where a root was taken for the spin itself)."""
     from scipy import optimize
-
-    from .thresholds import tumbling_lambda
 
     lam = _validate.positive_jellett(lam)
     lo, hi = _domain(top)
@@ -393,8 +357,6 @@ def stable_states(top: TippeTop, lam: float) -> list[AsymptoticState]:
     within ~1e-8 rad of the pole, the answer is that pole's spin, the limit of the branch, rather
     than no state at all.
     """
-    from .thresholds import AsymptoticState
-
     lam = _validate.positive_jellett(lam)
     R, I3, a = top.R, top.I3, top.alpha
     tumbling, at_poles = _tumbling_roots(top, lam)
@@ -417,6 +379,60 @@ def _off_pole(pole: float) -> float:
     return 1e-6 if pole == 0.0 else math.pi - 1e-6
 
 
+class AsymptoticState(NamedTuple):
+    """Predicted end state of a gliding top with a given Jellett integral (docs/theory/thresholds.md#thresholds).
+
+    When two steady states are stable for that λ (the classes Ia, Ib, IIb, IIc of
+    module table), ``kind`` is "bistable", ``theta`` and ``omega3`` are NaN (no single
+    answer) and ``candidates`` lists both; a top started close enough to θ = 0 then stays upright
+    whenever "upright" is among them.
+    """
+
+    kind: str
+    """"upright", "tumbling", "inverted" or "bistable"."""
+    theta: float
+    """θ∞ (rad): 0, θ_t(λ) or π; NaN if bistable."""
+    omega3: float
+    """ω3∞ (rad/s) from the Jellett integral: λ/(R I3 (1 − α)), the tumbling ω3, or −λ/(R I3 (1 + α));
+    NaN if bistable."""
+    candidates: tuple[AsymptoticState, ...] = ()
+    """Every stable steady state with this λ, by increasing θ (one entry, equal to this state, unless
+    bistable)."""
+
+
+def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
+    """End state of a gliding top with Jellett integral ``lam`` > 0, for every λ.
+
+    The candidates are the asymptotically stable steady states with this λ
+    (:func:`stable_states`): the upright spin for λ <= λ_0, the inverted spin
+    for λ >= λ_thres, and the tumbling states θ_t(λ) on a rising part of the tumbling family. For
+    the classic tops (class IIa, e.g. the thesis body) exactly one exists: upright up to λ_0,
+    tumbling between λ_0 and λ_thres, inverted above (docs/theory/thresholds.md#thresholds; Ueda–Sasaki–Watanabe's groups).
+    Where two exist the answer is kind "bistable" with both in ``candidates`` instead of a guess:
+    the end state then depends on the initial state, not on λ alone.
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is not a positive finite number, or so large that the end state's spin ω3
+        overflows.
+    """
+    _validate.instance("top", top, TippeTop)
+    lam = _validate.positive_jellett(lam)
+    with np.errstate(over="ignore"):  # a spin ω3 ∝ λ beyond the float range: checked here
+        found = stable_states(top, lam)
+    if not all(math.isfinite(st.omega3) for st in found):
+        lam_max = float(np.finfo(float).max) * top.R * top.I3 * (1.0 - top.alpha)
+        raise ValueError(
+            f"lam must be at most {lam_max:.3g} kg m^3/s for this top (beyond it the end state's "
+            f"spin omega3 overflows); got {lam!r}"
+        )
+    if len(found) == 1:
+        st = found[0]
+        return st._replace(candidates=(st,))
+    return AsymptoticState("bistable", math.nan, math.nan, tuple(found))
+
+
 def bistable_range(top: TippeTop) -> tuple[float, float] | None:
     """The open interval of λ (kg m² s⁻¹) with two stable steady states, or None (IIa, III).
 
@@ -429,113 +445,7 @@ def bistable_range(top: TippeTop) -> tuple[float, float] | None:
         return None
     if cls in ("Ia", "IIc"):
         return (top.lambda_thres, top.lambda_0)
-    return (fold_lambda(top), top.lambda_0)
-
-
-# --- linear stability of a tumbling state -----------------------------------------------------
-
-
-def _rotating_system(top: TippeTop, theta: float):
-    """Tumbling state y* = [ẋ, ẏ, L, 3̂] (3̂ in the xz plane), its precession rate Ω and F(y).
-
-    F(y) = f(y) − Ω ẑ × y (applied to each horizontal/3-vector part) is the gliding vector field
-    in the frame turning with the precession; y* is an equilibrium of it.
-    """
-    from .dynamics.gliding import gliding_rhs
-
-    st = _state_at(top, theta)
-    a, I1, I3 = top.alpha, top.I1, top.I3
-    e = np.array([math.sin(theta), 0.0, math.cos(theta)])
-    w = st.phidot * (np.array([0.0, 0.0, 1.0]) - a * e)  # ω ∥ a = R(α3̂ − ẑ), ω·3̂ = ω3
-    L = I1 * w + (I3 - I1) * float(w @ e) * e
-    y = np.concatenate(([0.0, 0.0], L, e))
-    p = (top.m, top.R, top.R * a, I1, I3, top.mu, top.g)
-    Om = st.phidot
-
-    def turn(v):
-        out = np.zeros_like(v)
-        for k in (0, 2, 5):  # ẑ × (vx, vy, ·) on the velocity, L and 3̂ parts
-            out[k], out[k + 1] = -v[k + 1], v[k]
-        return out
-
-    def F(v):
-        full = np.concatenate((np.zeros(2, dtype=v.dtype), v))
-        return gliding_rhs(0.0, full, p)[2:] - Om * turn(v)
-
-    def jellett(v):
-        n = (v[5] * v[5] + v[6] * v[6] + v[7] * v[7]) ** 0.5
-        return -(v[2] * (top.R * a * v[5] / n) + v[3] * (top.R * a * v[6] / n)
-                 + v[4] * (top.R * a * v[7] / n - top.R))  # fmt: skip
-
-    return y, st, F, jellett, turn
-
-
-def _complex_step(fun, y0: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    cols = []
-    for k in range(len(y0)):
-        h = 1e-30 * scale[k]
-        yc = y0.astype(complex)
-        yc[k] += 1j * h
-        cols.append(np.atleast_1d(np.imag(fun(yc))) / h)
-    return np.array(cols).T
-
-
-def tumbling_eigenvalues(top: TippeTop, theta: float) -> np.ndarray:
-    """Eigenvalues (1/s) of the gliding top linearised at the tumbling state θ_t = ``theta``.
-
-    The vector form of :mod:`mett.dynamics.gliding` is written in the frame precessing with the
-    state (where the state is an equilibrium; the CM position is cyclic and dropped), linearised
-    with a complex-step Jacobian, restricted to the subspace where the integrals |3̂| and λ keep
-    their values (their gradients are left null vectors, so it is invariant) and divided by the
-    rotation about ẑ (a right null vector). Five eigenvalues remain.
-
-    Parameters
-    ----------
-    top : TippeTop
-    theta : float
-        θ_t inside the family's domain, 0 < θ_t < π (rad); the spins at 0 and π are
-        :func:`mett.spin_eigenvalues`' business.
-
-    Returns
-    -------
-    ndarray of complex, shape (5,)
-        Largest real part first. The state is asymptotically stable (up to drift along the family
-        and the symmetry) if all real parts are negative; the largest is real and changes sign
-        with λ'(θ_t) (:func:`tumbling_is_stable`).
-
-    Raises
-    ------
-    ValueError
-        If ``theta`` is not inside (0, π) or the family does not exist there.
-    """
-    _validate.instance("top", top, "TippeTop")
-    from scipy.linalg import null_space
-
-    th = float(_validate.theta(theta))
-    lo, hi = _domain(top)
-    exists = top.alpha - (1.0 - top.gamma) * math.cos(th) > 0.0
-    if not (0.0 < th < math.pi and exists):
-        raise ValueError(
-            f"theta must lie inside the tumbling family's domain ({lo:.6g}, {hi:.6g}) without the "
-            f"poles 0 and pi; got {theta!r}"
-        )
-    if math.sin(th) < 1e-8:
-        raise ValueError(
-            f"theta must be at least 1e-8 rad from the poles 0 and pi (the tumbling state merges into "
-            f"the spin there: use mett.spin_eigenvalues); got {theta!r}"
-        )
-    y, st, F, jellett, turn = _rotating_system(top, th)
-    Lmag = float(np.linalg.norm(y[2:5]))
-    scale = np.array([top.R * st.phidot] * 2 + [Lmag] * 3 + [1.0] * 3)
-    J = _complex_step(F, y, scale)
-    grad_lam = _complex_step(jellett, y, scale)[0]
-    grad_norm = np.concatenate((np.zeros(5), 2.0 * y[5:]))
-    W = null_space(np.vstack([grad_lam / np.linalg.norm(grad_lam), grad_norm]))  # 8 × 6
-    A = W.T @ J @ W
-    u = W.T @ turn(y)
-    P = null_space(u[None, :] / np.linalg.norm(u))  # 6 × 5, quotient by the rotation
-    ev = np.linalg.eigvals(P.T @ A @ P)
-    return ev[np.argsort(-ev.real, kind="stable")]
+    return (cast(float, fold_lambda(top)), top.lambda_0)  # Ib, IIb: the family has a fold
 
 
 # --- the figure ---------------------------------------------------------------------------------

@@ -376,10 +376,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from .classification import asymptotic_state
     from .dynamics import simulate
     from .dynamics.stem import MODEL as STEMMED
     from .integrals import jellett
-    from .thresholds import asymptotic_state
 
     run_top: Any = top
     if name == STEMMED.name:  # as mett.simulate(top.with_stem(r, d), ...): contact, touchdowns

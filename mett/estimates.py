@@ -15,7 +15,7 @@ Caveat (docs/theory/estimates.md#estimates): the *gliding* top oscillates faster
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,9 +23,7 @@ from . import _validate
 from .potential import V, d, d2V_dz2, g
 from .separation import minima
 from .thresholds import pole_spins
-
-if TYPE_CHECKING:
-    from .top import TippeTop
+from .top import TippeTop
 
 __all__ = [
     "Convexity",
@@ -64,7 +62,7 @@ def convexity(top: TippeTop, D: float, lam: float, *, samples: int = 2001) -> Co
 
     V'' is sampled at ``samples`` Chebyshev points inside (−1, 1), denser towards the poles.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     D = _validate.finite_scalar("D", D)
     lam = _validate.finite_scalar("lam", lam)
     z = np.cos(np.pi * (np.arange(samples) + 0.5) / samples)
@@ -78,7 +76,7 @@ def small_oscillation_period(top: TippeTop, D: float, lam: float) -> float:
     ω_θ² = (1 − z_m²) V''(z_m)/(2 g(z_m)) with z_m = :func:`potential_minimum`; at a spinning pole
     (z_m = ±1) ω_θ² = 2|V'(±1)|/g(±1).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     from .potential import dV_dz
 
     zm = potential_minimum(top, D, lam)
@@ -112,7 +110,7 @@ def period_estimates(top: TippeTop, lam: float) -> PeriodEstimates:
     ValueError
         If ``lam`` is not positive and finite, or so small that the periods overflow.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     lam = _validate.positive_jellett(lam)
     a, sig = top.alpha, top.sigma
     # the spins per unit λ, so that a subnormal λ does not make ω3 subnormal first
@@ -136,6 +134,6 @@ def oscillation_ratio(top: TippeTop, lam: float, t_inversion: float) -> float:
 
     RR14's oscillation criterion: θ(t) oscillates during the inversion when this ratio is ≫ 1.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     t_inversion = _validate.positive_scalar("t_inversion", t_inversion)
     return t_inversion / max(period_estimates(top, lam))

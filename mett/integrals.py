@@ -14,15 +14,14 @@ In the horizontal frame (x̂, ŷ, ẑ) of docs/theory/model.md#conventions, ω �
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .potential import d_of
-
-if TYPE_CHECKING:
-    from .state import State
-    from .top import TippeTop
+from .state import State
+from .top import TippeTop
 
 __all__ = [
     "energy",
@@ -38,7 +37,7 @@ __all__ = [
 
 
 def jellett_of(
-    theta: Any, phidot: Any, omega3: Any, R: float, l: float, I1: float, I3: float
+    theta: ArrayLike, phidot: ArrayLike, omega3: ArrayLike, R: float, l: float, I1: float, I3: float
 ) -> Any:
     """Jellett's integral λ = −L·a = R I1 φ̇ sin²θ − I3 ω3 (l − R cos θ) (kg m³/s).
 
@@ -47,18 +46,20 @@ def jellett_of(
     return _jellett(np.sin(theta), np.cos(theta), phidot, omega3, R, l, I1, I3)
 
 
-def routh_of(theta: Any, omega3: Any, m: float, R: float, l: float, I1: float, I3: float) -> Any:
+def routh_of(
+    theta: ArrayLike, omega3: ArrayLike, m: float, R: float, l: float, I1: float, I3: float
+) -> Any:
     """Routh's integral D = I3 ω3 √d(cos θ) (kg m²/s); conserved only while rolling."""
     return _routh(np.cos(theta), omega3, m, R, l, I1, I3)
 
 
 def energy_of(
-    theta: Any,
-    thetadot: Any,
-    phidot: Any,
-    omega3: Any,
-    nu_x: Any,
-    nu_y: Any,
+    theta: ArrayLike,
+    thetadot: ArrayLike,
+    phidot: ArrayLike,
+    omega3: ArrayLike,
+    nu_x: ArrayLike,
+    nu_y: ArrayLike,
     m: float,
     R: float,
     l: float,
@@ -73,10 +74,10 @@ def energy_of(
 
 
 def modified_energy_of(
-    theta: Any,
-    thetadot: Any,
-    phidot: Any,
-    omega3: Any,
+    theta: ArrayLike,
+    thetadot: ArrayLike,
+    phidot: ArrayLike,
+    omega3: ArrayLike,
     m: float,
     R: float,
     l: float,
@@ -95,12 +96,12 @@ def modified_energy_of(
 
 
 def integrals_of(
-    theta: Any,
-    thetadot: Any,
-    phidot: Any,
-    omega3: Any,
-    nu_x: Any,
-    nu_y: Any,
+    theta: ArrayLike,
+    thetadot: ArrayLike,
+    phidot: ArrayLike,
+    omega3: ArrayLike,
+    nu_x: ArrayLike,
+    nu_y: ArrayLike,
     m: float,
     R: float,
     l: float,
@@ -158,9 +159,6 @@ def _arrays(top: TippeTop, state: State) -> _Fields:
 
 
 def _check_types(top: TippeTop, state: State) -> None:
-    from .state import State
-    from .top import TippeTop
-
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a TippeTop; got {type(top).__name__}")
     if not isinstance(state, State):
@@ -172,6 +170,12 @@ _FIELDS = ("theta", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
 
 class _Fields:
     __slots__ = _FIELDS
+    theta: np.ndarray
+    thetadot: np.ndarray
+    phidot: np.ndarray
+    omega3: np.ndarray
+    nu_x: np.ndarray
+    nu_y: np.ndarray
 
     def __init__(self, *values: np.ndarray) -> None:
         for name, v in zip(_FIELDS, values, strict=True):

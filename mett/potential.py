@@ -19,16 +19,12 @@ over z, D and λ.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _formulas as fm
 from . import _validate
-
-if TYPE_CHECKING:
-    from .top import TippeTop
+from .top import TippeTop
 
 __all__ = [
     "INTEGRAL_MAX",
@@ -47,7 +43,7 @@ __all__ = [
 
 def d(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d(z) = γ + σ(α − z)² + σγ(1 − z²) (docs/theory/model.md#conventions); D = I3 ω3 √d(z)."""
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     z = _validate.cos_theta(z)
     return fm.d(top, z)
 
@@ -65,14 +61,14 @@ def d_of(z: ArrayLike, m: float, R: float, l: float, I1: float, I3: float) -> np
 
 def dd_dz(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """d'(z) = −2σ(α − z + γ z)."""
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     z = _validate.cos_theta(z)
     return fm.dd_dz(top, z)
 
 
 def g(top: TippeTop, z: ArrayLike) -> np.ndarray:
     """g(z) = ½ I3 [γ + σ(1 + α² − 2αz)], the coefficient of θ̇² in the METT (docs/theory/mett.md#the-main-equation)."""
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     z = _validate.cos_theta(z)
     return fm.g(top, z)
 
@@ -85,7 +81,7 @@ the float range that the squares in V (D², λ², N²) cannot overflow."""
 
 
 def _inputs(top: TippeTop, z: ArrayLike, D: ArrayLike, lam: ArrayLike) -> tuple[np.ndarray, ...]:
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     z = _validate.cos_theta(z)
     D = _validate.as_finite_array("D", D)
     lam = _validate.as_finite_array("lam", lam)

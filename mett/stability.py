@@ -1,4 +1,5 @@
-"""Linear stability of the spinning states of the gliding top, and the escape time it predicts.
+"""Linear stability of the steady states of the gliding top (spins and tumbling states), and the
+escape time it predicts.
 
 The spinning solutions (docs/theory/thresholds.md#boundary-values) are equilibria of the vector form of the gliding model
 (docs/theory/equations.md#vector-form; :mod:`mett.dynamics.gliding`): 3̂ = ±ẑ, L = I3 ω3 3̂, CM at rest, with
@@ -17,15 +18,25 @@ import math
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+from scipy.linalg import null_space
 
 from . import _validate
-from .thresholds import pole_spins
+from .dynamics.gliding import gliding_rhs
+from .dynamics.registry import MODELS
+from .integrals import jellett
+from .thresholds import TumblingState, pole_spins, tumbling_domain
+from .top import TippeTop
 
 if TYPE_CHECKING:
     from .state import State
-    from .top import TippeTop
 
-__all__ = ["EscapeEstimate", "escape_time", "spin_eigenvalues", "spin_jacobian"]
+__all__ = [
+    "EscapeEstimate",
+    "escape_time",
+    "spin_eigenvalues",
+    "spin_jacobian",
+    "tumbling_eigenvalues",
+]
 
 _HORIZONTAL = [2, 3, 4, 5, 7, 8]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y in the gliding model's state
 _POLES = ("upright", "inverted")
@@ -46,14 +57,25 @@ def _params(top: TippeTop) -> tuple:
     return (top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.mu, top.g)
 
 
+def _complex_step(fun, y0: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Jacobian of ``fun`` at ``y0`` by complex steps, J e_k = Im fun(y0 + i h_k e_k)/h_k with
+    h_k = 1e-30 scale[k] (Squire & Trapp 1998): no difference of nearby numbers, so exact to
+    rounding for plain arithmetic. Columns in the order of ``y0``."""
+    cols = []
+    for k in range(len(y0)):
+        h = 1e-30 * scale[k]
+        yc = y0.astype(complex)
+        yc[k] += 1j * h
+        cols.append(np.atleast_1d(np.imag(fun(yc))) / h)
+    return np.array(cols).T
+
+
 def spin_jacobian(top: TippeTop, lam: float, pole: str = "inverted") -> np.ndarray:
     """Jacobian (10 × 10) of the gliding vector field at the spinning state with Jellett ``lam``.
 
     Complex-step differentiation of :func:`mett.dynamics.gliding.gliding_rhs`.
     """
-    from .dynamics.gliding import gliding_rhs
-
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     lam = _validate.positive_jellett(lam)
     y0 = _spin_state(top, lam, pole)
     p = _params(top)
@@ -63,13 +85,8 @@ def spin_jacobian(top: TippeTop, lam: float, pole: str = "inverted") -> np.ndarr
     w_floor = math.sqrt(top.g / top.R)
     scale[2:4] = top.R * max(abs(y0[6]) / top.I3, w_floor)
     scale[4:7] = top.I3 * max(abs(y0[6]) / top.I3, w_floor)
-    J = np.empty((10, 10))
     with np.errstate(all="ignore"):  # an overflow shows as a non-finite J, refused below
-        for k in range(10):
-            h = 1e-30 * scale[k]
-            yc = y0.astype(complex)
-            yc[k] += 1j * h
-            J[:, k] = np.imag(gliding_rhs(0.0, yc, p)) / h
+        J = np.ascontiguousarray(_complex_step(lambda v: gliding_rhs(0.0, v, p), y0, scale))
     if not np.all(np.isfinite(J)):
         raise ValueError(
             f"lam = {lam!r} is too large: the linearisation at that spin overflows double precision"
@@ -132,9 +149,6 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
         If the state's Jellett integral is not positive, the upright spin is not unstable
         (λ <= λ_0), or the state is not near it (no unstable component, or one of size >= 1).
     """
-    from .dynamics import MODELS
-    from .integrals import jellett
-
     lam = float(jellett(top, state))  # checks the types of top and state
     J = spin_jacobian(top, lam, "upright")
     A = J[np.ix_(_HORIZONTAL, _HORIZONTAL)]
@@ -171,3 +185,104 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
             ">= 1): the linear escape prediction does not apply"
         )
     return EscapeEstimate(math.log(1.0 / amplitude) / sigma, sigma, amplitude)
+
+
+def _state_at(top: TippeTop, th: float) -> TumblingState:
+    """The tumbling state at θ_t = ``th``, φ̇ from its closed form (:class:`mett.TumblingState`)."""
+    a = top.alpha
+    phidot = math.sqrt(
+        top.m * top.g * top.R * a / (top.I3 * (a - (1.0 - top.gamma) * math.cos(th)))
+    )
+    return TumblingState(float(th), phidot, phidot * (math.cos(th) - a))
+
+
+# --- linear stability of a tumbling state -----------------------------------------------------
+
+
+def _rotating_system(top: TippeTop, theta: float):
+    """Tumbling state y* = [ẋ, ẏ, L, 3̂] (3̂ in the xz plane), its precession rate Ω and F(y).
+
+    F(y) = f(y) − Ω ẑ × y (applied to each horizontal/3-vector part) is the gliding vector field
+    in the frame turning with the precession; y* is an equilibrium of it.
+    """
+    st = _state_at(top, theta)
+    a, I1, I3 = top.alpha, top.I1, top.I3
+    e = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    w = st.phidot * (np.array([0.0, 0.0, 1.0]) - a * e)  # ω ∥ a = R(α3̂ − ẑ), ω·3̂ = ω3
+    L = I1 * w + (I3 - I1) * float(w @ e) * e
+    y = np.concatenate(([0.0, 0.0], L, e))
+    p = _params(top)
+    Om = st.phidot
+
+    def turn(v):
+        out = np.zeros_like(v)
+        for k in (0, 2, 5):  # ẑ × (vx, vy, ·) on the velocity, L and 3̂ parts
+            out[k], out[k + 1] = -v[k + 1], v[k]
+        return out
+
+    def F(v):
+        full = np.concatenate((np.zeros(2, dtype=v.dtype), v))
+        return gliding_rhs(0.0, full, p)[2:] - Om * turn(v)
+
+    def lam_of(v):
+        n = (v[5] * v[5] + v[6] * v[6] + v[7] * v[7]) ** 0.5
+        return -(v[2] * (top.R * a * v[5] / n) + v[3] * (top.R * a * v[6] / n)
+                 + v[4] * (top.R * a * v[7] / n - top.R))  # fmt: skip
+
+    return y, st, F, lam_of, turn
+
+
+def tumbling_eigenvalues(top: TippeTop, theta: float) -> np.ndarray:
+    """Eigenvalues (1/s) of the gliding top linearised at the tumbling state θ_t = ``theta``.
+
+    The vector form of :mod:`mett.dynamics.gliding` is written in the frame precessing with the
+    state (where the state is an equilibrium; the CM position is cyclic and dropped), linearised
+    with a complex-step Jacobian, restricted to the subspace where the integrals |3̂| and λ keep
+    their values (their gradients are left null vectors, so it is invariant) and divided by the
+    rotation about ẑ (a right null vector). Five eigenvalues remain.
+
+    Parameters
+    ----------
+    top : TippeTop
+    theta : float
+        θ_t inside the family's domain, 0 < θ_t < π (rad); the spins at 0 and π are
+        :func:`mett.spin_eigenvalues`' business.
+
+    Returns
+    -------
+    ndarray of complex, shape (5,)
+        Largest real part first. The state is asymptotically stable (up to drift along the family
+        and the symmetry) if all real parts are negative; the largest is real and changes sign
+        with λ'(θ_t) (:func:`mett.classification.tumbling_is_stable`).
+
+    Raises
+    ------
+    ValueError
+        If ``theta`` is not inside (0, π) or the family does not exist there.
+    """
+    _validate.instance("top", top, TippeTop)
+    th = float(_validate.theta(theta))
+    lo, hi = tumbling_domain(top)
+    exists = top.alpha - (1.0 - top.gamma) * math.cos(th) > 0.0
+    if not (0.0 < th < math.pi and exists):
+        raise ValueError(
+            f"theta must lie inside the tumbling family's domain ({lo:.6g}, {hi:.6g}) without the "
+            f"poles 0 and pi; got {theta!r}"
+        )
+    if math.sin(th) < 1e-8:
+        raise ValueError(
+            f"theta must be at least 1e-8 rad from the poles 0 and pi (the tumbling state merges into "
+            f"the spin there: use mett.spin_eigenvalues); got {theta!r}"
+        )
+    y, st, F, lam_of, turn = _rotating_system(top, th)
+    Lmag = float(np.linalg.norm(y[2:5]))
+    scale = np.array([top.R * st.phidot] * 2 + [Lmag] * 3 + [1.0] * 3)
+    J = _complex_step(F, y, scale)
+    grad_lam = _complex_step(lam_of, y, scale)[0]
+    grad_norm = np.concatenate((np.zeros(5), 2.0 * y[5:]))
+    W = null_space(np.vstack([grad_lam / np.linalg.norm(grad_lam), grad_norm]))  # 8 × 6
+    A = W.T @ J @ W
+    u = W.T @ turn(y)
+    P = null_space(u[None, :] / np.linalg.norm(u))  # 6 × 5, quotient by the rotation
+    ev = np.linalg.eigvals(P.T @ A @ P)
+    return ev[np.argsort(-ev.real, kind="stable")]

@@ -10,15 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate
-
-if TYPE_CHECKING:
-    from .top import TippeTop
+from .top import TippeTop
 
 __all__ = ["State"]
 
@@ -144,7 +141,7 @@ class State:
         ``ν_x = −R θ̇ (1 − α cos θ)`` and ``ν_y = R sin θ (ω3 + φ̇ (α − cos θ))`` (docs/theory/model.md#conventions).
         With ``thetadot = 0`` the centre of mass is at rest.
         """
-        _validate.instance("top", top, "TippeTop")
+        _validate.instance("top", top, TippeTop)
         th = _validate.theta(theta)
         thetadot = _validate.as_finite_array("thetadot", thetadot)
         phidot = _validate.as_finite_array("phidot", phidot)

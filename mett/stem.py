@@ -37,11 +37,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import _validate
-from .top import FIELD_RANGE, FIELD_UNITS, TippeTop
+from .classification import AsymptoticState, asymptotic_state
+from .integrals import jellett
+from .top import FIELD_RANGE, FIELD_UNITS, TippeTop, register_stemmed
 
 if TYPE_CHECKING:
     from .state import State
-    from .thresholds import AsymptoticState
 
 __all__ = ["StemContactTop", "StemmedTop"]
 
@@ -85,6 +86,7 @@ class StemContactTop(TippeTop):
             )
 
 
+@register_stemmed
 @dataclass(frozen=True)
 class StemmedTop:
     """A tippe top (the ball) with a spherical stem end.
@@ -149,7 +151,7 @@ class StemmedTop:
         th = _validate.theta(theta)
         return self.ball.R + self.distance * np.cos(th) - self.radius
 
-    def contact(self, theta: ArrayLike) -> np.ndarray:
+    def contact(self, theta: ArrayLike) -> np.ndarray | str:
         """Which sphere is the lower one at inclination θ: "ball" for θ <= θ_touch, else "stem"."""
         th = _validate.theta(theta)
         out = np.where(self.stem_clearance(th) >= 0.0, "ball", "stem")
@@ -175,8 +177,6 @@ class StemmedTop:
         λ_s = −L·a_s with a_s = (αR + l_s)3̂ − r_s ẑ the vector from the CM to the stem's contact
         point; it depends on θ, φ̇, ω3 only, so it is :func:`mett.jellett` of :attr:`stem_top`.
         """
-        from .integrals import jellett
-
         return jellett(self.stem_top, state)
 
     def stem_end_state(self, lam: float) -> AsymptoticState:
@@ -184,6 +184,4 @@ class StemmedTop:
         of :attr:`stem_top`). Candidates with θ < :attr:`touchdown_angle` are not realisable on the
         stem: there the ball touches the plane again.
         """
-        from .thresholds import asymptotic_state
-
         return asymptotic_state(self.stem_top, lam)

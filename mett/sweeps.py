@@ -236,7 +236,7 @@ def _prediction(top: TippeTop, lam: float) -> tuple[str, tuple[str, ...]]:
     and their stability do not depend on it (docs/theory/thresholds.md#thresholds: λ and the
     top's m, R, α, I1, I3, g decide them; a test checks this).
     """
-    from .thresholds import asymptotic_state
+    from .classification import asymptotic_state
 
     key = (*(getattr(top, f) for f in _PREDICTION_KEY), lam)
     found = _PREDICTED.get(key)

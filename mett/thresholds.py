@@ -8,21 +8,18 @@ derived in docs/theory/thresholds.md#thresholds.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import Any, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _formulas as fm
 from . import _validate
-
-if TYPE_CHECKING:
-    from .top import TippeTop
+from .top import TippeTop
 
 __all__ = [
-    "AsymptoticState",
     "BoundaryValues",
     "TumblingState",
-    "asymptotic_state",
     "boundary_values",
     "lambda_0",
     "lambda_E",
@@ -36,21 +33,14 @@ __all__ = [
 ]
 
 
-def _scale(top: TippeTop) -> float:
-    return math.sqrt(top.m * top.g * top.R**3 * top.I3 * top.alpha)
-
-
 def lambda_thres(top: TippeTop) -> float:
     """λ_thres = √(m g R³ I3 α) (1 + α)² / √(1 + α − γ) (RR14 abstract; docs/theory/thresholds.md#thresholds).
 
     The inverted spin (θ = π) of the gliding top is asymptotically stable iff λ > λ_thres. For
     γ >= 1 + α (group III) it is never stable and ``inf`` is returned.
     """
-    _validate.instance("top", top, "TippeTop")
-    den = 1.0 + top.alpha - top.gamma
-    if den <= 0.0:
-        return math.inf
-    return _scale(top) * (1.0 + top.alpha) ** 2 / math.sqrt(den)
+    _validate.instance("top", top, TippeTop)
+    return fm.lambda_thres(top)
 
 
 def lambda_0(top: TippeTop) -> float:
@@ -59,16 +49,13 @@ def lambda_0(top: TippeTop) -> float:
     The non-inverted spin (θ = 0) is unstable iff λ > λ_0. For γ <= 1 − α (group I) it is stable for
     every λ and ``inf`` is returned (docs/theory/thresholds.md#thresholds).
     """
-    _validate.instance("top", top, "TippeTop")
-    den = top.alpha + top.gamma - 1.0
-    if den <= 0.0:
-        return math.inf
-    return _scale(top) * (1.0 - top.alpha) ** 2 / math.sqrt(den)
+    _validate.instance("top", top, TippeTop)
+    return fm.lambda_0(top)
 
 
 def lambda_E(top: TippeTop) -> float:
     """λ_E = √(m g R³ I3) (1 − α²): the inverted spin has less energy (E1 < E0) iff λ > λ_E (§6)."""
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     return math.sqrt(top.m * top.g * top.R**3 * top.I3) * (1.0 - top.alpha**2)
 
 
@@ -77,10 +64,14 @@ def lambda_roll(top: TippeTop) -> float:
 
     λ_roll = 2√(m g R³ I3 α)(1 + α)√(γ + σ(1+α)²)/(1 + σ(1 + α)); λ_roll <= λ_thres always.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     a, gam, sig = top.alpha, top.gamma, top.sigma
     return (
-        2.0 * _scale(top) * (1.0 + a) * math.sqrt(gam + sig * (1 + a) ** 2) / (1.0 + sig * (1 + a))
+        2.0
+        * fm.jellett_scale(top)
+        * (1.0 + a)
+        * math.sqrt(gam + sig * (1 + a) ** 2)
+        / (1.0 + sig * (1 + a))
     )
 
 
@@ -101,14 +92,18 @@ class BoundaryValues(NamedTuple):
     """Spin ω3 = −λ/(R I3 (1 + α)) at θ = π."""
 
 
-def pole_spins(top: TippeTop, lam: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
+@overload
+def pole_spins(top: TippeTop, lam: float) -> tuple[float, float]: ...
+@overload
+def pole_spins(top: TippeTop, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+def pole_spins(top: TippeTop, lam: float | np.ndarray) -> tuple[Any, Any]:
     """Spins ω3 (rad/s) of the steady spinning solutions at the poles with Jellett integral λ.
 
     ω3 = λ/(R I3 (1 − α)) upright (θ = 0) and ω3 = −λ/(R I3 (1 + α)) inverted (θ = π): Jellett's
     λ = R I1 φ̇ sin²θ − R I3 ω3 (α − cos θ) (docs/theory/model.md#conventions) at sin θ = 0. The one place of these
     formulas; plain arithmetic, so ``lam`` may be a float or an array (only ``top`` is checked).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     R, I3, a = top.R, top.I3, top.alpha
     return lam / (R * I3 * (1.0 - a)), -lam / (R * I3 * (1.0 + a))
 
@@ -119,7 +114,7 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     ``D0 = λ√d(1)/(R(1 − α))``, ``E0 = λ²/(2 I3 R²(1 − α)²) + m g R(1 − α)``,
     ``D1 = −λ√d(−1)/(R(1 + α))``, ``E1 = λ²/(2 I3 R²(1 + α)²) + m g R(1 + α)``.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     from .potential import d
 
     lam = _validate.as_finite_array("lam", lam)
@@ -149,7 +144,7 @@ def boundary_values(top: TippeTop, lam: ArrayLike) -> BoundaryValues:
     return out
 
 
-# --- tumbling family and end states ----------------------------------------------------------
+# --- the tumbling family ----------------------------------------------------------
 
 
 class TumblingState(NamedTuple):
@@ -168,7 +163,7 @@ def tumbling_lambda(top: TippeTop, theta: ArrayLike) -> np.ndarray:
 
     NaN where the family does not exist (α − (1 − γ) cos θ_t <= 0: beyond θ_f for groups I, III).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     th = _validate.theta(theta)
     c, s = np.cos(th), np.sin(th)
     den = top.alpha - (1.0 - top.gamma) * c
@@ -195,7 +190,7 @@ def tumbling_domain(top: TippeTop) -> tuple[float, float]:
     (lo, hi) : tuple of float
         Ends of the interval (rad); the family is a limit at both.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     a, gam = top.alpha, top.gamma
     if gam == 1.0 or abs(a / (1.0 - gam)) >= 1.0:
         return 0.0, math.pi
@@ -218,7 +213,7 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
     ValueError
         If ``lam`` is not a positive finite number.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     from scipy import optimize
 
     lam = _validate.positive_jellett(lam)
@@ -248,62 +243,6 @@ def tumbling_state(top: TippeTop, lam: float) -> TumblingState | None:
     return None
 
 
-class AsymptoticState(NamedTuple):
-    """Predicted end state of a gliding top with a given Jellett integral (docs/theory/thresholds.md#thresholds).
-
-    When two steady states are stable for that λ (the classes Ia, Ib, IIb, IIc of
-    :mod:`mett.classification`), ``kind`` is "bistable", ``theta`` and ``omega3`` are NaN (no single
-    answer) and ``candidates`` lists both; a top started close enough to θ = 0 then stays upright
-    whenever "upright" is among them.
-    """
-
-    kind: str
-    """"upright", "tumbling", "inverted" or "bistable"."""
-    theta: float
-    """θ∞ (rad): 0, θ_t(λ) or π; NaN if bistable."""
-    omega3: float
-    """ω3∞ (rad/s) from the Jellett integral: λ/(R I3 (1 − α)), the tumbling ω3, or −λ/(R I3 (1 + α));
-    NaN if bistable."""
-    candidates: tuple[AsymptoticState, ...] = ()
-    """Every stable steady state with this λ, by increasing θ (one entry, equal to this state, unless
-    bistable)."""
-
-
-def asymptotic_state(top: TippeTop, lam: float) -> AsymptoticState:
-    """End state of a gliding top with Jellett integral ``lam`` > 0, for every λ.
-
-    The candidates are the asymptotically stable steady states with this λ
-    (:func:`mett.classification.stable_states`): the upright spin for λ <= λ_0, the inverted spin
-    for λ >= λ_thres, and the tumbling states θ_t(λ) on a rising part of the tumbling family. For
-    the classic tops (class IIa, e.g. the thesis body) exactly one exists: upright up to λ_0,
-    tumbling between λ_0 and λ_thres, inverted above (docs/theory/thresholds.md#thresholds; Ueda–Sasaki–Watanabe's groups).
-    Where two exist the answer is kind "bistable" with both in ``candidates`` instead of a guess:
-    the end state then depends on the initial state, not on λ alone.
-
-    Raises
-    ------
-    ValueError
-        If ``lam`` is not a positive finite number, or so large that the end state's spin ω3
-        overflows.
-    """
-    _validate.instance("top", top, "TippeTop")
-    lam = _validate.positive_jellett(lam)
-    from .classification import stable_states
-
-    with np.errstate(over="ignore"):  # a spin ω3 ∝ λ beyond the float range: checked here
-        found = stable_states(top, lam)
-    if not all(math.isfinite(st.omega3) for st in found):
-        lam_max = float(np.finfo(float).max) * top.R * top.I3 * (1.0 - top.alpha)
-        raise ValueError(
-            f"lam must be at most {lam_max:.3g} kg m^3/s for this top (beyond it the end state's "
-            f"spin omega3 overflows); got {lam!r}"
-        )
-    if len(found) == 1:
-        st = found[0]
-        return st._replace(candidates=(st,))
-    return AsymptoticState("bistable", math.nan, math.nan, tuple(found))
-
-
 def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -> float:
     """Smallest initial spin ω3 (rad/s) for complete inversion from θ0 with θ̇ = 0, precession φ̇0.
 
@@ -318,7 +257,7 @@ def min_spin_for_inversion(top: TippeTop, theta0: float, phidot0: float = 0.0) -
         If θ0 is outside [0, arccos α) (there the spin must point the other way, or λ does not
         depend on it), or on bad input.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     th = float(_validate.theta(theta0, "theta0"))
     phidot0 = _validate.finite_scalar("phidot0", phidot0)
     c = math.cos(th)

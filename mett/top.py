@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from . import _validate
+from . import _formulas, _validate
 
 if TYPE_CHECKING:
     from .stem import StemmedTop
@@ -29,6 +29,18 @@ FIELD_RANGE = (1e-50, 1e50)
 unit system, narrow enough that every product of a few of them (m g R, m R², λ², …) stays finite."""
 
 FIELD_UNITS = {"m": "kg", "R": "m", "I1": "kg m^2", "I3": "kg m^2", "g": "m/s^2"}
+
+# The class TippeTop.with_stem builds. mett.stem builds on this floor (its stem-contact top is a
+# TippeTop), so this floor cannot import it: mett.stem registers its StemmedTop here when it is
+# imported, which `import mett` always does (as the dynamics models register in their registry).
+_STEMMED: list[type[StemmedTop]] = []
+
+
+def register_stemmed(cls: type[StemmedTop]) -> type[StemmedTop]:
+    """Class decorator: make ``cls`` the class :meth:`TippeTop.with_stem` returns (used once, by
+    :class:`mett.stem.StemmedTop`)."""
+    _STEMMED[:] = [cls]
+    return cls
 
 
 @dataclass(frozen=True)
@@ -158,23 +170,17 @@ class TippeTop:
     def subgroup(self) -> str:
         """Class by the stability of the steady states: Ia, Ib, IIa, IIb, IIc or III
         (:func:`mett.classification.subgroup`; Ciocci & Langerock 2007)."""
-        from .classification import subgroup
-
-        return subgroup(self)
+        return _formulas.subgroup(self)
 
     @property
     def lambda_thres(self) -> float:
         """Jellett threshold above which the inverted spin is asymptotically stable (docs/theory/thresholds.md#thresholds)."""
-        from .thresholds import lambda_thres
-
-        return lambda_thres(self)
+        return _formulas.lambda_thres(self)
 
     @property
     def lambda_0(self) -> float:
         """Jellett value above which the non-inverted spin is unstable (docs/theory/thresholds.md#thresholds)."""
-        from .thresholds import lambda_0
-
-        return lambda_0(self)
+        return _formulas.lambda_0(self)
 
     @property
     def beta(self) -> float:
@@ -197,9 +203,7 @@ class TippeTop:
 
         See :class:`mett.stem.StemmedTop` (touchdown angle, the equivalent top on the stem).
         """
-        from .stem import StemmedTop
-
-        return StemmedTop(self, radius, distance)
+        return _STEMMED[0](self, radius, distance)
 
     # --- constructors -------------------------------------------------------------------
     def replace(self, **fields: float) -> TippeTop:

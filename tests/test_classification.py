@@ -16,6 +16,7 @@ import pytest
 
 import mett
 from mett import classification as C
+from mett import stability as S
 from mett.dynamics.euler import euler_rhs
 from mett.thresholds import tumbling_lambda
 
@@ -278,7 +279,7 @@ def test_asymptotic_state_is_unchanged_for_class_IIa(thesis_top):
 
 def _euler_jacobian(top, theta):
     """Central-difference Jacobian of the Euler-angle form at the tumbling state (6 × 6)."""
-    st = C._state_at(top, theta)
+    st = S._state_at(top, theta)
     y0 = np.array([theta, 0.0, st.phidot, st.omega3, 0.0, 0.0])
     p = (top.m, top.R, top.alpha, top.I1, top.I3, top.mu, top.g)
     assert np.abs(euler_rhs(y0, p)).max() < 1e-9 * st.phidot**2
@@ -304,7 +305,7 @@ def test_tumbling_eigenvalues_match_the_euler_form(name, frac):
     top = CLASS_TOPS[name]
     lo, hi = C._domain(top)
     theta = lo + frac * (hi - lo)
-    ev = C.tumbling_eigenvalues(top, theta)
+    ev = S.tumbling_eigenvalues(top, theta)
     assert ev.shape == (5,)
     _, J = _euler_jacobian(top, theta)
     ref = np.linalg.eigvals(J)
@@ -320,23 +321,23 @@ def test_tumbling_eigenvalues_match_the_euler_form(name, frac):
 def test_tumbling_eigenvalue_crosses_zero_at_the_fold():
     top = CLASS_TOPS["IIb"]
     fold = C._fold_theta(top)
-    assert C.tumbling_eigenvalues(top, fold - 1e-3)[0].real > 0  # falling part: unstable
-    assert C.tumbling_eigenvalues(top, fold + 1e-3)[0].real < 0
-    assert abs(C.tumbling_eigenvalues(top, fold)[0].real) < 1e-6 * abs(
-        C.tumbling_eigenvalues(top, fold)[1]
+    assert S.tumbling_eigenvalues(top, fold - 1e-3)[0].real > 0  # falling part: unstable
+    assert S.tumbling_eigenvalues(top, fold + 1e-3)[0].real < 0
+    assert abs(S.tumbling_eigenvalues(top, fold)[0].real) < 1e-6 * abs(
+        S.tumbling_eigenvalues(top, fold)[1]
     )
 
 
 @pytest.mark.parametrize("theta", [0.0, math.pi, -0.1, math.nan])
 def test_tumbling_eigenvalues_refuse_points_off_the_family(theta):
     with pytest.raises(ValueError, match="theta"):
-        C.tumbling_eigenvalues(mett.presets.get("rutstam2013"), theta)
+        S.tumbling_eigenvalues(mett.presets.get("rutstam2013"), theta)
 
 
 def test_tumbling_eigenvalues_refuse_beyond_theta_f():
     top = CLASS_TOPS["III"]
     with pytest.raises(ValueError, match="tumbling family's domain"):
-        C.tumbling_eigenvalues(top, 3.0)
+        S.tumbling_eigenvalues(top, 3.0)
 
 
 # --- against simulations ----------------------------------------------------------------------
@@ -375,7 +376,7 @@ def _measured_rate(top, theta, t_end):
 )
 def test_tumbling_eigenvalues_against_simulation(name, theta, t_end):
     top = CLASS_TOPS[name]
-    ev = C.tumbling_eigenvalues(top, theta)
+    ev = S.tumbling_eigenvalues(top, theta)
     rate, freq = _measured_rate(top, theta, t_end)
     assert rate == pytest.approx(ev[0].real, rel=5e-3)
     assert freq == pytest.approx(abs(ev[0].imag), rel=5e-3, abs=1e-9)
@@ -496,7 +497,7 @@ def test_extreme_lambdas_give_a_clean_answer(name, lam):
 
 def test_tumbling_eigenvalues_refuse_the_immediate_neighbourhood_of_a_pole():
     with pytest.raises(ValueError, match="1e-8 rad from the poles"):
-        C.tumbling_eigenvalues(mett.presets.get("rutstam2013"), 1e-12)
+        S.tumbling_eigenvalues(mett.presets.get("rutstam2013"), 1e-12)
 
 
 def test_tumbling_family_figure_draws_each_class():

@@ -336,12 +336,12 @@ def test_simulate_json_agrees_with_the_library(capsys):
 
 
 def test_simulate_reports_a_failed_prediction_but_keeps_the_run(tmp_path, capsys, monkeypatch):
-    import mett.thresholds
+    import mett.classification
 
     def broken(top, lam):
         raise ValueError("no tumbling state\nbetween lambda_0 and lambda_thres")
 
-    monkeypatch.setattr(mett.thresholds, "asymptotic_state", broken)
+    monkeypatch.setattr(mett.classification, "asymptotic_state", broken)
     code, out, err = call([*SIM, "--out", tmp_path / "t.csv"], capsys)
     assert code == 0, err
     assert "unavailable (no tumbling state between lambda_0 and lambda_thres)" in out

@@ -260,12 +260,12 @@ def test_a_point_whose_simulation_raises_is_a_row_and_the_sweep_goes_on(monkeypa
 
 
 def test_a_failing_prediction_keeps_the_simulated_row(monkeypatch):
-    import mett.thresholds
+    import mett.classification
 
     def broken(top, lam):
         raise ValueError("no tumbling state here")
 
-    monkeypatch.setattr(mett.thresholds, "asymptotic_state", broken)
+    monkeypatch.setattr(mett.classification, "asymptotic_state", broken)
     monkeypatch.setattr(mett.sweeps, "_PREDICTED", {})  # nothing remembered from other sweeps
     table = _tiny()
     row = table.iloc[0]

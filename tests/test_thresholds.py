@@ -8,12 +8,8 @@ import numpy as np
 import pytest
 
 import mett
-from mett.thresholds import (
-    asymptotic_state,
-    min_spin_for_inversion,
-    tumbling_lambda,
-    tumbling_state,
-)
+from mett.classification import asymptotic_state
+from mett.thresholds import min_spin_for_inversion, tumbling_lambda, tumbling_state
 
 
 def _euler_rhs_residual(top, th, phidot, omega3):

@@ -15,12 +15,16 @@ l = Rα (the tippe top), which also covers the gliding heavy symmetric top (R = 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..integrals import integrals_of
 from .registry import Model, Params
+
+if TYPE_CHECKING:
+    from ..state import State
+    from ..top import TippeTop
 
 __all__ = [
     "Model",
@@ -37,12 +41,12 @@ __all__ = [
 ]
 
 
-def tippe_params(top: Any, options: dict) -> Params:
+def tippe_params(top: TippeTop, options: dict) -> Params:
     """(m, R, l, I1, I3, mu, g) with l = Rα: the parameter tuple of the vector models."""
     return (top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.mu, top.g)
 
 
-def euler_params(top: Any, options: dict) -> Params:
+def euler_params(top: TippeTop, options: dict) -> Params:
     """(m, R, alpha, I1, I3, mu, g): the parameter tuple of the Euler-angle forms."""
     return (top.m, top.R, top.alpha, top.I1, top.I3, top.mu, top.g)
 
@@ -81,22 +85,23 @@ def axis_theta(Y: np.ndarray, start: int) -> np.ndarray:
     return np.arctan2(np.hypot(e[0], e[1]), e[2])
 
 
-def lab_vectors(state: Any, R: float, l: float) -> dict[str, np.ndarray]:
+def lab_vectors(state: State, R: float, l: float) -> dict[str, np.ndarray]:
     """Lab-frame 3̂, ω, ν and CM velocity of a scalar State, with φ = 0 and the CM over the origin.
 
     With φ = 0: 3̂ = (0, −sinθ, cosθ), ŷ = 2̂ = (1, 0, 0), x̂ = (0, −1, 0), 1̂ = 2̂ × 3̂ = (0, −cosθ, −sinθ).
     The CM velocity is ṙ = ν − ω × a (a = l 3̂ − R ẑ); its vertical part is then automatically the
     rate of change of the CM height R − l cosθ.
     """
-    th = float(state.theta)
+    # State declares its fields ArrayLike (what its constructor takes); a scalar State holds floats
+    th = float(state.theta)  # type: ignore[arg-type]
     # exact poles: sin(pi) is 1.2e-16 in floating point, which would tilt the axis by that much
     s = 0.0 if th in (0.0, math.pi) else math.sin(th)
     c = math.cos(th)
-    phd, thd, w3 = float(state.phidot), float(state.thetadot), float(state.omega3)
+    phd, thd, w3 = float(state.phidot), float(state.thetadot), float(state.omega3)  # type: ignore[arg-type]
     # written out in floats (a start is one state; numpy on 3-vectors cost 20 µs a run):
     # e1 = 2̂ × 3̂ = (0, −c, −s), ω = −φ̇ s e1 + θ̇ 2̂ + ω3 3̂, ν = ν_x x̂ + ν_y 2̂, a = l 3̂ − R ẑ
     w = (thd, phd * s * c - w3 * s, phd * s * s + w3 * c)
-    nu = (float(state.nu_y), -float(state.nu_x), 0.0)
+    nu = (float(state.nu_y), -float(state.nu_x), 0.0)  # type: ignore[arg-type]
     a = (0.0, -l * s, l * c - R)
     wa = (w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0])
     v = (nu[0] - wa[0], nu[1] - wa[1], nu[2] - wa[2])

@@ -6,16 +6,14 @@ compare with). Both run the same array algorithms, the per-element path on one e
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import _formulas as fm
 from .. import _validate
-
-if TYPE_CHECKING:
-    from ..top import TippeTop
+from ..top import TippeTop
 from ._exact import _shift
 from ._quadrature import _gauss_quadrature, _quadrature, _steady_values
 from ._roots import _turning_points
@@ -371,7 +369,7 @@ def solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solutio
 
 def _flat_inputs(top: TippeTop, E, D, lam, z0):
     """(shape, E, D, λ, z0): validated, bounded (:func:`mett._formulas.check_integrals`), flat."""
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     E, D, lam, z0 = _broadcast(E, D, lam, z0)
     fm.check_integrals(top, E=E, D=D, lam=lam)
     shape = E.shape
@@ -504,7 +502,7 @@ def minima(top: TippeTop, D: float, lam: float) -> list[float]:
     (possible only where N vanishes there, D = D0 or D1), and a minimum at a pole where N does not
     vanish is returned as the float next to it (V is +inf at the pole itself).
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     D = _validate.finite_scalar("D", D)
     lam = _validate.finite_scalar("lam", lam)
     fm.check_integrals(top, D=np.asarray(D), lam=np.asarray(lam))
@@ -523,7 +521,7 @@ def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -
     Evaluated as P(z)/g(z) with the exact energy shift (module docstring), so it is finite at the
     poles and accurate where Ẽ − V is a small difference of large numbers.
     """
-    _validate.instance("top", top, "TippeTop")
+    _validate.instance("top", top, TippeTop)
     z = _validate.cos_theta(z)
     E, D, lam, _ = _broadcast(E, D, lam)
     fm.check_integrals(top, E=E, D=D, lam=lam)
