@@ -976,7 +976,9 @@ def _draw_classes(ax, alpha, gamma, n, labels, legend: bool) -> None:
     for i, name in enumerate(C.SUBGROUPS):
         code[names == name] = i
     cmap = ListedColormap([_CLASS_COLORS[c] for c in C.SUBGROUPS])
-    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(C.SUBGROUPS) - 0.5, shading="auto")
+    # rasterised: as vectors the n² cells would make a PDF or SVG of ~100 MB; the lines stay vectors
+    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(C.SUBGROUPS) - 0.5, shading="auto",
+                  rasterized=True)  # fmt: skip
     a = np.linspace(max(alpha[0], 1e-4), alpha[1], 2000)
     b = C.subgroup_boundaries(a)
     for field, style, label in _BOUNDARY_STYLE:

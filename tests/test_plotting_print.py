@@ -290,6 +290,17 @@ def test_subgroup_legends_name_every_boundary_line_and_mark():
     assert handles[5].get_marker() == "o" and handles[6].get_marker() == "^"
     # only one preset legend entry for several presets
     assert sum(ln.get_label() == "presets" for ln in ax.lines) == 1
+    # the class map is an image in PDF/SVG (its n² cells as vectors made a 92 MB SVG)
+    assert all(
+        c.get_rasterized() for a_ in fig.axes for c in a_.collections if c.get_array() is not None
+    )
+
+
+def test_vector_subgroup_figure_stays_small(tmp_path):
+    fig = plotting.plot_subgroups(n=500)
+    fig.savefig(tmp_path / "s.svg", dpi=100)
+    # a 500 × 500 class map: as vectors 250 000 paths (~90 MB); rasterised, one image each
+    assert (tmp_path / "s.svg").stat().st_size < 5e6
 
 
 def test_the_old_classification_names_still_reach_the_figures():
