@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import TYPE_CHECKING, NamedTuple, cast
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -68,8 +68,6 @@ from . import _validate
 from .thresholds import TumblingState, tumbling_domain, tumbling_lambda
 from .top import TippeTop
 
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
 
 __all__ = [
     "CLASSIFY_MAX",
@@ -82,7 +80,6 @@ __all__ = [
     "bistable_range",
     "classify",
     "fold_lambda",
-    "plot_subgroups",
     "stable_states",
     "subgroup",
     "subgroup_boundaries",
@@ -448,152 +445,16 @@ def bistable_range(top: TippeTop) -> tuple[float, float] | None:
     return (cast(float, fold_lambda(top)), top.lambda_0)  # Ib, IIb: the family has a fold
 
 
-# --- the figure ---------------------------------------------------------------------------------
+# --- the figures: in mett.plotting (matplotlib is imported there only) --------------------------
 
-_CLASS_COLORS = {
-    "Ia": "#c6dbef",
-    "Ib": "#6baed6",
-    "IIa": "#fdd49e",
-    "IIb": "#fc8d59",
-    "IIc": "#d7301f",
-    "III": "#a1d99b",
-}
+_PLOTS = ("plot_subgroups", "plot_tumbling_families")
 
 
-def _draw_classes(ax, alpha, gamma, n, labels) -> None:
-    from matplotlib.colors import ListedColormap
+def __getattr__(name: str):
+    # plot_subgroups was public here; it and plot_tumbling_families live in mett.plotting now and
+    # stay reachable under their old names without importing matplotlib with this module
+    if name in _PLOTS:
+        from . import plotting
 
-    def centres(lo: float, hi: float) -> np.ndarray:
-        edges = np.linspace(lo, hi, n + 1)
-        return 0.5 * (edges[1:] + edges[:-1])
-
-    A, G = np.meshgrid(centres(*alpha), centres(*gamma))
-    names = classify(A, G)
-    code = np.zeros(A.shape)
-    for i, name in enumerate(SUBGROUPS):
-        code[names == name] = i
-    cmap = ListedColormap([_CLASS_COLORS[c] for c in SUBGROUPS])
-    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(SUBGROUPS) - 0.5, shading="auto")
-    a = np.linspace(max(alpha[0], 1e-4), alpha[1], 2000)
-    b = subgroup_boundaries(a)
-    for curve, style in ((b.group_I, "k-"), (b.group_III, "k-"), (b.IIa, "k--"), (b.IIc, "k:"),
-                         (b.Ia, "k:")):  # fmt: skip
-        ax.plot(a, curve, style, lw=1.0)
-    ax.plot(a, b.spins_equal, color="0.25", lw=1.0, ls="-.", label="λ₀ = λ_thres")
-    for name, (x, y) in labels.items():
-        ax.text(x, y, name, ha="center", va="center", fontsize=10, weight="bold")
-    ax.set_xlim(*alpha)
-    ax.set_ylim(*gamma)
-
-
-def plot_subgroups(
-    *,
-    points: dict[str, tuple[float, float]] | None = None,
-    samples: list[tuple[float, float]] | None = None,
-    n: int = 500,
-    ax=None,
-) -> Figure:
-    """The (α, γ) plane coloured by class (Ia … III), with its boundary curves.
-
-    Solid: γ = 1 ∓ α (groups I | II | III); dashed: lower edge of IIa (S(1) = 0); dotted: the
-    S(−1) = 0 edges of the wedges Ia and IIc (α < 7 − 4√3, magnified in the inset); dash-dotted:
-    λ_0 = λ_thres, below which (in group II) both spins are stable for λ_thres < λ < λ_0. The grey
-    line γ = 1/2 is the rigid-body bound I3 <= 2 I1.
-
-    Parameters
-    ----------
-    points : dict, optional
-        Labelled (α, γ) points to mark, e.g. the presets.
-    samples : list of (float, float), optional
-        (α, γ) of simulated sample points, drawn as triangles.
-    n : int
-        Grid size per axis of the colour map.
-    ax : matplotlib Axes, optional
-    """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig = plt.figure(figsize=(7.6, 5.6), layout="constrained")
-        ax = fig.add_subplot()
-    fig = ax.figure
-    labels = {"Ib": (0.4, 0.56), "IIa": (0.32, 1.02), "IIb": (0.5, 0.62), "III": (0.15, 1.45)}
-    _draw_classes(ax, (0.0, 0.6), (0.45, 1.7), n, labels)
-    ax.axhline(0.5, color="0.45", lw=0.8)
-    ax.text(0.01, 0.49, "γ = 1/2 (I3 = 2 I1)", ha="left", va="top", fontsize=7)
-    for name, (x, y) in (points or {}).items():
-        ax.plot(x, y, "o", ms=4, mfc="white", mec="black")
-        ax.annotate(name, (x, y), xytext=(4, 2), textcoords="offset points", fontsize=7)
-    if samples:
-        sa, sg = np.asarray(samples, dtype=float).T
-        ax.plot(sa, sg, "^", ms=5, color="black", ls="none", label="simulated samples")
-    ax.legend(loc="upper left", fontsize=8)
-    handles = [plt.Rectangle((0, 0), 1, 1, color=_CLASS_COLORS[c]) for c in SUBGROUPS]
-    ax.figure.legend(handles, SUBGROUPS, loc="outside right upper", fontsize=8, title="class")
-    ins = ax.inset_axes((0.56, 0.5, 0.42, 0.46))
-    _draw_classes(ins, (0.0, 0.08), (0.88, 1.01), n, {"Ia": (0.012, 0.95), "IIc": (0.025, 0.983),
-                                                        "IIb": (0.071, 0.966), "Ib": (0.06, 0.905),
-                                                        "IIa": (0.02, 1.004)})  # fmt: skip
-    for x, y in (points or {}).values():
-        if x <= 0.08 and 0.88 <= y <= 1.01:
-            ins.plot(x, y, "o", ms=4, mfc="white", mec="black")
-    for x, y in samples or ():
-        if x <= 0.08 and 0.88 <= y <= 1.01:
-            ins.plot(x, y, "^", ms=5, color="black")
-    ins.tick_params(labelsize=7)
-    ins.set_title("α < 0.08", fontsize=8)
-    ax.indicate_inset_zoom(ins, edgecolor="0.3")
-    ax.set_xlabel("α (CM offset / R)")
-    ax.set_ylabel("γ = I1/I3")
-    ax.set_title("Classes of tippe tops by their steady states (gliding model)")
-    return fig
-
-
-def plot_tumbling_families(*, ax=None) -> Figure:
-    """Bifurcation diagrams of the six classes: the steady states in the (θ, λ) plane.
-
-    One panel per class at its :data:`SAMPLE_POINTS` (α, γ): the tumbling family λ(θ_t), solid
-    where stable (λ'(θ_t) > 0) and dashed where unstable, and the spins on the edges θ = 0
-    (stable for λ <= λ_0) and θ = π (stable for λ >= λ_thres). λ is in units of min(λ_0, λ_thres).
-    A horizontal line λ = const meets the solid lines in the candidates of
-    :func:`mett.asymptotic_state`.
-
-    Parameters
-    ----------
-    ax : array of 6 matplotlib Axes, optional
-    """
-    import matplotlib.pyplot as plt
-
-    from .thresholds import tumbling_lambda
-    from .top import TippeTop
-
-    if ax is None:
-        fig, axes = plt.subplots(2, 3, figsize=(9.6, 5.8), layout="constrained", sharex=True)
-    else:
-        axes = np.asarray(ax)
-        fig = axes.flat[0].figure
-    ymax = 3.0
-    for a_, (name, (alpha, gamma)) in zip(axes.flat, SAMPLE_POINTS.items(), strict=True):
-        top = TippeTop(m=0.02, R=0.02, alpha=alpha, I1=gamma * 3.2e-6, I3=3.2e-6)
-        scale = min(top.lambda_0, top.lambda_thres)
-        lo, hi = _domain(top)
-        th = np.linspace(lo, hi, 3001)[1:-1]
-        lam = tumbling_lambda(top, th) / scale
-        stable = tumbling_is_stable(top, th)
-        a_.plot(th, np.where(stable, lam, np.nan), "C0-", lw=1.8, label="stable")
-        a_.plot(th, np.where(stable, np.nan, lam), "C3--", lw=1.2, label="unstable")
-        lam0, lamt = top.lambda_0 / scale, top.lambda_thres / scale
-        a_.plot([0, 0], [0, min(lam0, ymax)], "C0-", lw=5, solid_capstyle="butt")
-        a_.plot([0, 0], [min(lam0, ymax), ymax], "C3-", lw=2)
-        a_.plot([math.pi, math.pi], [min(lamt, ymax), ymax], "C0-", lw=5, solid_capstyle="butt")
-        a_.plot([math.pi, math.pi], [0, min(lamt, ymax)], "C3-", lw=2)
-        a_.set_ylim(0, ymax)
-        a_.set_xlim(-0.08, math.pi + 0.08)
-        a_.set_title(f"{name}: α = {alpha:g}, γ = {gamma:g}", fontsize=9)
-        a_.tick_params(labelsize=8)
-    for a_ in axes[-1]:
-        a_.set_xlabel("θ (rad)")
-    for a_ in axes[:, 0]:
-        a_.set_ylabel("λ / min(λ₀, λ_thres)")
-    axes.flat[0].legend(fontsize=7, loc="upper center")
-    fig.suptitle("Steady states of the gliding top: tumbling family and spins (thick: stable)")
-    return fig
+        return getattr(plotting, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

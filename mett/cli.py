@@ -507,6 +507,21 @@ def _cmd_period(args: argparse.Namespace) -> int:
     return 0
 
 
+def _dpi(text: str) -> int:
+    """--dpi: an integer from 10 to 2400 (dots per inch)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be an integer from 10 to 2400 (dots per inch); got {text!r}"
+        ) from None
+    if not 10 <= value <= 2400:
+        raise argparse.ArgumentTypeError(
+            f"must be an integer from 10 to 2400 (dots per inch); got {text!r}"
+        )
+    return value
+
+
 def _cmd_figures(args: argparse.Namespace) -> int:
     out = _check_output_dir("--out", args.out)
     custom = args.preset is not None or any(getattr(args, k) is not None for k in _FIELDS)
@@ -516,7 +531,10 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     from . import gallery
 
     progress = _progress_enabled(False if args.quiet else args.progress)
-    paths = gallery.generate(out, animation=not args.no_animation, progress=progress, **kw)
+    paths = gallery.generate(
+        out, animation=not args.no_animation, progress=progress, dpi=args.dpi,
+        format=args.format, **kw,
+    )  # fmt: skip
     # under mett's own name: `--out .` must not replace a README.md of the user's
     index = out / gallery.INDEX_NAME
     left_out = gallery.skipped(kw.get("top"))
@@ -763,6 +781,14 @@ def _build_parser() -> argparse.ArgumentParser:
         "--out", default="figures",
         help="output directory: the PNGs, the GIF and an index mett-figures.md (mett's own file "
         "names only; nothing else there is touched)",
+    )  # fmt: skip
+    p.add_argument(
+        "--format", default="png", choices=("png", "pdf", "svg"),
+        help="file format of the figures: png (default), or pdf / svg (vector, for print)",
+    )  # fmt: skip
+    p.add_argument(
+        "--dpi", type=_dpi, default=110,
+        help="resolution in dots per inch, 10 to 2400 (default 110; 300 for print)",
     )  # fmt: skip
     p.add_argument("--no-animation", action="store_true", help="skip the GIF")
     p.add_argument(

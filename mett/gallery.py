@@ -2,8 +2,8 @@
 surface (Rutstam 2012), the potential map with the run's path, the deforming potential and the
 separation equation.
 
-``mett figures --out DIR`` (or :func:`generate`) writes them as PNG (and one GIF), with an index
-:data:`INDEX_NAME`; the checked-in copies (the docs' gallery) live in ``docs/figures/`` and are
+``mett figures --out DIR`` (or :func:`generate`) writes them as PNG, PDF or SVG (:data:`FORMATS`) at
+any resolution (and one GIF), with an index :data:`INDEX_NAME`; the checked-in copies (the docs' gallery) live in ``docs/figures/`` and are
 regenerated on purpose with ``mett figures --out docs/figures``. Only
 files of mett's own names (:func:`file_names`) are written, so ``--out .`` never replaces a file of
 the user's such as ``README.md``. ``generate(out, top=...)`` draws the same
@@ -15,6 +15,7 @@ figure but those of the run (:func:`skipped` says which and why).
 from __future__ import annotations
 
 import math
+import operator
 import sys
 import warnings
 from collections.abc import Callable, Iterable
@@ -28,13 +29,45 @@ from ._validate import MettWarning
 if TYPE_CHECKING:
     from .top import TippeTop
 
-__all__ = ["FIGURES", "INDEX_NAME", "FigureSkippedWarning", "file_names", "generate", "skipped"]
+__all__ = [
+    "DEFAULT_DPI",
+    "FIGURES",
+    "FORMATS",
+    "INDEX_NAME",
+    "STYLE",
+    "FigureSkippedWarning",
+    "file_names",
+    "generate",
+    "skipped",
+]
 
 INDEX_NAME = "mett-figures.md"
 """The Markdown index ``mett figures`` writes beside the figures (a name no other tool uses)."""
 
 THESIS_LAMBDA = 6.8944e-6
 """λ (kg m³/s) of the thesis run (θ = 0.1 rad, ω3 = 155 rad/s), used for the Rutstam 2012 surface."""
+
+FORMATS = ("png", "pdf", "svg")
+"""File formats of the figures: raster PNG, or vector PDF and SVG (fonts embedded, text as paths
+in SVG), for print."""
+
+DEFAULT_DPI = 110
+"""Resolution (dots per inch) of the PNG figures by default; 300 is print quality. The vector
+formats store the dpi only for the few rasterised parts."""
+
+STYLE = {
+    "figure.figsize": (6.4, 4.4),
+    "lines.linewidth": 1.0,
+    "svg.hashsalt": "mett",
+    "svg.fonttype": "path",
+    "pdf.fonttype": 42,
+}
+"""rcParams the gallery draws under (:func:`matplotlib.rc_context`); :mod:`mett.plotting` itself
+takes the user's. Thin lines for the dense oscillating runs, a fixed salt for SVG ids and TrueType
+fonts in PDF (editable, accepted by journals)."""
+
+# metadata that would make each save differ (dates): left out, so a file depends only on its figure
+_METADATA = {"png": None, "pdf": {"CreationDate": None}, "svg": {"Date": None}}
 
 THETA0 = 0.1
 """Start inclination (rad) of the run of a top other than the thesis preset."""
@@ -161,7 +194,8 @@ def _f(ctx: _Context):
 def _subgroups(ctx: _Context):
     import mett
 
-    from .classification import SAMPLE_POINTS, plot_subgroups
+    from .classification import SAMPLE_POINTS
+    from .plotting import plot_subgroups
 
     presets = {n: mett.presets.get(n) for n in ("rutstam2013", "cohen1977", "ueda2005")}
     points = {n: (t.alpha, t.gamma) for n, t in presets.items()}
@@ -169,7 +203,7 @@ def _subgroups(ctx: _Context):
 
 
 def _families(ctx: _Context):
-    from .classification import plot_tumbling_families
+    from .plotting import plot_tumbling_families
 
     return plot_tumbling_families()
 
@@ -269,9 +303,10 @@ def generate(
     names: Iterable[str] | None = None,
     animation: bool = True,
     progress: bool = False,
-    dpi: int = 110,
+    dpi: int = DEFAULT_DPI,
+    format: str = "png",
 ) -> list[Path]:
-    """Write the figures (PNG) and the animation (GIF) into ``out_dir``; return the paths.
+    """Write the figures (PNG, PDF or SVG) and the animation (GIF) into ``out_dir``; return the paths.
 
     Parameters
     ----------
@@ -288,7 +323,19 @@ def generate(
         Also write ``deforming_potential.gif`` (the slowest item, ~10 s).
     progress : bool, default False
         Show a progress bar on stderr (tqdm if installed).
-    dpi : int, default 110
+    dpi : int, default :data:`DEFAULT_DPI`
+        Resolution in dots per inch, 10 to 2400 (300 for print): the PNGs' pixels per inch (and
+        their ``pHYs`` metadata), the rasterised parts of PDF and SVG. The GIF keeps its own.
+    format : {"png", "pdf", "svg"}, default "png"
+        File format of the figures (:data:`FORMATS`); the file names end in it.
+
+    Raises
+    ------
+    ValueError
+        An unknown figure name or format, or a dpi outside [10, 2400], before anything is
+        written.
+    TypeError
+        ``top`` that is not a :class:`mett.TippeTop`, or a dpi that is not an integer.
 
     Warns
     -----
@@ -303,6 +350,9 @@ def generate(
     unknown = [n for n in names if n not in FIGURES]
     if unknown:
         raise ValueError(f"unknown figure(s) {unknown}; known: {', '.join(FIGURES)}")
+    dpi = _check_dpi(dpi)
+    if format not in FORMATS:
+        raise ValueError(f"format must be one of {', '.join(FORMATS)}; got {format!r}")
 
     import matplotlib
 
@@ -325,22 +375,39 @@ def generate(
     out.mkdir(parents=True, exist_ok=True)
     ctx = _Context(top)
     written = []
-    for name in _progress(items, progress):
-        if name.endswith(".gif"):
-            path = out / name
-            plotting.animate_deforming_potential(ctx.thesis, str(path), frames=60, fps=12)
-        else:
-            fig = FIGURES[name][1](ctx)
-            path = out / f"{name}.png"
-            fig.savefig(path, dpi=dpi)
-            plt.close(fig)
-        written.append(path)
+    with plt.rc_context(STYLE):
+        for name in _progress(items, progress):
+            if name.endswith(".gif"):
+                path = out / name
+                plotting.animate_deforming_potential(ctx.thesis, str(path), frames=60, fps=12)
+            else:
+                fig = FIGURES[name][1](ctx)
+                path = out / f"{name}.{format}"
+                fig.savefig(path, dpi=dpi, format=format, metadata=_METADATA[format])
+                plt.close(fig)
+            written.append(path)
     return written
+
+
+def _check_dpi(dpi: Any) -> int:
+    """``dpi`` as an int in [10, 2400], or a TypeError/ValueError naming it."""
+    if isinstance(dpi, bool):
+        raise TypeError(f"dpi must be an integer (dots per inch, 10 to 2400); got {dpi!r}")
+    try:
+        value = operator.index(dpi)
+    except TypeError:
+        raise TypeError(
+            f"dpi must be an integer (dots per inch, 10 to 2400); got {dpi!r}"
+        ) from None
+    if not 10 <= value <= 2400:
+        raise ValueError(f"dpi must be between 10 and 2400 (dots per inch); got {dpi!r}")
+    return value
 
 
 def file_names() -> list[str]:
     """Every file name :func:`generate` and ``mett figures`` may write (nothing else is touched)."""
-    return [*(f"{n}.png" for n in FIGURES), *(f"{n}.gif" for n in ANIMATIONS), INDEX_NAME]
+    figures = [f"{n}.{fmt}" for fmt in FORMATS for n in FIGURES]
+    return [*figures, *(f"{n}.gif" for n in ANIMATIONS), INDEX_NAME]
 
 
 def index_markdown(paths: Iterable[Path], *, left_out: dict[str, str] | None = None) -> str:
@@ -348,8 +415,10 @@ def index_markdown(paths: Iterable[Path], *, left_out: dict[str, str] | None = N
     lines = ["# Figures", "", "Regenerate with `mett figures --out figures`.", ""]
     for p in paths:
         key = p.stem
-        desc = FIGURES[key][0] if p.suffix == ".png" else ANIMATIONS.get(key, key)
-        lines += [f"## {desc}", "", f"![{desc}]({p.name})", ""]
+        desc = ANIMATIONS.get(key, key) if p.suffix == ".gif" else FIGURES[key][0]
+        # Markdown shows PNG, SVG and GIF inline; a PDF is linked
+        shown = f"[{desc} (PDF)]({p.name})" if p.suffix == ".pdf" else f"![{desc}]({p.name})"
+        lines += [f"## {desc}", "", shown, ""]
     if left_out:
         lines += ["## Not drawn for this top", ""]
         lines += [f"- `{name}`: {why}" for name, why in left_out.items()]

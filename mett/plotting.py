@@ -1,8 +1,12 @@
 """Figures of the METT and of simulated tops (matplotlib; imported lazily, never by ``import mett``).
 
-Every function takes ``ax=None`` (a new figure is made when it is None) and returns the Figure; no
-global style (rcParams) is changed. Angles are plotted in radians, every energy in mJ
-(:data:`ENERGY_UNIT`) and the Routh integral D in 10⁻³ kg m²/s.
+Every ``plot_*`` function takes ``ax=None`` (a new figure is made when it is None) and returns the
+Figure. The user's style is respected and never changed: sizes, fonts, line widths, marker sizes,
+colours (``C0``, ``C1``, … of the property cycle) and the default colour map come from
+:data:`matplotlib.rcParams`; the few secondary lines and marks (reference lines, contour lines)
+are drawn at fixed fractions of ``lines.linewidth`` and ``lines.markersize`` and the text at
+relative sizes ("small", …), so a style sheet scales them too. Angles are plotted in radians,
+every energy in mJ (:data:`ENERGY_UNIT`) and the Routh integral D in 10⁻³ kg m²/s.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import numpy as np
 from matplotlib import patheffects
 from matplotlib.ticker import MaxNLocator
 
-from . import _validate, potential, separation, thresholds
+from . import _validate, classification, potential, separation, thresholds
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -45,17 +49,42 @@ __all__ = [
     "plot_potential_map",
     "plot_potential_slices",
     "plot_potential_surface",
+    "plot_subgroups",
     "plot_theta",
     "plot_thetadot",
     "plot_timeseries",
+    "plot_tumbling_families",
 ]
+
+
+def _figure(width: float = 1.0, height: float = 1.0) -> Figure:
+    """A new figure of ``figure.figsize`` (rcParams) scaled by ``width`` and ``height``."""
+    w, h = plt.rcParams["figure.figsize"]
+    return plt.figure(figsize=(width * w, height * h), layout="constrained")
 
 
 def _axes(ax: Axes | None, projection: str | None = None) -> tuple[Figure, Axes]:
     if ax is not None:
         return ax.figure, ax
-    fig = plt.figure(figsize=(6.4, 4.4), layout="constrained")
+    fig = _figure()
     return fig, fig.add_subplot(projection=projection)
+
+
+def _lw(factor: float) -> float:
+    """A secondary line's width: ``factor`` × the user's ``lines.linewidth``.
+
+    The factors are the widths (points) at ``lines.linewidth = 1``, the gallery's style.
+    """
+    return factor * plt.rcParams["lines.linewidth"]
+
+
+def _ms(factor: float) -> float:
+    """A secondary marker's size: ``factor`` × the user's ``lines.markersize``."""
+    return factor * plt.rcParams["lines.markersize"]
+
+
+def _cmap_name(cmap: str | None) -> str:
+    return plt.rcParams["image.cmap"] if cmap is None else cmap
 
 
 # --- units and shared helpers ----------------------------------------------------------------
@@ -106,9 +135,9 @@ def _coordinate_grid(coordinate: str, n: int) -> tuple[np.ndarray, np.ndarray]:
     return u, np.clip(np.cos(u), -1.0, 1.0)
 
 
-def _sequential_colors(n: int, cmap: str = "viridis") -> list:
-    """``n`` colours of a sequential map, stopping before its pale end (legible on white)."""
-    cm = plt.get_cmap(cmap)
+def _sequential_colors(n: int, cmap: str | None = None) -> list:
+    """``n`` colours of a sequential map (default ``image.cmap``), stopping before its pale end."""
+    cm = plt.get_cmap(_cmap_name(cmap))
     return [cm(x) for x in np.linspace(0.0, _SEQUENTIAL_END, max(n, 1))]
 
 
@@ -210,12 +239,13 @@ def plot_potential_surface(
     D_range: tuple[float, float] | None = None,
     coordinate: str = "z",
     level: float | None = None,
-    cmap: str = "viridis",
-    elev: float = 55.0,
+    cmap: str | None = None,
+    elev: float = 30.0,
     azim: float | None = None,
     n: int = 161,
     n_D: int = 81,
     colorbar: bool = True,
+    minimum: bool = True,
     ax: Axes | None = None,
 ) -> Figure:
     """The surface V(cos θ, D, λ) over the poles' interval and D ∈ [D1, D0] (Rutstam 2012).
@@ -235,16 +265,21 @@ def plot_potential_surface(
         Horizontal axis: z = cos θ ∈ [−1, 1], or θ ∈ [0, π] (rad). The title and labels follow.
     level : float, optional
         V (J) above which the surface is left out; default :func:`default_level`.
-    cmap : str, default "viridis"
-        Colour map of V; the colour bar spans [min V, level].
+    cmap : str, optional
+        Colour map of V (default ``image.cmap`` of rcParams); the colour bar spans
+        [min V, level] and carries the same ticks (mJ) as the V axis.
     elev, azim : float
         View of the 3-D axes (degrees, as :meth:`mpl_toolkits.mplot3d.axes3d.Axes3D.view_init`).
-        The default looks down along the well (azimuth −105° for z, −75° for θ, the mirror
-        view), so its floor is seen along its whole track.
+        The default looks up the well from its low D1 end, 10° off its track in the box of the
+        axes (azimuth −125° for z, −55° for θ, the mirror view): both walls, and the floor
+        rising from E1 to E0 along the track.
     n, n_D : int
         Samples along the z (or θ) axis and along D.
     colorbar : bool, default True
         Draw a colour bar of V (mJ).
+    minimum : bool, default True
+        Draw the floor of the well, (z_min(D), D, V(z_min(D), D)) (:func:`mett.potential_minimum`),
+        labelled "well minimum", over the surface.
     ax : Axes3D, optional
         A 3-D axes to draw into.
 
@@ -254,6 +289,8 @@ def plot_potential_surface(
         Its 3-D axes holds the surface (a ``Poly3DCollection``; cells with a vertex above ``level``
         lose that vertex, cells with all four above it are dropped).
     """
+    from .estimates import potential_minimum
+
     lam = _validate.positive_jellett(lam)
     coordinate = _coordinate(coordinate)
     D_lo, D_hi = _D_range(top, lam, D_range)
@@ -267,19 +304,31 @@ def plot_potential_surface(
     vmin = float(np.nanmin(Vt)) * ENERGY_SCALE
     vmax = level * ENERGY_SCALE
     surf = ax.plot_surface(
-        U, DD * D_SCALE, Vt * ENERGY_SCALE,
-        rstride=1, cstride=1, cmap=cmap, vmin=vmin, vmax=vmax, linewidth=0, antialiased=False,
+        U, DD * D_SCALE, Vt * ENERGY_SCALE, rstride=1, cstride=1, cmap=_cmap_name(cmap),
+        vmin=vmin, vmax=vmax, linewidth=0, antialiased=False,
     )  # fmt: skip
+    if minimum:
+        zmin = np.array([potential_minimum(top, float(d), lam) for d in D])
+        vfloor = potential.V(top, zmin, D, lam) * ENERGY_SCALE
+        track = zmin if coordinate == "z" else np.arccos(np.clip(zmin, -1.0, 1.0))
+        keep = vfloor <= vmax
+        # drawn last and above the surface (mplot3d sorts whole artists, not their parts)
+        ax.plot(track[keep], D[keep] * D_SCALE, vfloor[keep], color="w", ls="--", lw=_lw(1.4),
+                label="well minimum", zorder=5,
+                path_effects=[patheffects.withStroke(linewidth=_lw(2.6), foreground="k")])  # fmt: skip
     u = _coordinate_grid(coordinate, 3)[0]
     ax.set_zlim(vmin, vmax)
     ax.set_xlim(u[0], u[-1])
     ax.set_ylim(D_lo * D_SCALE, D_hi * D_SCALE)
     if azim is None:
-        azim = -105.0 if coordinate == "z" else -75.0
+        azim = -125.0 if coordinate == "z" else -55.0
     ax.view_init(elev=elev, azim=azim)
     ax.set_xticks(np.linspace(-1.0, 1.0, 5) if coordinate == "z" else np.arange(0.0, 3.5, 0.5))
-    for axis in (ax.yaxis, ax.zaxis):
-        axis.set_major_locator(MaxNLocator(5))
+    ax.yaxis.set_major_locator(MaxNLocator(5))
+    # one set of V ticks for the V axis and the colour bar, so a colour reads off as a height
+    vticks = MaxNLocator(5).tick_values(vmin, vmax)
+    vticks = vticks[(vticks >= vmin) & (vticks <= vmax)]
+    ax.set_zticks(vticks)
     ax.set_xlabel(_COORDINATE_LABELS[coordinate])
     ax.set_ylabel(D_LABEL, labelpad=12)  # clear of the tick labels in the default views
     ax.set_zlabel(f"V [{ENERGY_UNIT}]", labelpad=6)
@@ -288,8 +337,13 @@ def plot_potential_surface(
     else:
         ax.set_title(rf"$V$ against $\theta$ and $D$, {_lam_text(lam)}")
     if colorbar:
-        fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.1, label=f"V [{ENERGY_UNIT}]")
+        cb = fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.1, label=f"V [{ENERGY_UNIT}]")
+        cb.set_ticks(vticks)
     return fig
+
+
+_MAP_MARGIN = 0.04
+"""Margin (fraction of each range) of the potential map around its data when a run is drawn."""
 
 
 def plot_potential_map(
@@ -300,7 +354,7 @@ def plot_potential_map(
     coordinate: str = "z",
     trajectory: Trajectory | None = None,
     level: float | None = None,
-    cmap: str = "viridis",
+    cmap: str | None = None,
     n: int = 241,
     n_levels: int = 25,
     minimum: bool = True,
@@ -327,7 +381,8 @@ def plot_potential_map(
         A simulated run with this λ; its (D(t), cos θ(t)) (or (D(t), θ(t))) is drawn on top.
     level : float, optional
         V (J) above which the map is left blank (masked); default :func:`default_level`.
-    cmap : str, default "viridis"
+    cmap : str, optional
+        Colour map of V (default ``image.cmap`` of rcParams).
     n : int
         Samples along z (or θ).
     n_levels : int
@@ -341,8 +396,10 @@ def plot_potential_map(
     Returns
     -------
     Figure
-        Lines carry the labels "well minimum" and "trajectory" (data in the plotted units:
-        D in 10⁻³ kg m²/s, z or θ in rad).
+        Lines carry the labels "well minimum", "trajectory", "start" and "end" (data in the
+        plotted units: D in 10⁻³ kg m²/s, z or θ in rad). With a trajectory the limits leave a
+        margin of 4 % of each range around the map, so the start and end marks, which sit on its
+        edges (the run starts and ends next to a pole), are drawn whole.
     """
     from .estimates import potential_minimum
 
@@ -367,23 +424,28 @@ def plot_potential_map(
     fig, ax = _axes(ax)
     vmin = float(np.min(Vs[np.isfinite(Vs)])) * ENERGY_SCALE
     levels = np.linspace(vmin, level * ENERGY_SCALE, n_levels)
-    cs = ax.contourf(Dg * D_SCALE, u, data, levels=levels, cmap=cmap, extend="neither")
-    ax.contour(Dg * D_SCALE, u, data, levels=levels[::4], colors="w", linewidths=0.4, alpha=0.6)
+    cs = ax.contourf(Dg * D_SCALE, u, data, levels=levels, cmap=_cmap_name(cmap), extend="neither")
+    ax.contour(Dg * D_SCALE, u, data, levels=levels[::4], colors="w", linewidths=_lw(0.4),
+               alpha=0.6)  # fmt: skip
     if minimum:
         zmin = np.array([potential_minimum(top, float(d), lam) for d in Dg])
         track = zmin if coordinate == "z" else np.arccos(np.clip(zmin, -1.0, 1.0))
         ax.plot(
-            Dg * D_SCALE, track, color="w", ls="--", lw=1.4, label="well minimum",
-            path_effects=[patheffects.withStroke(linewidth=2.6, foreground="k")],
+            Dg * D_SCALE, track, color="w", ls="--", lw=_lw(1.4), label="well minimum",
+            path_effects=[patheffects.withStroke(linewidth=_lw(2.6), foreground="k")],
         )  # fmt: skip
     if trajectory is not None:
         y = np.cos(trajectory.theta) if coordinate == "z" else np.asarray(trajectory.theta)
         x = np.asarray(trajectory.D) * D_SCALE
-        ax.plot(x, y, color="C1", lw=0.6, label="trajectory")
-        ax.plot([x[0]], [y[0]], "o", color="C1", ms=6, mec="k", clip_on=False, label="start")
-        ax.plot([x[-1]], [y[-1]], "s", color="C1", ms=6, mec="k", clip_on=False, label="end")
-    ax.set_xlim(Dg[0] * D_SCALE, Dg[-1] * D_SCALE)
-    ax.set_ylim(u[0], u[-1])
+        ax.plot(x, y, color="C1", lw=_lw(0.6), label="trajectory")
+        ax.plot([x[0]], [y[0]], "o", color="C1", mec="k", label="start")
+        ax.plot([x[-1]], [y[-1]], "s", color="C1", mec="k", label="end")
+    x0, x1, y0, y1 = Dg[0] * D_SCALE, Dg[-1] * D_SCALE, u[0], u[-1]
+    if trajectory is not None:  # room for the marks on the edges
+        px, py = _MAP_MARGIN * (x1 - x0), _MAP_MARGIN * (y1 - y0)
+        x0, x1, y0, y1 = x0 - px, x1 + px, y0 - py, y1 + py
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
     ax.set_xlabel(D_LABEL)
     ax.set_ylabel(_COORDINATE_LABELS[coordinate])
     if coordinate == "z":
@@ -461,7 +523,7 @@ def plot_potential(
     )
     c = curve.get_color()
     if E is not None:
-        ax.axhline(E * ENERGY_SCALE, color=c, ls="--", lw=0.9, label=r"$\tilde E$")
+        ax.axhline(E * ENERGY_SCALE, color=c, ls="--", lw=_lw(0.9), label=r"$\tilde E$")
         if b.kind != "none":
             ax.plot([b.z_low, b.z_high], [E * ENERGY_SCALE] * 2, "o", color=c, mec="k",
                     label="turning points", clip_on=False)  # fmt: skip
@@ -486,12 +548,12 @@ def plot_potential_slices(
     Ds: ArrayLike,
     lam: float,
     *,
-    cmap: str = "viridis",
+    cmap: str | None = None,
     ax: Axes | None = None,
 ) -> Figure:
     """Several slices V(z, D, λ) at the Routh values ``Ds`` (kg m²/s), one colour each.
 
-    Colours run along a sequential map (``cmap``, cut before its pale end) in the order of ``Ds``;
+    Colours run along a sequential map (``cmap``, default ``image.cmap``, cut before its pale end) in the order of ``Ds``;
     each curve is labelled with its D. Built on :func:`plot_potential`.
     """
     Ds = _validate.as_finite_array("Ds", Ds).ravel()
@@ -525,7 +587,7 @@ def plot_f(top: TippeTop, E: float, D: float, lam: float, *, ax: Axes | None = N
     else:
         z = np.linspace(-1.0, 1.0, 801)
     ax.plot(z, separation.f(top, z, E, D, lam), color="C0", label="f(z)")
-    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.axhline(0.0, color="0.5", lw=_lw(0.8))
     if b.kind == "nutation":
         ax.plot([b.z_low, b.z_high], [0.0, 0.0], "o", color="C3", label="roots (turning points)")
     ax.set_xlabel("z = cos θ")
@@ -572,7 +634,7 @@ def plot_timeseries(traj: Trajectory, *names: str, ax: Axes | None = None) -> Fi
     fig, ax = _axes(ax)
     for n in names:
         label, unit, scale = SERIES[n]
-        ax.plot(traj.t, np.asarray(getattr(traj, n)) * scale, label=label, lw=1.0)
+        ax.plot(traj.t, np.asarray(getattr(traj, n)) * scale, label=label)
     ax.set_xlabel("t [s]")
     ax.set_ylabel(", ".join(SERIES[n][0] for n in names) + f" [{units.pop()}]")
     if len(names) > 1:
@@ -584,23 +646,59 @@ def plot_theta(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     """θ(t), with π/2 marked (thesis figure 4a)."""
     fig = plot_timeseries(traj, "theta", ax=ax)
     ax = ax or fig.axes[0]
-    ax.axhline(np.pi / 2, color="0.6", lw=0.8, ls=":")
+    ax.axhline(np.pi / 2, color="0.6", lw=_lw(0.8), ls=":")
     ax.set_ylim(0, np.pi)
     return fig
 
 
-def plot_angular_velocities(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
-    """ψ̇(t) and φ̇(t) (thesis figures 4b, 4c).
+def plot_angular_velocities(
+    traj: Trajectory, *, ax: Axes | tuple[Axes, Axes] | None = None
+) -> Figure:
+    """ψ̇(t) and φ̇(t) (thesis figures 4b, 4c), each on its own y-axis.
 
-    Each is singular where θ → 0 (only ω3 = ψ̇ + φ̇ cos θ stays finite), so the y-range is set
-    from the 1st–99th percentiles; the spikes near the pole pass are cut, not the data.
+    Each is singular where θ → 0 (only ω3 = ψ̇ + φ̇ cos θ stays finite) and the two are of
+    opposite sign there, so one shared y-range would squash both. Each gets its own range, from
+    its own 1st–99th percentiles padded by 30 %: the spikes near the pole pass are cut, not the
+    data.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    ax : Axes or pair of Axes, optional
+        Two axes: ψ̇ is drawn in the first, φ̇ in the second. One axes: ψ̇ in it and φ̇ on a
+        twin y-axis on its right (:meth:`~matplotlib.axes.Axes.twinx`). Default: a new figure
+        with two panels, one above the other, sharing t.
+
+    Returns
+    -------
+    Figure
     """
-    fig = plot_timeseries(traj, "psidot", "phidot", ax=ax)
-    ax = ax or fig.axes[0]
-    both = np.concatenate([traj.psidot, traj.phidot])
-    lo, hi = np.percentile(both, [1, 99])
-    pad = 0.3 * (hi - lo)
-    ax.set_ylim(lo - pad, hi + pad)
+    twin = False
+    if ax is None:
+        w, h = plt.rcParams["figure.figsize"]
+        fig, (a_psi, a_phi) = plt.subplots(
+            2, 1, sharex=True, figsize=(w, 1.35 * h), layout="constrained"
+        )
+    elif isinstance(ax, (tuple, list, np.ndarray)):
+        a_psi, a_phi = np.asarray(ax, dtype=object).ravel()
+        fig = a_psi.figure
+    else:
+        fig, a_psi, a_phi, twin = ax.figure, ax, ax.twinx(), True
+    for a_, name, color in ((a_psi, "psidot", "C0"), (a_phi, "phidot", "C1")):
+        label, unit, _ = SERIES[name]
+        y = np.asarray(getattr(traj, name))
+        a_.plot(traj.t, y, color=color, label=label)
+        lo, hi = np.percentile(y, [1, 99])
+        pad = 0.3 * (hi - lo) if hi > lo else 1.0
+        a_.set_ylim(lo - pad, hi + pad)
+        a_.set_ylabel(f"{label} [{unit}]")
+        if twin:  # which axis is whose
+            a_.yaxis.label.set_color(color)
+    a_phi.set_xlabel("t [s]")
+    if a_psi.get_shared_x_axes().joined(a_psi, a_phi) and not twin:
+        a_psi.tick_params(labelbottom=False)
+    else:
+        a_psi.set_xlabel("t [s]")
     return fig
 
 
@@ -611,7 +709,7 @@ def plot_omega3(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     top = traj.top
     lam = float(np.median(traj.lam))
     w_end = thresholds.pole_spins(top, lam)[1]
-    ax.axhline(w_end, color="C3", ls="--", lw=0.8, label=f"−λ/(R I₃(1+α)) = {w_end:.3f} rad/s")
+    ax.axhline(w_end, color="C3", ls="--", lw=_lw(0.8), label=f"−λ/(R I₃(1+α)) = {w_end:.3f} rad/s")
     ax.legend(loc="best")
     return fig
 
@@ -637,7 +735,7 @@ def plot_D_E_curve(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     lam = float(np.median(traj.lam))
     bv = thresholds.boundary_values(traj.top, lam)
     eS, dS = ENERGY_SCALE, D_SCALE
-    ax.plot(traj.D * dS, traj.E_mod * eS, lw=0.8, label="(D(t), Ẽ(t))")
+    ax.plot(traj.D * dS, traj.E_mod * eS, label="(D(t), Ẽ(t))")
     ax.plot([bv.D0 * dS], [bv.E0 * eS], "o", color="C2", label="(D0, E0): upright spin")
     ax.plot([bv.D1 * dS], [bv.E1 * eS], "s", color="C3", label="(D1, E1): inverted spin")
     ax.set_xlabel("D [10⁻³ kg m²/s]")
@@ -667,7 +765,7 @@ def plot_deforming_potential(
     s = traj.at(np.asarray(times))
     E_mod = np.atleast_1d(_modified_energy(traj, s))
     for i, (t, color) in enumerate(zip(times, _sequential_colors(len(times)), strict=True)):
-        ax.plot(th, Vs[i] * ENERGY_SCALE, color=color, lw=1.2, label=f"t = {t:.2f} s")
+        ax.plot(th, Vs[i] * ENERGY_SCALE, color=color, label=f"t = {t:.2f} s")
         v_dot = float(potential.V(traj.top, np.cos(theta[i]), *_DL(traj, s, i)))
         # clip_on=False: the last dot sits on the θ = π edge of the axes
         ax.plot(theta[i], v_dot * ENERGY_SCALE, "o", color=color, mec="k", mew=0.6,
@@ -738,11 +836,11 @@ def plot_axis_trace(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
     fig, ax = _axes(ax, projection="3d")
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
     ax.plot_wireframe(
-        np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v), color="0.8", lw=0.3, alpha=0.4
+        np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v), color="0.8", lw=_lw(0.3), alpha=0.4
     )
     st, sp, ct = np.sin(traj.theta), np.sin(traj.phi), np.cos(traj.theta)
     x, y, zz = st * sp, -st * np.cos(traj.phi), ct
-    ax.plot(x, y, zz, lw=0.7, color="C1", label="axis 3̂(t)")
+    ax.plot(x, y, zz, lw=_lw(0.7), color="C1", label="axis 3̂(t)")
     ax.plot([x[0]], [y[0]], [zz[0]], "o", color="C2", label="start")
     ax.plot([x[-1]], [y[-1]], [zz[-1]], "s", color="C3", label="end")
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # three ticks each: the default ones overlap
@@ -767,6 +865,19 @@ _KIND_STYLE = {
 }
 
 
+def _sweep_alpha(table) -> float | None:
+    """α of every point of a sweep table: its ``alpha`` column if constant, else the base top's
+    (``table.attrs["top"]``, written by :func:`mett.sweeps.sweep`) if α is not a column; None if
+    α varies or is unknown."""
+    if "alpha" in table:
+        values = table["alpha"].unique()
+        return float(values[0]) if len(values) == 1 else None
+    top = table.attrs.get("top") if hasattr(table, "attrs") else None
+    if isinstance(top, dict) and "alpha" in top:
+        return float(top["alpha"])
+    return None
+
+
 def plot_phase_diagram(
     table, *, x: str = "lam_ratio", y: str = "gamma", alpha: float | None = None,
     ax: Axes | None = None,
@@ -774,29 +885,246 @@ def plot_phase_diagram(
     """End states of a sweep (:func:`mett.sweeps.sweep`) in the plane of two of its columns.
 
     Points are drawn by their simulated end state (upright / tumbling / inverted, "not settled"
-    for runs too short to tell; contact loss and failures as crosses). In the default (λ/λ_thres, γ) plane the thresholds are drawn over them for
-    the eccentricity ``alpha`` (default: the sweep's, if it did not vary): λ = λ_thres is the line
-    λ/λ_thres = 1 and λ = λ_0 the curve λ_0/λ_thres = ((1 − α)/(1 + α))² √((1 + α − γ)/(α + γ − 1))
+    for runs too short to tell; contact loss and failures as crosses). In the (λ/λ_thres, γ) plane
+    (either way round) the thresholds are drawn over them for the eccentricity α: λ = λ_thres is
+    the line λ/λ_thres = 1 and λ = λ_0 the curve
+
+        λ_0/λ_thres = ((1 − α)/(1 + α))² √((1 + α − γ)/(α + γ − 1)),   1 − α < γ < 1 + α
+
     (docs/theory/thresholds.md#thresholds); between them the top ends tumbling.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A sweep's table; needs the columns ``x``, ``y`` and ``simulated``.
+    x, y : str
+        Columns on the horizontal and vertical axes.
+    alpha : float, optional
+        α of the thresholds. Default: the table's ``alpha`` column if it is constant, else the
+        swept top's α, which :func:`mett.sweeps.sweep` keeps in ``table.attrs["top"]``; no
+        threshold lines if α varies over the table or is unknown.
+    ax : Axes, optional
+
+    Returns
+    -------
+    Figure
+        The threshold lines carry the labels "λ = λ₀" and "λ = λ_thres".
     """
     fig, ax = _axes(ax)
     for kind, (marker, color) in _KIND_STYLE.items():
         sel = table[table["simulated"] == kind]
         if len(sel):
-            ax.scatter(sel[x], sel[y], marker=marker, color=color, label=kind, s=28)
-    if x == "lam_ratio" and y == "gamma":
-        if alpha is None and "alpha" in table and table["alpha"].nunique() == 1:
-            alpha = float(table["alpha"].iloc[0])
-        if alpha is not None:
-            g = np.linspace(1 - alpha + 1e-3, 1 + alpha - 1e-3, 400)
+            ax.scatter(sel[x], sel[y], marker=marker, color=color, label=kind, s=_ms(0.88) ** 2)
+    axes_pair = {x, y} == {"lam_ratio", "gamma"}
+    if axes_pair:
+        if alpha is None:
+            alpha = _sweep_alpha(table)
+        else:
+            alpha = _validate.finite_scalar("alpha", alpha)
+        if alpha is not None and 0.0 < alpha < 1.0:
+            g = np.linspace(1 - alpha, 1 + alpha, 402)[1:-1]
             ratio0 = ((1 - alpha) / (1 + alpha)) ** 2 * np.sqrt((1 + alpha - g) / (alpha + g - 1))
-            ax.plot(ratio0, g, color="C0", lw=1.2, label="λ = λ₀")
-            ax.axvline(1.0, color="C3", lw=1.2, label="λ = λ_thres")
-            ax.set_xlim(0, max(float(table[x].max()) * 1.1, 1.2))
-        ax.set_xlabel("λ / λ_thres")
-        ax.set_ylabel("γ = I1/I3")
-    else:
-        ax.set_xlabel(x)
-        ax.set_ylabel(y)
+            lr_max = max(float(table["lam_ratio"].max()) * 1.1, 1.2)
+            if x == "lam_ratio":
+                ax.plot(ratio0, g, color="C0", lw=_lw(1.2), label="λ = λ₀")
+                ax.axvline(1.0, color="C3", lw=_lw(1.2), label="λ = λ_thres")
+                ax.set_xlim(0, lr_max)
+            else:
+                ax.plot(g, ratio0, color="C0", lw=_lw(1.2), label="λ = λ₀")
+                ax.axhline(1.0, color="C3", lw=_lw(1.2), label="λ = λ_thres")
+                ax.set_ylim(0, lr_max)
+    labels = {"lam_ratio": "λ / λ_thres", "gamma": "γ = I1/I3"}
+    ax.set_xlabel(labels.get(x, x))
+    ax.set_ylabel(labels.get(y, y))
     ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+# --- the classes of tops (mett.classification) -----------------------------------------------
+
+_CLASS_COLORS = {
+    "Ia": "#c6dbef",
+    "Ib": "#6baed6",
+    "IIa": "#fdd49e",
+    "IIb": "#fc8d59",
+    "IIc": "#d7301f",
+    "III": "#a1d99b",
+}
+
+# boundary curves of the classes: field of SubgroupBoundaries, line style, legend entry
+_BOUNDARY_STYLE = (
+    ("group_I", "-", "γ = 1 ∓ α: groups I | II | III"),
+    ("group_III", "-", None),
+    ("IIa", "--", "S(1) = 0: lower edge of IIa"),
+    ("IIc", ":", "S(−1) = 0: edges of Ia, IIc"),
+    ("Ia", ":", None),
+)
+
+
+def _draw_classes(ax, alpha, gamma, n, labels, legend: bool) -> None:
+    from matplotlib.colors import ListedColormap
+
+    C = classification
+
+    def centres(lo: float, hi: float) -> np.ndarray:
+        edges = np.linspace(lo, hi, n + 1)
+        return 0.5 * (edges[1:] + edges[:-1])
+
+    A, G = np.meshgrid(centres(*alpha), centres(*gamma))
+    names = C.classify(A, G)
+    code = np.zeros(A.shape)
+    for i, name in enumerate(C.SUBGROUPS):
+        code[names == name] = i
+    cmap = ListedColormap([_CLASS_COLORS[c] for c in C.SUBGROUPS])
+    # rasterised: as vectors the n² cells would make a PDF or SVG of ~100 MB; the lines stay vectors
+    ax.pcolormesh(A, G, code, cmap=cmap, vmin=-0.5, vmax=len(C.SUBGROUPS) - 0.5, shading="auto",
+                  rasterized=True)  # fmt: skip
+    a = np.linspace(max(alpha[0], 1e-4), alpha[1], 2000)
+    b = C.subgroup_boundaries(a)
+    for field, style, label in _BOUNDARY_STYLE:
+        ax.plot(a, getattr(b, field), color="k", ls=style, lw=_lw(1.0),
+                label=label if legend and label else "_nolegend_")  # fmt: skip
+    ax.plot(a, b.spins_equal, color="0.25", lw=_lw(1.0), ls="-.",
+            label="λ₀ = λ_thres" if legend else "_nolegend_")  # fmt: skip
+    for name, (x, y) in labels.items():
+        ax.text(x, y, name, ha="center", va="center", fontsize="medium", weight="bold")
+    ax.set_xlim(*alpha)
+    ax.set_ylim(*gamma)
+
+
+def plot_subgroups(
+    *,
+    points: dict[str, tuple[float, float]] | None = None,
+    samples: list[tuple[float, float]] | None = None,
+    n: int = 500,
+    ax: Axes | None = None,
+) -> Figure:
+    """The (α, γ) plane coloured by class (Ia … III, :mod:`mett.classification`), with its boundaries.
+
+    Solid: γ = 1 ∓ α (groups I | II | III); dashed: lower edge of IIa (S(1) = 0); dotted: the
+    S(−1) = 0 edges of the wedges Ia and IIc (α < 7 − 4√3, magnified in the inset); dash-dotted:
+    λ_0 = λ_thres, below which (in group II) both spins are stable for λ_thres < λ < λ_0. The grey
+    line γ = 1/2 is the rigid-body bound I3 <= 2 I1. One legend names the classes' colours, a
+    second the lines and the marks.
+
+    Parameters
+    ----------
+    points : dict, optional
+        Labelled (α, γ) points to mark, e.g. the presets (legend entry "presets").
+    samples : list of (float, float), optional
+        (α, γ) of simulated sample points, drawn as triangles ("simulated samples").
+    n : int
+        Grid size per axis of the colour map.
+    ax : Axes, optional
+
+    Returns
+    -------
+    Figure
+        The main axes first, its inset last.
+    """
+    n = _validate.positive_int("n", n)
+    if ax is None:
+        fig = _figure(1.2, 1.2)
+        ax = fig.add_subplot()
+    fig = ax.figure
+    labels = {"Ib": (0.4, 0.56), "IIa": (0.32, 1.02), "IIb": (0.5, 0.62), "III": (0.15, 1.45)}
+    _draw_classes(ax, (0.0, 0.6), (0.45, 1.7), n, labels, legend=True)
+    ax.axhline(0.5, color="0.45", lw=_lw(0.8), label="γ = 1/2 (I3 = 2 I1)")
+    mark = dict(ls="none", marker="o", ms=_ms(0.67), mfc="white", mec="black")
+    sample_mark = dict(ls="none", marker="^", ms=_ms(0.83), color="black")
+    for i, (name, (x, y)) in enumerate((points or {}).items()):
+        ax.plot(x, y, **mark, label="presets" if i == 0 else "_nolegend_")
+        ax.annotate(name, (x, y), xytext=(4, 2), textcoords="offset points", fontsize="x-small")
+    if samples:
+        sa, sg = np.asarray(samples, dtype=float).T
+        ax.plot(sa, sg, **sample_mark, label="simulated samples")
+    lines = fig.legend(
+        *ax.get_legend_handles_labels(), loc="outside right lower", fontsize="small",
+        title="lines and marks",
+    )  # fmt: skip
+    lines.set_label("lines and marks")
+    handles = [
+        plt.Rectangle((0, 0), 1, 1, color=_CLASS_COLORS[c]) for c in classification.SUBGROUPS
+    ]
+    classes = fig.legend(handles, classification.SUBGROUPS, loc="outside right upper",
+                         fontsize="small", title="class")  # fmt: skip
+    classes.set_label("class")
+    ins = ax.inset_axes((0.56, 0.5, 0.42, 0.46))
+    _draw_classes(ins, (0.0, 0.08), (0.88, 1.01), n, {"Ia": (0.012, 0.95), "IIc": (0.025, 0.983),
+                                                        "IIb": (0.071, 0.966), "Ib": (0.06, 0.905),
+                                                        "IIa": (0.02, 1.004)}, legend=False)  # fmt: skip
+    for x, y in (points or {}).values():
+        if x <= 0.08 and 0.88 <= y <= 1.01:
+            ins.plot(x, y, **mark)
+    for x, y in samples or ():
+        if x <= 0.08 and 0.88 <= y <= 1.01:
+            ins.plot(x, y, **sample_mark)
+    ins.tick_params(labelsize="x-small")
+    ins.set_title("α < 0.08", fontsize="small")
+    ax.indicate_inset_zoom(ins, edgecolor="0.3")
+    ax.set_xlabel("α (CM offset / R)")
+    ax.set_ylabel("γ = I1/I3")
+    ax.set_title("Classes of tippe tops by their steady states (gliding model)")
+    return fig
+
+
+def plot_tumbling_families(*, ax: ArrayLike | None = None) -> Figure:
+    """Bifurcation diagrams of the six classes: the steady states in the (θ, λ) plane.
+
+    One panel per class at its :data:`mett.classification.SAMPLE_POINTS` (α, γ): the tumbling
+    family λ(θ_t), solid where stable (λ'(θ_t) > 0) and dashed where unstable, and the spins on
+    the edges θ = 0 (stable for λ <= λ_0) and θ = π (stable for λ >= λ_thres). λ is in units of
+    min(λ_0, λ_thres). A horizontal line λ = const meets the solid lines in the candidates of
+    :func:`mett.asymptotic_state`.
+
+    Parameters
+    ----------
+    ax : array of 6 Axes, optional
+        One per class, in the order of :data:`mett.classification.SUBGROUPS`; a 2 × 3 array gets
+        the axis labels on its outer edges. Default: a new figure with 2 × 3 panels.
+    """
+    import math
+
+    from .thresholds import tumbling_domain, tumbling_lambda
+    from .top import TippeTop
+
+    if ax is None:
+        w, h = plt.rcParams["figure.figsize"]
+        fig, axes = plt.subplots(
+            2, 3, figsize=(1.5 * w, 1.3 * h), layout="constrained", sharex=True
+        )
+    else:
+        axes = np.asarray(ax, dtype=object)
+        if axes.size != len(classification.SUBGROUPS):
+            raise ValueError(f"ax must hold 6 axes (one per class); got {axes.size}")
+        fig = axes.flat[0].figure
+    grid = axes if axes.ndim == 2 else axes.reshape(1, -1)
+    ymax = 3.0
+    thick, thin = _lw(5.0), _lw(2.0)
+    for a_, (name, (alpha, gamma)) in zip(
+        axes.flat, classification.SAMPLE_POINTS.items(), strict=True
+    ):
+        top = TippeTop(m=0.02, R=0.02, alpha=alpha, I1=gamma * 3.2e-6, I3=3.2e-6)
+        scale = min(top.lambda_0, top.lambda_thres)
+        lo, hi = tumbling_domain(top)
+        th = np.linspace(lo, hi, 3001)[1:-1]
+        lam = tumbling_lambda(top, th) / scale
+        stable = classification.tumbling_is_stable(top, th)
+        a_.plot(th, np.where(stable, lam, np.nan), "C0-", lw=_lw(1.8), label="stable")
+        a_.plot(th, np.where(stable, np.nan, lam), "C3--", lw=_lw(1.2), label="unstable")
+        lam0, lamt = top.lambda_0 / scale, top.lambda_thres / scale
+        a_.plot([0, 0], [0, min(lam0, ymax)], "C0-", lw=thick, solid_capstyle="butt")
+        a_.plot([0, 0], [min(lam0, ymax), ymax], "C3-", lw=thin)
+        a_.plot([math.pi, math.pi], [min(lamt, ymax), ymax], "C0-", lw=thick, solid_capstyle="butt")
+        a_.plot([math.pi, math.pi], [0, min(lamt, ymax)], "C3-", lw=thin)
+        a_.set_ylim(0, ymax)
+        a_.set_xlim(-0.08, math.pi + 0.08)
+        a_.set_title(f"{name}: α = {alpha:g}, γ = {gamma:g}", fontsize="medium")
+        a_.tick_params(labelsize="small")
+    for a_ in grid[-1]:
+        a_.set_xlabel("θ (rad)")
+    for a_ in grid[:, 0]:
+        a_.set_ylabel("λ / min(λ₀, λ_thres)")
+    axes.flat[0].legend(fontsize="x-small", loc="upper center")
+    fig.suptitle("Steady states of the gliding top: tumbling family and spins (thick: stable)")
     return fig

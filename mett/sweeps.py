@@ -848,6 +848,8 @@ def sweep(
         fails is a row too: status "invalid" (its parameters are refused), "error" (the
         simulation raised; ``message`` says what) or the run's own status ("failed",
         "contact_lost") with the partial run's end values; the sweep goes on.
+        ``table.attrs["top"]`` holds the fields of ``top`` (a dict; grid axes override them per
+        row), which :func:`mett.plotting.plot_phase_diagram` reads α from.
 
     Raises
     ------
@@ -973,4 +975,6 @@ def sweep(
     # the other columns in the order the rows first name them (built in that order directly:
     # reordering a finished table copies it)
     rest = list(dict.fromkeys(c for row in records for c in row if c not in first))
-    return pd.DataFrame(records, columns=first + rest)
+    table = pd.DataFrame(records, columns=first + rest)
+    table.attrs["top"] = dataclasses.asdict(top)  # the base top (its α for plot_phase_diagram)
+    return table

@@ -257,7 +257,6 @@ def short_run():
     [
         (plotting.plot_theta, ["theta"]),
         (plotting.plot_thetadot, ["thetadot"]),
-        (plotting.plot_angular_velocities, ["psidot", "phidot"]),
         (plotting.plot_omega3, ["omega3"]),
         (plotting.plot_gliding_velocities, ["nu_x", "nu_y"]),
         (plotting.plot_energies, ["E", "E_mod"]),
