@@ -68,7 +68,6 @@ from . import _validate
 from .thresholds import TumblingState, tumbling_domain, tumbling_lambda
 from .top import TippeTop
 
-
 __all__ = [
     "CLASSIFY_MAX",
     "SAMPLE_POINTS",
@@ -443,18 +442,3 @@ def bistable_range(top: TippeTop) -> tuple[float, float] | None:
     if cls in ("Ia", "IIc"):
         return (top.lambda_thres, top.lambda_0)
     return (cast(float, fold_lambda(top)), top.lambda_0)  # Ib, IIb: the family has a fold
-
-
-# --- the figures: in mett.plotting (matplotlib is imported there only) --------------------------
-
-_PLOTS = ("plot_subgroups", "plot_tumbling_families")
-
-
-def __getattr__(name: str):
-    # plot_subgroups was public here; it and plot_tumbling_families live in mett.plotting now and
-    # stay reachable under their old names without importing matplotlib with this module
-    if name in _PLOTS:
-        from . import plotting
-
-        return getattr(plotting, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -16,6 +16,7 @@ import pytest
 
 import mett
 from mett import classification as C
+from mett import plotting
 from mett import stability as S
 from mett.dynamics.euler import euler_rhs
 from mett.thresholds import tumbling_lambda
@@ -458,7 +459,7 @@ def test_subgroup_figure_colours_each_cell_by_its_class():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig = C.plot_subgroups(points={"thesis": (0.3, 0.9357)}, samples=[(0.3, 0.75)], n=40)
+    fig = plotting.plot_subgroups(points={"thesis": (0.3, 0.9357)}, samples=[(0.3, 0.75)], n=40)
     try:
         ax = fig.axes[0]
         mesh = ax.collections[0]
@@ -506,7 +507,7 @@ def test_tumbling_family_figure_draws_each_class():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig = C.plot_tumbling_families()
+    fig = plotting.plot_tumbling_families()
     try:
         titles = [a.get_title().split(":")[0] for a in fig.axes]
         assert titles == list(C.SUBGROUPS)
