@@ -333,9 +333,11 @@ def trajectory_to_xarray(traj: Any, **run: Any) -> xr.Dataset:
         attrs["t_contact_lost"], attrs["t_contact_lost_units"] = float(traj.t_contact_lost), "s"
     for k, v in _top_fields(traj.top).items():
         attrs[f"top_{k}"], attrs[f"top_{k}_units"] = v, _TOP_UNITS.get(k, "")
-    for k, v in getattr(traj, "options", {}).items():
-        if k != "friction" and _is_real(v):
-            attrs[f"option_{k}"] = float(v)
+    options = getattr(traj, "options", {})
+    attrs["option_names"] = ",".join(options)  # those set, a law or None included
+    for k, v in options.items():
+        if k != "friction" and (_is_real(v) or isinstance(v, str)):
+            attrs[f"option_{k}"] = v
     for k, v in _state_fields(traj.initial_state).items():
         attrs[f"initial_{k}"], attrs[f"initial_{k}_units"] = v, _STATE_UNITS[k]
     coords = {"t": ("t", t, {"units": "s", "long_name": "time"})}
@@ -446,6 +448,7 @@ class NetCDFTrajectory:
 
     def __init__(self, dataset: Any, path: Path) -> None:
         from .state import State
+        from .stem import StemContactTop
         from .top import TippeTop
 
         a = dict(dataset.attrs)
@@ -474,16 +477,17 @@ class NetCDFTrajectory:
             )
         t_lost = a.get("t_contact_lost")
         self.t_contact_lost = None if t_lost is None else float(t_lost)
-        top = {k[4:]: float(v) for k, v in a.items() if k.startswith("top_") and not k.endswith("_units") and k != "top_type"}  # fmt: skip
-        self.top = TippeTop(**top) if set(top) >= {"m", "R", "alpha", "I1", "I3"} else None
+        top = {k[4:]: float(v) for k, v in a.items()
+               if k.startswith("top_") and not k.endswith("_units") and k != "top_type"}  # fmt: skip
+        top_class = StemContactTop if a.get("top_type") == "StemContactTop" else TippeTop
+        self.top = top_class(**top) if set(top) >= {"m", "R", "alpha", "I1", "I3"} else None
         start = {k: float(a[f"initial_{k}"]) for k in _STATE_UNITS if f"initial_{k}" in a}
         self.initial_state = State(**start) if "theta" in start else None
-        self.options: dict[str, Any] = {
-            k[7:]: float(v) for k, v in a.items() if k.startswith("option_")
-        }
-        law = self._law(a)
-        if law is not None:
-            self.options["friction"] = law
+        names = [n for n in str(a.get("option_names", "")).split(",") if n]
+        self.options: dict[str, Any] = {}
+        for name in names:
+            value = self._law(a) if name == "friction" else a.get(f"option_{name}")
+            self.options[name] = value.item() if isinstance(value, np.generic) else value
 
     @staticmethod
     def _law(a: dict) -> Any:

@@ -32,6 +32,12 @@ def dry_run():
     return mett.simulate(TOP, START, 0.05, friction=Coulomb(0.3, contensou_radius=1e-3))
 
 
+@pytest.fixture(scope="module")
+def stem_run():
+    # a stemmed top: model options (the stem) and which sphere touches, per sample
+    return mett.simulate(TOP.with_stem(0.005, 0.02), START, 0.05)
+
+
 def _series(traj) -> dict[str, np.ndarray]:
     return {"t": traj.t, **{n: getattr(traj, n) for n in SERIES}}
 
@@ -122,7 +128,7 @@ def test_run_settings_are_included_when_the_trajectory_records_them(run):
     assert "rtol" not in run.to_xarray().attrs or hasattr(run, "rtol")
 
 
-@pytest.mark.parametrize("which", ["run", "dry_run"])
+@pytest.mark.parametrize("which", ["run", "dry_run", "stem_run"])
 def test_netcdf_round_trip_keeps_the_samples_bit_for_bit(which, request, tmp_path):
     traj = request.getfixturevalue(which)
     path = traj.to_netcdf(tmp_path / "t.nc")
@@ -132,6 +138,8 @@ def test_netcdf_round_trip_keeps_the_samples_bit_for_bit(which, request, tmp_pat
         got = getattr(back, name)
         assert got.dtype == np.float64 and np.array_equal(got, values), name
     assert list(back.phase) == list(traj.phase)
+    if "contact" in traj.__dict__:
+        assert list(back.contact) == list(traj.contact)
     assert back.top == traj.top and back.initial_state == traj.initial_state
     assert back.options == traj.options  # the friction law, rebuilt
     assert (back.model, back.status, back.message, back.backend) == (
