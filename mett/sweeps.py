@@ -899,6 +899,7 @@ def sweep(
                 f"{name}={value!r} is ignored when the grid varies {overridden!r} (it sets "
                 f"{name} at every point); leave {name} out"
             )
+    _check_mu_axis(names, simulate_kw.get("model"))
     start = {k: _STATE_DEFAULTS[k] if v is None else v for k, v in given.items()}
     base = {
         "top": dataclasses.asdict(top),
@@ -988,6 +989,19 @@ def sweep(
     table = SweepTable(records, columns=first + rest)
     table.attrs["mett_sweep"] = _provenance(base, names, friction)
     return table
+
+
+def _check_mu_axis(names: list[str], model: Any) -> None:
+    """Refuse a grid axis ``mu`` on a model that conserves the energy: no friction acts on it (the
+    rolling top, the frictionless one), so every point along the axis would be the same run."""
+    from .dynamics import MODELS
+
+    if "mu" in names and isinstance(model, str) and model in MODELS:
+        if "E" in MODELS[model].conserves:
+            raise ValueError(
+                f"the grid axis 'mu' has no effect on model={model!r}, which conserves the energy "
+                "(no friction acts on it): every point would be the same run; leave the axis out"
+            )
 
 
 def _provenance(base: dict, names: list[str], friction: Any) -> dict:

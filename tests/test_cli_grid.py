@@ -136,6 +136,8 @@ def test_malformed_axes_are_one_line_naming_the_axis_and_the_forms(spec, needle,
         (["--grid", "I1=3e-6", "--grid", "gamma=0.9"], "gamma or I1, not both"),
         (["--grid", "mu=0.1", "--grid", "mu=0.2"], "--grid 'mu' is given twice"),
         (["--friction", "coulomb:0.3", "--mu", "0.2", "--grid", "theta0=0.1"], "--mu is ignored"),
+        (["--grid", "mu=0.1,0.2", "--model", "rolling"], "the grid axis 'mu' has no effect on "
+                                                         "model='rolling'"),
     ],
 )  # fmt: skip
 def test_options_a_grid_axis_overrides_are_refused(argv, needle, capsys, monkeypatch):
@@ -158,6 +160,8 @@ def test_options_a_grid_axis_overrides_are_refused(argv, needle, capsys, monkeyp
         ({"contensou_radius": [0.0, 1e-3]}, {"friction": "viscous"}, "needs the Coulomb law"),
         ({"thetadot": [0.0, 1.0]}, {"thetadot": 0.5}, "thetadot=0.5 is ignored"),
         ({"nu_x": [0.0]}, {"nu_x": 0.1}, "nu_x=0.1 is ignored"),
+        ({"mu": [0.1, 0.2]}, {"model": "frictionless-routhian"}, "has no effect on model="),
+        ({"mu": [0.1, 0.2]}, {"model": "rolling"}, "conserves the energy"),
     ],
 )  # fmt: skip
 def test_the_library_refuses_the_same_pairs(grid, kw, needle, monkeypatch):
@@ -239,3 +243,12 @@ def test_sweep_writes_its_table_as_csv_and_netcdf_subprocess(tmp_path):
     ds = xr.load_dataset(tmp_path / "s.nc", engine="scipy")
     assert ds["theta_end"].dims == ("mu", "theta0") and list(ds["theta0"].values) == [0.2, 0.1]
     np.testing.assert_array_equal(ds["theta_end"].values.ravel(), want["theta_end"])
+
+
+def test_a_model_that_conserves_the_energy_does_not_depend_on_mu():
+    """Why a mu axis is refused there: the runs along it are the same run (and not so for the
+    gliding top, whose friction dissipates)."""
+    start = mett.State(theta=0.5, omega3=100.0)
+    for model, same in (("rolling", True), ("frictionless-routhian", True), ("gliding", False)):
+        a, b = (mett.simulate(TOP.replace(mu=mu), start, 0.05, model=model) for mu in (0.1, 0.3))
+        assert np.array_equal(a.theta, b.theta) == same, model
