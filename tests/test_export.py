@@ -215,3 +215,13 @@ def test_without_xarray_the_message_names_the_extra(run, tmp_path, monkeypatch):
             call()
     assert not (tmp_path / "u.nc").exists()
     assert math.isfinite(run.theta[-1])
+
+
+def test_user_event_times_round_trip_an_empty_one_too(tmp_path):
+    events = [lambda t, s: s.theta - 0.099, lambda t, s: s.theta - 3.0]  # the second never fires
+    traj = mett.simulate(TOP, START, 0.05, events=events)
+    assert traj.t_events[0].size > 0 and traj.t_events[1].size == 0
+    back = mett.load(traj.to_netcdf(tmp_path / "t.nc"))
+    assert len(back.t_events) == 2
+    for got, want in zip(back.t_events, traj.t_events, strict=True):
+        np.testing.assert_array_equal(got, want)
