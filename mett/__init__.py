@@ -38,6 +38,10 @@ def __getattr__(name: str):
         from .sweeps import sweep
 
         return sweep
+    if name == "load":  # a .npz (Trajectory.save) or a .nc (Trajectory.to_netcdf)
+        from ._export import load
+
+        return load
     if name in _LAZY_MODULES:
         import importlib
 
@@ -74,6 +78,7 @@ __all__ = [
     "g",
     "high_spin",
     "jellett",
+    "load",
     "mean_precession",
     "min_spin_for_inversion",
     "modified_energy",

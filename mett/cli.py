@@ -189,6 +189,17 @@ def _image_suffixes() -> tuple[str, ...]:
 
 
 # --- output ------------------------------------------------------------------------------------
+_TRAJ_SUFFIXES = (".csv", ".npz", ".nc")
+
+
+def _need_xarray(option: str) -> None:
+    """A NetCDF output needs xarray: refused before any work when it is missing."""
+    try:
+        import xarray  # noqa: F401
+    except ImportError:
+        raise ValueError(f"{option} .nc needs xarray: pip install 'mett[xarray]'") from None
+
+
 def _fmt(x: float, digits: int = 6) -> str:
     return str(x) if not math.isfinite(x) else f"{x:.{digits}g}"
 
@@ -368,7 +379,9 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     # everything that can be checked is checked before the run
-    out = None if args.out is None else _check_output_file("--out", args.out, (".csv", ".npz"))
+    out = None if args.out is None else _check_output_file("--out", args.out, _TRAJ_SUFFIXES)
+    if out is not None and out.suffix.lower() == ".nc":
+        _need_xarray("--out")
     plot = None if args.plot is None else _check_output_file("--plot", args.plot, _image_suffixes())
     top = _top_from_args(args)
     state = _state_from_args(args, top)
@@ -386,11 +399,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         run_top = top.with_stem(kw.pop("stem_radius"), kw.pop("stem_distance"))
     traj = simulate(run_top, state, args.t_end, rtol=args.rtol, backend=args.backend, **kw)
     written = []
-    if out is not None:
+    if out is not None:  # the partial run too (exit 1)
+        from . import _export
+
+        run = {"rtol": args.rtol, "t_end": args.t_end}  # where the trajectory does not record them
         if out.suffix.lower() == ".npz":
             traj.save(out)
+        elif out.suffix.lower() == ".nc":
+            _export.to_netcdf(_export.trajectory_to_xarray(traj, **run), out)
         else:
-            traj.to_dataframe().to_csv(out, index=False, float_format="%.17g")
+            _export.write_trajectory_csv(traj, out, **run)
         written.append(out)
     if plot is not None:
         import matplotlib
@@ -543,31 +561,75 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     return 0
 
 
-def _parse_grid(specs: list[str]) -> dict:
+_GRID_FORMS = "START:STOP:NUM, log:START:STOP:NUM (START, STOP > 0) or a list V1,V2,..."
+_MAX_AXIS = 1_000_000
+
+
+def _grid_axis(name: str, values: str) -> Any:
+    """The values of one ``--grid NAME=VALUES`` axis (see :data:`_GRID_FORMS`)."""
     import numpy as np
 
+    def bad(why: str) -> ValueError:
+        return ValueError(f"--grid {name}={values}: {why}; give {name}={_GRID_FORMS}")
+
+    if name == "friction":  # the law's name per point (its coefficient: the top's mu)
+        from .friction import LAW_NAMES
+
+        laws = [v.strip() for v in values.split(",")]
+        if not all(v in LAW_NAMES for v in laws):
+            raise ValueError(f"--grid friction=... takes a list of {', '.join(LAW_NAMES)}; "
+                             f"got {values!r}")  # fmt: skip
+        return laws
+    parts = [p.strip() for p in values.split(":")]
+    log = parts[0].lower() == "log"
+    if log:
+        parts = parts[1:]
+    if len(parts) == 1 and not log:  # a list (one value or more)
+        items = [v.strip() for v in values.split(",")]
+        if not all(_FLOAT.fullmatch(v) for v in items):
+            raise bad("a list takes numbers")
+        grid = np.array([float(v) for v in items])
+        if not np.all(np.isfinite(grid)):
+            raise bad("the values must be finite")
+        if len(grid) > _MAX_AXIS:
+            raise bad(f"at most {_MAX_AXIS} values")
+        return grid
+    if len(parts) != 3:
+        raise bad("not one of the forms")
+    if not (_FLOAT.fullmatch(parts[0]) and _FLOAT.fullmatch(parts[1]) and _INT.fullmatch(parts[2])):
+        raise bad("START and STOP must be numbers and NUM an integer")
+    start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
+    if not (math.isfinite(start) and math.isfinite(stop)):
+        raise bad("START and STOP must be finite")
+    if not 1 <= num <= _MAX_AXIS:
+        raise bad(f"NUM must lie in [1, {_MAX_AXIS}]")
+    if log:
+        if not (start > 0 and stop > 0):
+            raise bad("log spacing needs START, STOP > 0")
+        return np.geomspace(start, stop, num)
+    return np.linspace(start, stop, num)
+
+
+def _parse_grid(specs: list[str]) -> dict:
+    """``--grid`` axes: ``NAME=START:STOP:NUM`` (linear, numpy.linspace), ``NAME=log:START:STOP:NUM``
+    (geometric, numpy.geomspace) or ``NAME=V1,V2,...``; ``friction=viscous,coulomb`` names laws."""
     grid = {}
     for spec in specs:
-        name, sep, rng = spec.partition("=")
-        parts = [p.strip() for p in rng.split(":")]
-        if not sep or len(parts) != 3:
-            raise ValueError(f"--grid takes name=start:stop:num; got {spec!r}")
-        if not (_FLOAT.fullmatch(parts[0]) and _FLOAT.fullmatch(parts[1])
-                and _INT.fullmatch(parts[2])):  # fmt: skip
-            raise ValueError(f"--grid takes name=start:stop:num with numbers; got {spec!r}")
-        start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
-        if not (math.isfinite(start) and math.isfinite(stop)):
-            raise ValueError(f"--grid start and stop must be finite; got {spec!r}")
-        if not 1 <= num <= 1_000_000:
-            raise ValueError(f"--grid num must lie in [1, 1000000]; got {spec!r}")
-        if name.strip() in grid:
-            raise ValueError(f"--grid {name.strip()!r} is given twice")
-        grid[name.strip()] = np.linspace(start, stop, num)
+        name, sep, values = spec.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ValueError(f"--grid takes NAME={_GRID_FORMS}; got {spec!r}")
+        axis = _grid_axis(name, values.strip())
+        if name in grid:
+            raise ValueError(f"--grid {name!r} is given twice")
+        grid[name] = axis
     return grid
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    out = _check_output_file("--out", args.out)
+    out = _check_output_file("--out", args.out)  # .nc: NetCDF; any other name: CSV
+    if out.suffix.lower() == ".nc":
+        _need_xarray("--out")
     if args.checkpoint is not None:
         ckpt = _check_output_file("--checkpoint", args.checkpoint)
         if ckpt.resolve() == out.resolve():
@@ -620,7 +682,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             table = sweep(top, grid, executor=pool, **kw)
     else:
         table = sweep(top, grid, **kw)
-    table.to_csv(out, index=False)
+    from . import _export
+
+    if out.suffix.lower() == ".nc":
+        _export.to_netcdf(table.to_xarray(), out)
+    else:
+        _export.write_sweep_csv(table, out)
     counts = table["simulated"].value_counts().to_dict()
     _print_rows(
         [
@@ -733,7 +800,9 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--out",
         default=None,
-        help="write the trajectory: .npz (everything, for mett.Trajectory.load) or .csv (series)",
+        help="write the trajectory (also when the run does not complete: exit 1): .npz "
+        "(everything, for mett.load), .csv (the series with units, a # header of the run's "
+        "settings) or .nc (NetCDF with units and settings; needs mett[xarray])",
     )
     p.add_argument("--plot", default=None, help="write θ(t) as an image (e.g. theta.png)")
     p.add_argument("--json", action="store_true", help=json_help)
@@ -749,9 +818,11 @@ def _build_parser() -> argparse.ArgumentParser:
     p = add("sweep", "simulate a grid of parameters; write a CSV table", _cmd_sweep)
     _add_top_arguments(p)
     p.add_argument(
-        "--grid", action="append", required=True, metavar="NAME=START:STOP:NUM",
+        "--grid", action="append", required=True, metavar="NAME=VALUES",
         help="a swept parameter (repeat for more): a TippeTop field, an initial condition, "
-        "gamma or lam_ratio",
+        "gamma, lam_ratio, contensou_radius or friction (a list of law names); VALUES: "
+        "START:STOP:NUM (linear), log:START:STOP:NUM (geometric) or V1,V2,... An option the "
+        "grid sets (e.g. --mu with a mu axis, --friction LAW:ARGS, which fixes mu) is refused",
     )  # fmt: skip
     p.add_argument("--t-end", type=_positive, required=True, help="simulated time per run [s]")
     p.add_argument("--theta0", type=_theta, default=None, help="θ(0) [rad] (default: 0.1)")
@@ -760,7 +831,9 @@ def _build_parser() -> argparse.ArgumentParser:
         help="ω3(0) [rad/s] (default: 155; not with a lam_ratio grid, which sets it)",
     )  # fmt: skip
     add_run_options(p)
-    p.add_argument("--out", default="sweep.csv", help="output CSV")
+    p.add_argument("--out", default="sweep.csv",
+                   help="output table: .csv (a # header of the sweep's settings and units) or .nc "
+                   "(NetCDF over the grid axes; needs mett[xarray])")  # fmt: skip
     p.add_argument("--workers", type=_workers, default=1, help="processes on this machine")
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
     p.add_argument(

@@ -31,7 +31,7 @@ from . import _validate
 from ._validate import MettWarning
 from .top import TippeTop
 
-__all__ = ["GRID_NAMES", "MAX_POINTS", "CheckpointWarning", "classify_end", "sweep"]
+__all__ = ["GRID_NAMES", "MAX_POINTS", "CheckpointWarning", "SweepTable", "classify_end", "sweep"]
 
 _TOP_FIELDS = tuple(f.name for f in dataclasses.fields(TippeTop))
 _STATE_FIELDS = ("theta0", "thetadot", "phidot", "omega3", "nu_x", "nu_y")
@@ -693,6 +693,18 @@ def _friction_option(friction: Any, contensou_radius: Any, names: list[str]) -> 
                     "ignored; give friction='viscous' or 'coulomb' (mu from the grid) instead"
                 )
             out["friction"] = {"law": type(law).__name__, **fields}
+            if "contensou_radius" in names:
+                raise ValueError(
+                    f"friction={laws.describe(law)} is a law given whole, with its own "
+                    "contensou_radius, so the grid axis 'contensou_radius' would be ignored; give "
+                    "friction='coulomb' (the radius from the grid) instead"
+                )
+    by_name = out.get("friction") == "coulomb" or "friction" in names
+    if "contensou_radius" in names and not by_name:
+        raise ValueError(
+            "a grid axis 'contensou_radius' needs the Coulomb law by name: give "
+            f"friction='coulomb' (or a grid axis 'friction'); got friction={friction!r}"
+        )
     if contensou_radius is not None:
         if "contensou_radius" in names:
             raise ValueError(
@@ -889,6 +901,7 @@ def sweep(
                 f"{name}={value!r} is ignored when the grid varies {overridden!r} (it sets "
                 f"{name} at every point); leave {name} out"
             )
+    _check_mu_axis(names, simulate_kw.get("model"))
     start = {k: _STATE_DEFAULTS[k] if v is None else v for k, v in given.items()}
     base = {
         "top": dataclasses.asdict(top),
@@ -975,6 +988,81 @@ def sweep(
     # the other columns in the order the rows first name them (built in that order directly:
     # reordering a finished table copies it)
     rest = list(dict.fromkeys(c for row in records for c in row if c not in first))
-    table = pd.DataFrame(records, columns=first + rest)
+    table = SweepTable(records, columns=first + rest)
     table.attrs["top"] = dataclasses.asdict(top)  # the base top (its α for plot_phase_diagram)
+    table.attrs["mett_sweep"] = _provenance(base, names, friction)
     return table
+
+
+def _check_mu_axis(names: list[str], model: Any) -> None:
+    """Refuse a grid axis ``mu`` on a model that conserves the energy: no friction acts on it (the
+    rolling top, the frictionless one), so every point along the axis would be the same run."""
+    from .dynamics import MODELS
+
+    if "mu" in names and isinstance(model, str) and model in MODELS:
+        if "E" in MODELS[model].conserves:
+            raise ValueError(
+                f"the grid axis 'mu' has no effect on model={model!r}, which conserves the energy "
+                "(no friction acts on it): every point would be the same run; leave the axis out"
+            )
+
+
+def _provenance(base: dict, names: list[str], friction: Any) -> dict:
+    """What a sweep ran, for its table's exports (``table.attrs["mett_sweep"]``)."""
+    from . import __version__
+    from .friction import describe
+
+    kw = base["simulate_kw"]
+    law = friction if friction is None or isinstance(friction, str) else describe(friction)
+    if "friction" in names:
+        law = "per point (grid axis 'friction', coefficient the top's mu)"
+    return {
+        "mett_version": __version__, "grid": list(names), "t_end": base["t_end"],
+        "model": kw.get("model", "gliding"), "friction": law or "viscous (the top's mu)",
+        "backend": kw.get("backend", "auto"), "rtol": kw.get("rtol", 1e-10), "atol": kw.get("atol"),
+        "top": {k: float(v) for k, v in base["top"].items()},
+        "initial_state": {k: float(base[k]) for k in _STATE_FIELDS},
+    }  # fmt: skip
+
+
+class SweepTable(pd.DataFrame):
+    """The table of :func:`sweep`: a :class:`pandas.DataFrame` (one row per grid point) that also
+    exports to xarray with the grid axes as dimensions. ``attrs["mett_sweep"]`` records what the
+    sweep ran (grid axes, t_end, model, friction, backend, rtol, the base top and start, mett
+    version)."""
+
+    @property
+    def _constructor(self) -> type:
+        return SweepTable
+
+    def to_xarray(self, dims: list[str] | None = None) -> Any:  # type: ignore[override]
+        """The table as an :class:`xarray.Dataset` (optional extra ``mett[xarray]``).
+
+        Parameters
+        ----------
+        dims : list of str, optional
+            The grid axes, the dataset's dimensions (default: the sweep's own).
+
+        Returns
+        -------
+        xarray.Dataset
+            One variable per result column over the grid (points the table lacks are NaN), with
+            ``units`` and ``long_name``; the sweep's settings (mett version, model, friction,
+            backend, rtol, t_end, the base top ``top_<name>`` and start ``initial_<name>``, with
+            ``<name>_units``) as attributes.
+
+        Raises
+        ------
+        ValueError
+            If ``dims`` are not columns, or the grid repeats a point.
+        """
+        from ._export import sweep_to_xarray
+
+        return sweep_to_xarray(self, dims)
+
+    def to_netcdf(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`to_xarray` to a NetCDF file (``.nc``, netCDF-3, scipy's writer)."""
+        from ._export import check_nc_path, sweep_to_xarray, to_netcdf
+
+        check_nc_path(path)
+        return to_netcdf(sweep_to_xarray(self), path)

@@ -158,7 +158,11 @@ def grid_spec(draw) -> str:
         name = draw(st.sampled_from([*GRID_NAMES, "nope", ""]))
     start, stop = draw(values(0.0, 1.0)), draw(values(0.0, 3.0))
     num = draw(st.sampled_from(["1", "2", "1", "2", "0", "-1", "x", "2.5", ""]))
-    form = draw(st.sampled_from(["full"] * 8 + ["no-eq", "two-parts"]))
+    form = draw(st.sampled_from(["full"] * 6 + ["log", "list", "no-eq", "two-parts"]))
+    if form == "log":  # geometric spacing
+        return f"{name}=log:{start}:{stop}:{num}"
+    if form == "list":  # explicit values
+        return f"{name}={start},{stop}"
     if form == "no-eq":
         return f"{name}{start}:{stop}:{num}"
     if form == "two-parts":

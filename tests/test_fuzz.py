@@ -408,6 +408,11 @@ API: dict[str, tuple[Callable, st.SearchStrategy]] = {
         _call(tops(), lam_scalar, mixed(st.sampled_from(["inverted", "upright"]))),
     ),
     "escape_time": (mett.escape_time, _call(tops(), states())),
+    # reading a saved run back (.npz or .nc): bad suffixes, missing files, non-paths
+    "load": (
+        mett.load,
+        _call(mixed(st.sampled_from(["missing.nc", "missing.npz", "x.txt", "", ".", "a.NC"]))),
+    ),
     # presets
     "presets.get": (
         lambda name, kw: presets.get(name, **kw),

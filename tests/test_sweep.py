@@ -168,15 +168,15 @@ def test_cli_sweep_writes_csv(tmp_path):
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
-    table = pd.read_csv(out)
+    table = pd.read_csv(out, comment="#")  # the sweep's settings are # lines
     assert list(table["mu"]) == [0.2, 0.4] and "2 runs" in res.stdout
 
 
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
-        (["--grid", "mu=0.1:0.2"], "name=start:stop:num"),
-        (["--grid", "mu=a:b:2"], "with numbers"),
+        (["--grid", "mu=0.1:0.2"], "not one of the forms; give mu=START:STOP:NUM"),
+        (["--grid", "mu=a:b:2"], "START and STOP must be numbers"),
         (["--grid", "spin=1:2:2"], "unknown grid name"),
     ],
 )

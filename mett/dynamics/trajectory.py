@@ -335,6 +335,36 @@ class Trajectory:
         df.attrs.update(model=self.model, status=self.status, message=self.message)
         return df
 
+    def to_xarray(self) -> Any:
+        """The sampled series as an :class:`xarray.Dataset` (optional extra ``mett[xarray]``).
+
+        Returns
+        -------
+        xarray.Dataset
+            Coordinate ``t`` (s); every series of :data:`SERIES` (and the per-sample labels and
+            forces a run sets, ``t_events_<k>`` per user event) a variable with ``units`` (SI) and
+            ``long_name``; attributes: ``mett_version``, ``model``, ``backend``, ``status``,
+            ``message``, ``friction`` (with ``friction_law`` and its fields), ``rtol``, ``atol``,
+            ``t_end`` where the run records them, the top's fields ``top_<name>`` and the initial
+            state ``initial_<name>``, each with a ``<name>_units`` attribute.
+        """
+        from .._export import trajectory_to_xarray
+
+        return trajectory_to_xarray(self)
+
+    def to_netcdf(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`to_xarray` to a NetCDF file (netCDF-3, scipy's writer), for
+        :func:`mett.load`.
+
+        The samples round-trip bit for bit with their units and the run's provenance; the dense
+        output does not (use :meth:`save` for it). ``path`` must end in ``.nc``, in an existing
+        directory (``ValueError`` otherwise, before anything is written).
+        """
+        from .._export import check_nc_path, to_netcdf
+
+        check_nc_path(path)
+        return to_netcdf(self.to_xarray(), path)
+
     # --- dense output ------------------------------------------------------------------------
     def _check_times(self, t: ArrayLike) -> np.ndarray:
         t = _validate.as_finite_array("t", t)
