@@ -543,8 +543,11 @@ class Backend(Protocol):
         ...
 
 
-def _compilable(model: Model) -> bool:
-    return all(ph.rhs_into is not None for ph in model.phase_table())
+def _not_compilable(model: Model) -> str | None:
+    """Why ``model`` cannot run compiled (a phase without ``rhs_into``), or None."""
+    if all(ph.rhs_into is not None for ph in model.phase_table()):
+        return None
+    return f"model {model.name!r} has no compiled right-hand side; use backend='scipy'"
 
 
 class _Adapter:
@@ -606,9 +609,7 @@ class CompiledBackend(_Adapter):
                 f"the compiled backend implements method 'DOP853' only; got method {method!r} "
                 "(use backend='scipy' for the other methods of scipy.integrate.solve_ivp)"
             )
-        if not _compilable(model):
-            return f"model {model.name!r} has no compiled right-hand side; use backend='scipy'"
-        return None
+        return _not_compilable(model)
 
     _solve = staticmethod(_solve_compiled)
 
@@ -624,7 +625,7 @@ class TaylorBackend(_Adapter):
                 f"method {method!r} is for the DOP853 and scipy backends; the taylor backend "
                 "chooses its own order from rtol"
             )
-        return CompiledBackend.refusal(self, model, method)  # type: ignore[arg-type]
+        return _not_compilable(model)
 
     _solve = staticmethod(_solve_taylor)
 

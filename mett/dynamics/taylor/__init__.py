@@ -1,7 +1,7 @@
 """Compiled adaptive Taylor-series integrator, generated from a model's own right-hand side.
 
 Every model of :mod:`mett.dynamics` writes its equations once, as plain arithmetic
-(``_rhs_into(t, y, p, out)`` and ``_events_into``). This module *traces* those functions with
+(``_rhs_into(t, y, p, out)`` and ``_events_into``). This package *traces* those functions with
 symbolic stand-ins for ``y`` and ``p``: each ``+ − × ÷``, ``sqrt``, ``sin``/``cos`` becomes a node
 of an expression graph (equal sub-expressions are shared, sub-expressions of the parameters alone
 are computed once per step). From the graph it writes, for one fixed order p, the recurrences of
@@ -17,7 +17,7 @@ unrolled into straight-line LLVM IR (each sum of products one chain of fused mul
 compiled to machine code with llvmlite, which numba already depends on. The machine code is
 cached in the user's own cache directory (:func:`cache_dir`), keyed by the IR, llvmlite's version,
 the target and the CPU with its features, and loaded only after its owner, permissions and sha256
-are checked (:func:`_native`). The integration loop is numba code compiled once for every model
+are checked (:mod:`._llvm`). The integration loop is numba code compiled once for every model
 (``cache=True``); it calls the model's jet through a function pointer, as :mod:`.dop853` calls
 its right-hand sides.
 
@@ -39,6 +39,12 @@ ever rejected: the Taylor polynomial of a step is known before its size is chose
 polynomials are kept, so the dense output is the solution itself, of order p. Events are located on the Taylor polynomials of
 the event functions: a sign change over a step (tested at the end and at interior points) is
 refined by safeguarded Newton iteration on that polynomial.
+
+The package, one concept a module: :mod:`._trace` (the tracer: plain Python and numpy, no
+numba), :mod:`._codegen` (the LLVM IR of the recurrences), :mod:`._llvm` (machine code and its
+disk cache), :mod:`._loop` (the numba integration loop) and this module, the API: the kernels
+(:func:`kernel`, :func:`kernel_for`, the one call of single runs and batches), :func:`solve`,
+:func:`propagate` and their results. The status codes are those of DOP853 (:mod:`.._codes`).
 """
 
 from __future__ import annotations
