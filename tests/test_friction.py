@@ -280,7 +280,7 @@ def test_jellett_kept_over_long_runs_at_default_tolerances(top, omega3, mu, t_en
 
 def test_zeno_accumulation_is_bounded_and_reported(monkeypatch):
     st = cm_at_rest(THESIS, 0.1, 155.0)
-    monkeypatch.setattr(mett.dynamics.simulation, "MAX_SWITCHES", 2)
+    monkeypatch.setattr(mett.dynamics.hybrid, "MAX_SWITCHES", 2)
     tr = mett.simulate(THESIS, st, 0.8, friction=Coulomb(0.02), rtol=1e-8)
     assert tr.status == "failed" and "more than 2 phase switches" in tr.message
     assert 0.5 < tr.t_final < 0.8 and len(tr.switches) == 2

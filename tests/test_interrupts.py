@@ -26,7 +26,7 @@ import pandas as pd
 import pytest
 
 import mett
-from mett.dynamics import simulation
+from mett.dynamics import _run
 
 pytestmark = pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="POSIX signals")
 
@@ -41,7 +41,8 @@ _HOOK = """
 import os, signal, sys
 import mett
 
-COMPILED = {("dop853.py", "solve"), ("taylor.py", "solve"), ("taylor.py", "propagate")}
+# the Python frames that call the compiled loops (taylor/__init__.py holds solve and propagate)
+COMPILED = {("dop853.py", "solve"), ("__init__.py", "solve"), ("__init__.py", "propagate")}
 reported = False
 ready = lambda: True
 
@@ -349,7 +350,7 @@ def test_scipy_backend_stops_at_the_step_budget(monkeypatch, method):
     # of steps (the scipy backend used to run on for hours). With a budget of 200 steps the run
     # ends "failed" after exactly 200 accepted steps, its partial result kept.
     budget = 200
-    monkeypatch.setattr(simulation, "MAX_STEPS", budget)
+    monkeypatch.setattr(_run, "MAX_STEPS", budget)  # the backends read it at each run
     top = mett.presets.get("rutstam2013").replace(mu=1e9)
     traj = mett.simulate(top, mett.State(theta=0.1, omega3=155.0), 1e-3, backend="scipy",
                          method=method)  # fmt: skip

@@ -17,6 +17,7 @@ import stop_bounds
 
 import mett
 from mett.dynamics import MODELS, simulate, taylor
+from mett.dynamics.taylor import _trace
 
 TOP = mett.presets.get("rutstam2013")
 THESIS = mett.State(theta=0.1, omega3=155.0)
@@ -108,13 +109,13 @@ def test_a_frozen_conserved_length_leaves_the_taylor_coefficients_as_they_are(st
 def test_only_the_declared_lengths_are_frozen():
     mdl = MODELS["gliding"]
     frozen = taylor.trace(mdl.rhs_into, [], 10, 7, lengths=mdl.conserved_lengths)
-    ops = [frozen.nodes[i][0] for i in taylor._live(frozen)]
+    ops = [frozen.nodes[i][0] for i in _trace._live(frozen)]
     assert ops.count("len") == 1 and "sqrt" not in ops
     # L is a vector but its length is not conserved: declaring the wrong group changes nothing
     # in the graph (no √|L|² is computed), and a partial group of the axis is no match either
     for lengths in [((4, 5, 6),), ((7, 8),)]:
         tr = taylor.trace(mdl.rhs_into, [], 10, 7, lengths=lengths)
-        ops = [tr.nodes[i][0] for i in taylor._live(tr)]
+        ops = [tr.nodes[i][0] for i in _trace._live(tr)]
         assert "len" not in ops and ops.count("sqrt") == 1
 
 

@@ -18,18 +18,11 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import taylor
+from ._run import PreparedRun
+from .backends import REGISTRY, TaylorBackend
 from .registry import lookup
-from .simulation import (
-    MAX_STEPS,
-    SIMULATE_DEFAULTS,
-    PreparedRun,
-    completed_message,
-    event_end,
-    prepare_run,
-    run_prepared,
-    taylor_failure,
-)
+from .simulation import SIMULATE_DEFAULTS, prepare_run, run_prepared
+from .trajectory import Trajectory
 
 __all__ = ["LANES", "RunEnd", "end_of", "run_ends"]
 
@@ -99,15 +92,7 @@ def end_of(traj: Any, *, window: float = 0.25, n_window: int = 101) -> RunEnd:
     )  # fmt: skip
 
 
-def _batchable(prep: PreparedRun) -> bool:
-    run = prep.run
-    return (
-        run.backend == "taylor"
-        and not run.mdl.hybrid
-        and not prep.user
-        and run.mdl.cos_theta is not None
-        and run.phase.rhs_into is not None
-    )
+_TAYLOR: TaylorBackend = REGISTRY["taylor"]  # type: ignore[assignment]
 
 
 def run_ends(
@@ -137,16 +122,10 @@ def run_ends(
     for j, (top, state, *own) in enumerate(jobs):
         try:
             prep = prepare_run(top, state, t_end, **{**kw, **(own[0] if own else {})})
-            if not isinstance(prep, PreparedRun):  # decided at t = 0
+            if isinstance(prep, Trajectory):  # decided at t = 0
                 out[j] = end_of(prep, window=window, n_window=n_window)
-            elif _batchable(prep):
-                run = prep.run
-                k = taylor.kernel(
-                    run.phase.rhs_into, [*(ev.fn for ev in run.phase.events), run.mdl.cos_theta],
-                    run.y0.size, len(run.params), taylor.order_for(prep.rtol),
-                    f"{run.mdl.name}_{run.phase.name}", lanes=LANES, params=run.params,
-                    vectors=run.mdl.vectors, lengths=run.mdl.conserved_lengths,
-                )  # fmt: skip
+            elif _TAYLOR.batchable(prep):
+                k = _TAYLOR.batch_kernel(prep, LANES)
                 fast.setdefault((k, prep.max_step), []).append((j, prep))
             else:
                 out[j] = end_of(run_prepared(prep), window=window, n_window=n_window)
@@ -166,7 +145,7 @@ def run_ends(
 
 
 def _propagate_group(
-    k: taylor.TaylorKernel,
+    k: Any,
     max_step: float,
     items: list[tuple[int, PreparedRun]],
     t_end: float,
@@ -174,37 +153,22 @@ def _propagate_group(
     n_window: int,
     out: list[Any],
 ) -> None:
-    runs = [prep.run for _, prep in items]
-    events = runs[0].phase.events
+    preps = [prep for _, prep in items]
     tw = _window(0.0, t_end, window, n_window)
-    P = np.array([r.params for r in runs], dtype=float)
-    res = taylor.propagate(
-        k, (0.0, t_end), np.array([r.y0 for r in runs]), P,
-        t_eval=tw, terminal=[True] * len(events) + [False],
-        scales=np.array([prep.atol_arr / prep.rtol for _, prep in items]),
-        direction=[ev.direction for ev in events] + [0.0], max_step=max_step,
-        max_steps=MAX_STEPS,
-    )  # fmt: skip
+    P = np.array([prep.params for prep in preps], dtype=float)
+    res = _TAYLOR.propagate(k, preps, t_end, max_step, tw)
     # One derive for the whole group (Model.derive takes one parameter set per column): of each
     # run's start, its end and the two ends of its window (E there is all the settled test
     # compares); θ over the window from the model's cheap theta, also in one call
     cols, windows, ends = [], [], []
-    for row, run in enumerate(runs):
-        code, t_stop = int(res.status[row]), float(res.t[row])
-        if code == taylor.COMPLETED:
-            status, message = "completed", completed_message(t_end)
-        elif code == taylor.TERMINAL_EVENT:
-            ev = events[int(res.event_index[row])]
-            status, message = event_end(ev.action, ev.message, t_stop)
-        else:
-            status, message = "failed", taylor_failure(code, t_stop)
+    for prep, (status, message, t_stop, y_stop, samples, t_cross) in zip(preps, res, strict=True):
         # a run that stopped early has no window (only a completed run is judged settled)
-        samples = res.samples[row] if status == "completed" else np.empty((0, run.y0.size))
-        cols.append(np.column_stack([run.y0, res.y[row], samples[[0, -1]].T if samples.size
+        samples = samples if status == "completed" else np.empty((0, prep.y0.size))
+        cols.append(np.column_stack([prep.y0, y_stop, samples[[0, -1]].T if samples.size
                                      else samples.T]))  # fmt: skip
         windows.append(samples.T)
-        ends.append((status, message, t_stop, samples.shape[0]))
-    mdl = runs[0].mdl
+        ends.append((status, message, t_stop, samples.shape[0], t_cross))
+    mdl = preps[0].model
     series = mdl.derive(np.concatenate(cols, axis=1), _column_params(P, [c.shape[1] for c in cols]))
     theta_w = np.asarray(
         mdl.theta(
@@ -216,8 +180,9 @@ def _propagate_group(
     omega3 = np.asarray(series["omega3"], dtype=float)
     energy = np.asarray(series["E"], dtype=float)
     at = at_w = 0
-    for row, ((j, _), (status, message, t_stop, n_w)) in enumerate(zip(items, ends, strict=True)):
-        t_cross = float(res.first[row, -1])
+    for row, ((j, _), (status, message, t_stop, n_w, t_cross)) in enumerate(
+        zip(items, ends, strict=True)
+    ):
         out[j] = RunEnd(
             status, message, t_stop, float(theta[at + 1]), float(omega3[at + 1]),
             t_cross if t_cross <= t_stop else math.nan, tw[:n_w], theta_w[at_w : at_w + n_w],

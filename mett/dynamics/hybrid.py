@@ -1,0 +1,98 @@
+"""The phase driver of hybrid models: a run of phases joined at their switches.
+
+A hybrid model (``Model.phases``, e.g. the stick–slip models of :mod:`.stickslip`) runs one phase
+at a time on its backend; a "switch" event starts the phase it names at the located time, with
+the event's ``jump`` applied (docs/theory/friction.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ._run import Piece, Run
+from .backends import UserEvents
+from .registry import JumpFailed, Phase
+from .trajectory import SegmentedSolution, Trajectory
+
+__all__ = ["MAX_SWITCHES", "solve_hybrid"]
+
+MAX_SWITCHES = 100_000
+"""A hybrid model's run stops with status "failed" after this many phase switches."""
+
+
+def solve_hybrid(
+    run: Run,
+    solve: Callable[..., Piece],
+    table: dict[str, Phase],
+    events: UserEvents | None,
+) -> Trajectory:
+    """Run a hybrid model phase by phase: each phase until one of its events; a "switch" event
+    starts the phase it names at the located time (with the event's ``jump`` applied), any other
+    end (t_end, contact lost, a failure, a terminal user event) ends the run. ``solve(run,
+    events=...)`` is the backend's, with the run's other arguments bound.
+
+    The samples of a phase end just before the switch time; the next phase's first sample is the
+    state after the switch. ``Trajectory.phase`` holds the phase of each sample and
+    ``Trajectory.switches`` the (time, from, to) of each switch. User events count their zeros
+    over the whole run (``terminal`` = n stops at the n-th zero, whichever phase it falls in):
+    ``events`` carries their state from phase to phase.
+    """
+    mdl, params = run.mdl, run.params
+    t_parts, y_parts, phases, sols = [], [], [], []
+    seg_phases: list[str] = []
+    switches: list[tuple[float, str, str]] = []
+    jumps: list[tuple[np.ndarray, np.ndarray]] = []
+    nfev = 0
+    jump_failed: str | None = None
+    while True:
+        seg = solve(run, events=events)
+        nfev += seg.kw.get("nfev", 0)
+        sols.append(seg.sol)
+        seg_phases.append(run.phase.name)
+        last = run.switch is None or len(switches) >= MAX_SWITCHES
+        if not last:
+            index, t_sw = run.switch
+            ev = run.phase.events[index]
+            y_ev = np.asarray(seg.sol(t_sw), dtype=float)
+            y_sw, target = y_ev, ev.target
+            if ev.jump is not None:
+                try:
+                    y_sw = np.asarray(ev.jump(y_ev, params), dtype=float)
+                except JumpFailed as exc:  # the run ends at the switch, state before it kept
+                    jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
+            if ev.select is not None and not last:
+                target = ev.select(y_sw, params)
+                if target not in table:
+                    jump_failed = f"switch to unknown phase {target!r} (t = {t_sw:.9g} s)"
+                    last = True
+        t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
+        if not last:
+            t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
+        t_parts.append(t_seg)
+        y_parts.append(y_seg.reshape(run.y0.size, -1))
+        phases.extend([run.phase.name] * t_seg.size)
+        if last:
+            break
+        switches.append((t_sw, run.phase.name, target))
+        jumps.append((y_ev, y_sw))
+        run = Run(mdl, run.top, params, y_sw, run.backend, table[target], t0=t_sw,
+                   state=run.state, options=run.options)  # fmt: skip
+    kw = dict(seg.kw)
+    kw["nfev"] = nfev
+    status, message = seg.status, seg.message
+    if jump_failed is not None:
+        status, message = "failed", jump_failed
+    elif run.switch is not None:  # stopped for switching too often
+        status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
+    t_all = np.concatenate(t_parts)
+    Y_all = np.hstack(y_parts)
+    run.collect, run.joining = False, True
+    traj = run.result(t_all, Y_all, SegmentedSolution(sols, seg_phases), status, message, **kw)
+    traj.phase = np.array(phases)
+    traj.switches = switches
+    traj.jumps = jumps
+    if mdl.finish is not None:
+        mdl.finish(traj)
+    return traj
