@@ -390,6 +390,41 @@ def test_the_cache_files_of_mett_functions_are_recognised():
     assert not outside._cache._cache_file._is_mett()
 
 
+def _cached_functions_and_install_calls(path: Path) -> tuple[list[int], list[int]]:
+    import ast
+
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    decorated, installs = [], []
+    for node in tree.body:  # module level: what runs at import, in order
+        if isinstance(node, ast.FunctionDef):
+            for dec in node.decorator_list:
+                if any(
+                    isinstance(k, ast.keyword) and k.arg == "cache" and getattr(k.value, "value", 0)
+                    for k in getattr(dec, "keywords", [])
+                ):
+                    decorated.append(node.lineno)
+        elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Call):
+            if getattr(node.value.func, "id", None) == "_check_numba_cache":
+                installs.append(node.lineno)
+    return decorated, installs
+
+
+def test_every_module_with_cached_kernels_installs_the_checks_before_decorating():
+    # numba picks its cache-file class when a cache=True function is decorated; a module that
+    # decorates one before the checks are installed reads and writes mett's files with numba's own
+    # class (no digest), and fails on files the checked class wrote ("invalid load key")
+    root = Path(__file__).resolve().parents[1] / "mett"
+    seen = 0
+    for path in sorted(root.rglob("*.py")):
+        if path.name == "_numba_cache.py":
+            continue
+        decorated, installs = _cached_functions_and_install_calls(path)
+        if decorated:
+            seen += 1
+            assert installs and installs[0] < decorated[0], path.relative_to(root)
+    assert seen >= 3  # _signals, dop853, taylor._loop (_kernels decorates at call time, after it)
+
+
 @pytest.mark.parametrize("which", ["index", "data"])
 @pytest.mark.parametrize("mode", ["truncated", "empty", "random", "bitflip"])
 def test_a_damaged_numba_cache_file_of_mett_is_a_miss(tmp_path, monkeypatch, which, mode):

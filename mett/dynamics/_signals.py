@@ -39,6 +39,13 @@ import numba
 import numpy as np
 from numba import types
 
+from .._numba_cache import install as _check_numba_cache
+
+# before this module decorates its cache=True function: whichever mett module numba meets first,
+# every cache file of mett is written and read with the checks (a file written with them cannot be
+# read by numba's own class, nor the other way round)
+_check_numba_cache()
+
 try:  # the C functions behind signal.getsignal/signal: those convert to enums, 12 µs a call
     import _signal as _sig
 except ImportError:  # pragma: no cover (another Python implementation)
