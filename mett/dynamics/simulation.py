@@ -504,7 +504,7 @@ def prepare_run(
             if traj.model == "gliding":  # the force series, as dry-friction runs report them
                 from .stickslip import viscous_force
 
-                viscous_force(traj)
+                traj = traj.with_extras(viscous_force(traj))
             return traj
         # a dry law given to "gliding": the registered model that declares the option
         # ``friction`` and runs the law ("coulomb", "coulomb-regularised", :mod:`.stickslip`)
@@ -560,6 +560,7 @@ def prepare_run(
             raise ValueError(f"model {mdl.name!r}: start_phase gave unknown phase {name!r}")
         phase = table[name]
     run = _Run(mdl, top, params, y0, backend, phase, state=state, options=model_options)
+    run.tolerances = {"rtol": rtol, "atol": atol_arr, "t_end": t_end}  # kept on the Trajectory
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
@@ -650,8 +651,10 @@ def _solve_hybrid(
             break
         switches.append((t_sw, run.phase.name, target))
         jumps.append((y_ev, y_sw))
+        tolerances = run.tolerances
         run = _Run(mdl, run.top, params, y_sw, run.backend, table[target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
+        run.tolerances = tolerances
     kw = dict(seg.kw)
     kw["nfev"] = nfev
     status, message = seg.status, seg.message
@@ -661,14 +664,9 @@ def _solve_hybrid(
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)
-    run.collect, run.joining = False, True
-    traj = run.result(t_all, Y_all, SegmentedSolution(sols, seg_phases), status, message, **kw)
-    traj.phase = np.array(phases)
-    traj.switches = switches
-    traj.jumps = jumps
-    if mdl.finish is not None:
-        mdl.finish(traj)
-    return traj
+    run.collect = False
+    kw.update(extras={"phase": np.array(phases)}, records={"switches": switches, "jumps": jumps})
+    return run.result(t_all, Y_all, SegmentedSolution(sols, seg_phases), status, message, **kw)
 
 
 class _Piece(NamedTuple):
@@ -702,13 +700,16 @@ class _Run:
         self.phase, self.t0 = phase, t0
         self.state, self.options = state, options  # kept on the Trajectory (saved with it)
         self.collect = False  # True: result() returns the pieces, for a hybrid run to join
-        self.joining = False  # True: result() builds the joined hybrid run (finished by the caller)
+        self.tolerances: dict[str, Any] = {}  # rtol, atol, t_end: kept on the Trajectory
         self.switch: tuple[int, float] | None = None  # (event index, time) of a "switch" stop
 
     def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Any:
         if self.collect:
             return _Piece(t, Y, sol, status, message, kw)
-        traj = Trajectory(
+        if self.mdl.hybrid and "records" not in kw:  # one phase throughout
+            kw.update(extras={"phase": np.full(np.shape(t), self.phase.name)},
+                      records={"switches": [], "jumps": []})  # fmt: skip
+        return Trajectory(
             t=t,
             states=Y,
             model=self.mdl,
@@ -720,14 +721,9 @@ class _Run:
             backend=self.backend,
             initial_state=self.state,
             options=self.options,
+            **self.tolerances,
             **kw,
         )
-        if self.mdl.hybrid:  # one phase throughout (a hybrid run joins its phases itself)
-            traj.phase = np.full(traj.t.shape, self.phase.name)
-            traj.switches, traj.jumps = [], []
-        if self.mdl.finish is not None and not self.joining:
-            self.mdl.finish(traj)
-        return traj
 
     def at_start(self, status: str, message: str, **kw: Any) -> Trajectory:
         """A run that ends at t = 0 (contact lost or failure before the first step)."""
