@@ -233,7 +233,7 @@ def _from_saved(cls: type, meta: dict, archive: _Archive, all_series: tuple[str,
         if not isinstance(records_meta, dict) or len(records_meta) > _MAX_NAMES:
             raise _Refused(f"records must be an object of at most {_MAX_NAMES} entries")
         for name in records_meta:
-            _text(name, "a record's name", 64)
+            _public_name(name, "a record's name")
     else:
         legacy = _legacy_meta(meta)
 
@@ -340,9 +340,17 @@ def _kinds(v: Any) -> dict[str, str]:
     if not isinstance(v, dict) or len(v) > _MAX_NAMES:
         raise _Refused(f"extras must be an object of at most {_MAX_NAMES} entries")
     for name, kind in v.items():
-        _text(name, "an extra series' name", 64)
+        _public_name(name, "an extra series' name")
         _choice(kind, f"the kind of extra series {name!r}", ("f", "U"))
     return dict(v)
+
+
+def _public_name(v: Any, what: str) -> str:
+    """A name that can be an attribute (an identifier without a leading underscore)."""
+    if not (isinstance(v, str) and v.isidentifier() and not v.startswith("_") and len(v) <= 64):
+        raise _Refused(f"{what} must be a public name (an identifier of at most 64 characters, "
+                       f"without a leading underscore); got {_short(v)}")  # fmt: skip
+    return v
 
 
 def _decode_record(name: str, desc: Any, archive: _Archive, span: tuple[float, float]) -> Any:
