@@ -34,10 +34,20 @@ __all__ = [
 
 @runtime_checkable
 class DenseSolution(Protocol):
-    """What a :class:`~mett.Trajectory` needs of the integrator's continuous solution."""
+    """What a :class:`~mett.Trajectory` needs of the integrator's continuous solution.
+
+    Evaluation is ``sol(t)``; cutting at a time is :func:`truncate` and storage
+    :func:`to_arrays` / :func:`from_arrays`, functions of this module that cover every kind
+    (they call the method ``truncate`` of the classes that have one, and know the arrays of the
+    integrators' own classes, which live with their integrators).
+    """
 
     ts: np.ndarray
     """Breakpoints of the piecewise interpolant (the solver's steps), increasing."""
+    t_min: float
+    """First time covered (s)."""
+    t_max: float
+    """Last time covered (s)."""
 
     def __call__(self, t: Any) -> np.ndarray:
         """Evaluate: the state(s) at ``t``, shape (n,) for a scalar time, (n, k) for k times."""
