@@ -170,6 +170,10 @@ def truncate(sol: Any, t_stop: float) -> Any:
     from .dop853 import DenseOutput
 
     if not isinstance(sol, DenseOutput):
+        if not hasattr(sol, "truncate"):
+            raise TypeError(
+                f"sol must be a dense output that can be truncated; got {type(sol).__name__}"
+            )
         return sol.truncate(t_stop)
     k = max(int(np.searchsorted(sol.t, t_stop, side="left")), 1)  # t[k-1] < t_stop <= t[k]
     t = np.append(sol.t[:k], t_stop)
