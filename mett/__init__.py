@@ -39,7 +39,7 @@ def __getattr__(name: str):
 
         return sweep
     if name == "load":  # a .npz (Trajectory.save) or a .nc (Trajectory.to_netcdf)
-        from ._export import load
+        from ._load import load
 
         return load
     if name in _LAZY_MODULES:

@@ -400,7 +400,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     traj = simulate(run_top, state, args.t_end, rtol=args.rtol, backend=args.backend, **kw)
     written = []
     if out is not None:  # the partial run too (exit 1)
-        from . import _export
+        from .dynamics import _export
 
         run = {"rtol": args.rtol, "t_end": args.t_end}  # where the trajectory does not record them
         if out.suffix.lower() == ".npz":
@@ -682,7 +682,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             table = sweep(top, grid, executor=pool, **kw)
     else:
         table = sweep(top, grid, **kw)
-    from . import _export
+    from .dynamics import _export
 
     if out.suffix.lower() == ".nc":
         _export.to_netcdf(table.to_xarray(), out)

@@ -1056,13 +1056,13 @@ class SweepTable(pd.DataFrame):
         ValueError
             If ``dims`` are not columns, or the grid repeats a point.
         """
-        from ._export import sweep_to_xarray
+        from .dynamics._export import sweep_to_xarray
 
         return sweep_to_xarray(self, dims)
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write :meth:`to_xarray` to a NetCDF file (``.nc``, netCDF-3, scipy's writer)."""
-        from ._export import check_nc_path, sweep_to_xarray, to_netcdf
+        from .dynamics._export import check_nc_path, sweep_to_xarray, to_netcdf
 
         check_nc_path(path)
         return to_netcdf(sweep_to_xarray(self), path)

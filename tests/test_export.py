@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 import mett
-from mett import _export
+from mett.dynamics import _export
 from mett.dynamics.trajectory import SERIES
 from mett.friction import Coulomb
 

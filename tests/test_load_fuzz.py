@@ -273,8 +273,9 @@ def _name_cases(folder) -> None:
         friction = {"__dataclass__": name, "fields": {"mu": 0.02, "contensou_radius": 0.0}}
         options = {**c_meta["options"], "friction": friction}
         _write(folder / f"n__option_{k}.npz", {**c_meta, "options": options}, _blobs("coulomb"))
-        switches = [{**sw, "type": name} for sw in c_meta["switches"]]
-        _write(folder / f"n__record_{k}.npz", {**c_meta, "switches": switches}, _blobs("coulomb"))
+        items = [{**sw, "type": name} for sw in c_meta["records"]["switches"]["items"]]
+        records = {**c_meta["records"], "switches": {"kind": "records", "items": items}}
+        _write(folder / f"n__record_{k}.npz", {**c_meta, "records": records}, _blobs("coulomb"))
 
 
 @pytest.fixture(scope="module")
@@ -405,7 +406,13 @@ def test_metadata_nested_deeply_is_refused(files, tmp_path):
         ({"nfev": True}, "nfev must be an integer"),
         ({"n_events": 2}, "entry 't_events_1' is missing"),
         ({"series": ["theta", "__class__"]}, "an entry of series must be one of"),
-        ({"per_sample": ["_sol"]}, "an entry of per_sample must be one of"),
+        ({"extras": {"_sol": "f"}}, "an extra series' name must be a public name"),
+        ({"extras": {"phase": "pickle"}}, "the kind of extra series 'phase' must be one of"),
+        ({"records": {"__init__": {"kind": "number", "value": 1}}}, "a record's name must be"),
+        ({"records": {"states": {"kind": "number", "value": 1}}}, "would hide an attribute"),
+        ({"records": {"x": {"kind": "pickle"}}}, "record 'x' is not one the format defines"),
+        ({"rtol": 2.0}, r"rtol must lie in \(0, 1\)"),
+        ({"t_end": 0.001}, "t_end = 0.001 s lies before the last sample"),
         ({"initial_state": {"theta": "0.1"}}, "initial_state must be an object with fields"),
         ({"t_contact_lost": 99.0}, "t_contact_lost = 99.0 s lies outside the run"),
         ({"dense": {"kind": "segments", "phases": [""], "parts": [{"kind": "segments"}]}},

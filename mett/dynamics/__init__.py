@@ -35,6 +35,7 @@ from .reduced import cylinder_rhs, hst_euler_rhs
 from .registry import MODELS, Event, Model, Option, Phase, register
 from .rolling import rolling_rhs
 from .simulation import simulate
+from ._status import Status
 from .trajectory import Trajectory
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "Model",
     "Option",
     "Phase",
+    "Status",
     "Trajectory",
     "cylinder_rhs",
     "euler_normal_force",

@@ -17,8 +17,9 @@ import numpy as np
 from ..state import State
 from ..top import TippeTop
 from . import _codes
+from .dense import ConstantSolution
 from .registry import Model, Phase
-from .trajectory import ConstantSolution, Trajectory
+from .trajectory import Trajectory
 
 __all__ = [
     "MAX_STEPS",
@@ -93,13 +94,16 @@ class Run:
         self.phase, self.t0 = phase, t0
         self.state, self.options = state, options  # kept on the Trajectory (saved with it)
         self.collect = False  # True: result() returns the pieces (a backend's solve)
-        self.joining = False  # True: result() builds the joined hybrid run (finished by the caller)
+        self.tolerances: dict[str, Any] = {}  # rtol, atol, t_end: kept on the Trajectory
         self.switch: tuple[int, float] | None = None  # (event index, time) of a "switch" stop
 
     def result(self, t, Y, sol, status: str, message: str, **kw: Any) -> Any:
         if self.collect:
             return Piece(t, Y, sol, status, message, kw)
-        traj = Trajectory(
+        if self.mdl.hybrid and "records" not in kw:  # one phase throughout
+            kw.update(extras={"phase": np.full(np.shape(t), self.phase.name)},
+                      records={"switches": [], "jumps": []})  # fmt: skip
+        return Trajectory(
             t=t,
             states=Y,
             model=self.mdl,
@@ -111,14 +115,9 @@ class Run:
             backend=self.backend,
             initial_state=self.state,
             options=self.options,
+            **self.tolerances,
             **kw,
         )
-        if self.mdl.hybrid:  # one phase throughout (a hybrid run joins its phases itself)
-            traj.phase = np.full(traj.t.shape, self.phase.name)
-            traj.switches, traj.jumps = [], []
-        if self.mdl.finish is not None and not self.joining:
-            self.mdl.finish(traj)
-        return traj
 
     def trajectory(self, piece: Piece) -> Trajectory:
         """The Trajectory of a single-phase run from the piece its backend returned."""

@@ -29,8 +29,8 @@ from scipy.integrate import OdeSolution, solve_ivp
 from ..state import State
 from . import _run
 from ._run import Piece, PreparedRun, Run, completed_message, event_end, integrator_failure
+from .dense import ConstantSolution
 from .registry import Model
-from .trajectory import ConstantSolution
 
 __all__ = [
     "AUTO",

@@ -13,8 +13,9 @@ import numpy as np
 
 from ._run import Piece, Run
 from .backends import UserEvents
+from .dense import SegmentedSolution
 from .registry import JumpFailed, Phase
-from .trajectory import SegmentedSolution, Trajectory
+from .trajectory import Trajectory
 
 __all__ = ["MAX_SWITCHES", "solve_hybrid"]
 
@@ -77,8 +78,10 @@ def solve_hybrid(
             break
         switches.append((t_sw, run.phase.name, target))
         jumps.append((y_ev, y_sw))
+        tolerances = run.tolerances
         run = Run(mdl, run.top, params, y_sw, run.backend, table[target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
+        run.tolerances = tolerances
     kw = dict(seg.kw)
     kw["nfev"] = nfev
     status, message = seg.status, seg.message
@@ -88,11 +91,6 @@ def solve_hybrid(
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"
     t_all = np.concatenate(t_parts)
     Y_all = np.hstack(y_parts)
-    run.collect, run.joining = False, True
-    traj = run.result(t_all, Y_all, SegmentedSolution(sols, seg_phases), status, message, **kw)
-    traj.phase = np.array(phases)
-    traj.switches = switches
-    traj.jumps = jumps
-    if mdl.finish is not None:
-        mdl.finish(traj)
-    return traj
+    run.collect = False
+    kw.update(extras={"phase": np.array(phases)}, records={"switches": switches, "jumps": jumps})
+    return run.result(t_all, Y_all, SegmentedSolution(sols, seg_phases), status, message, **kw)

@@ -270,9 +270,14 @@ class Model:
         by :mod:`.taylor`), so that many runs at once (:func:`mett.dynamics.batch.run_ends`) can
         locate the crossings of θ on the Taylor polynomials. None: those runs go one by one.
     finish : callable, optional
-        ``finish(traj)``: adds series that the states alone do not fix to a finished
-        :class:`~mett.Trajectory` (e.g. the contact force of each sample's phase of a stick–slip
-        run, which needs ``traj.phase``); called by :func:`mett.simulate` on every run.
+        ``finish(traj) -> (extras, records)``: what a run carries beyond its states, returned
+        as two mappings: per-sample series (one value per sample, floats or text, e.g. the
+        contact force of each sample's phase of a stick–slip run, which needs ``traj.phase``)
+        and whole-run records (numbers, float arrays, lists of records, e.g. the switches).
+        Called once as the :class:`~mett.Trajectory` of every run is made, with the run's
+        states, ``phase``, and a hybrid run's ``switches`` and ``jumps``; the Trajectory
+        stores the mappings (``extras``, ``records``, each entry also an attribute) and saves
+        them without knowing their names.
     """
 
     name: str
@@ -292,7 +297,7 @@ class Model:
     phases: tuple[Phase, ...] = field(default=())
     start_phase: Callable[[np.ndarray, Params], str] | None = None
     variant: Callable[[dict], Model | None] | None = None
-    finish: Callable[[Any], None] | None = None
+    finish: Callable[[Any], tuple[Mapping[str, Any], Mapping[str, Any]]] | None = None
     vectors: tuple[tuple[int, ...], ...] = ()
     cos_theta: Callable[[float, Any, Any], Any] | None = None
     conserved_lengths: tuple[tuple[int, ...], ...] = ()

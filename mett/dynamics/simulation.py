@@ -440,7 +440,7 @@ def prepare_run(
             if traj.model == "gliding":  # the force series, as dry-friction runs report them
                 from .stickslip import viscous_force
 
-                viscous_force(traj)
+                traj = traj.with_extras(viscous_force(traj))
             return traj
         # a dry law given to "gliding": the registered model that declares the option
         # ``friction`` and runs the law ("coulomb", "coulomb-regularised", :mod:`.stickslip`)
@@ -484,6 +484,7 @@ def prepare_run(
             raise ValueError(f"model {mdl.name!r}: start_phase gave unknown phase {name!r}")
         phase = table[name]
     run = Run(mdl, top, params, y0, backend, phase, state=state, options=model_options)
+    run.tolerances = {"rtol": rtol, "atol": atol_arr, "t_end": t_end}  # kept on the Trajectory
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")

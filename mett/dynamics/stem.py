@@ -341,6 +341,16 @@ def _dry_variant(options: dict) -> Model | None:
     return lookup("stemmed-coulomb-contensou" if law.contensou_radius > 0 else "stemmed-coulomb")
 
 
+def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``Model.finish``: the contact of each sample ("ball"/"stem", also for a run that ended
+    at t = 0, before any phase ran) and ``touchdowns``, the times the stem touched down (s)."""
+    contact = np.where(traj.states[10] > 0.5, "stem", "ball")
+    touchdowns = np.array(
+        [sw[0] for sw in traj.switches if sw[1].startswith("ball") and sw[2].startswith("stem")]
+    )
+    return {"contact": contact}, {"touchdowns": touchdowns}
+
+
 MODEL = register(
     Model(
         name="stemmed",
@@ -379,6 +389,7 @@ MODEL = register(
         ),
         start_phase=_start_phase,
         variant=_dry_variant,
+        finish=_finish,
     )
 )
 
@@ -387,7 +398,7 @@ def stemmed_run(simulate: Any, top: Any, state: Any, t_end: float, **kw: Any) ->
     """:func:`mett.simulate` of a :class:`~mett.stem.StemmedTop`: the "stemmed" model on its ball
     with its stem (with ``friction=Coulomb(...)`` its dry-friction variant "stemmed-coulomb",
     :mod:`.stemslip`); the Trajectory also gets ``contact`` ("ball"/"stem" per sample) and
-    ``touchdowns`` (the times the stem touched down, s)."""
+    ``touchdowns`` (the times the stem touched down, s; the models' ``finish``)."""
     model = kw.pop("model")
     if model not in ("gliding", "stemmed", MODEL):
         raise ValueError(f"a top with a stem runs the 'stemmed' model only; got model {model!r}")
@@ -396,12 +407,4 @@ def stemmed_run(simulate: Any, top: Any, state: Any, t_end: float, **kw: Any) ->
             raise ValueError(f"{name} is given by the StemmedTop; do not pass it to simulate")
     kw.update(stem_radius=top.radius, stem_distance=top.distance)
     # friction=Viscous runs this model with its μ; a dry law its variant "stemmed-coulomb"
-    traj = simulate(top.ball, state, t_end, model=MODEL, **kw)
-    # the contact of each sample (also for a run that ended at t = 0, before any phase ran)
-    traj.contact = np.where(traj.states[10] > 0.5, "stem", "ball")
-    traj.switches = list(getattr(traj, "switches", []))
-    # a phase is named by its contact ("stem", or "stem-rolling" under dry friction)
-    traj.touchdowns = np.array(
-        [sw[0] for sw in traj.switches if sw[1].startswith("ball") and sw[2].startswith("stem")]
-    )
-    return traj
+    return simulate(top.ball, state, t_end, model=MODEL, **kw)

@@ -398,16 +398,15 @@ _REASONS = {
 }
 
 
-def _finish(traj: Any) -> None:
-    """``contact``, ``phase``, the force series, ``touchdowns`` and the switch records."""
+def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``contact``, ``phase``, the force series, ``touchdowns`` and the switch records
+    (``Model.finish``)."""
     p = traj.params
     names = np.asarray(traj.phase).astype(str)
     contact = np.array([n.split("-")[0] for n in names.tolist()], dtype=object).astype(str)
     phase = np.array([n.split("-")[1] for n in names.tolist()], dtype=object).astype(str)
-    for name, values in _quantities(traj.states, p, phase == "rolling").items():
-        setattr(traj, name, values)
-    traj.contact, traj.phase = contact, phase
-    traj.extra = (*traj.extra, "contact", "phase", "F_x", "F_y", "M_n", "margin")
+    series = {"contact": contact, "phase": phase}
+    series.update(_quantities(traj.states, p, phase == "rolling"))
     records = []
     for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
         c0, f0 = before.split("-")
@@ -428,9 +427,8 @@ def _finish(traj: Any) -> None:
             speed = float(np.linalg.norm(stickslip.slip(y_ev, q)))
         t_sw = stickslip.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
         records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
-    traj.switches = records
-    traj.touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
-    traj.stopping_band = p[10]
+    touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
+    return series, {"switches": records, "touchdowns": touchdowns, "stopping_band": p[10]}
 
 
 PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling")

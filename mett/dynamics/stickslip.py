@@ -723,15 +723,13 @@ _REASONS = {
 }
 
 
-def _finish(traj: Any) -> None:
-    """The contact series of a finished run: force and margin of each sample's phase, switches
-    as :class:`Switch` records (margin after the stopping impulse, slip at the event)."""
+def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """The contact series of a run (``Model.finish``): force and margin of each sample's phase,
+    and the switches as :class:`Switch` records (margin after the stopping impulse, slip at the
+    event), with the stopping band."""
     p = traj.params
     rolling = np.asarray(traj.phase) == "rolling"
-    cq = contact_quantities(traj.states, p, rolling)
-    for name, values in cq.items():
-        setattr(traj, name, values)
-    traj.extra = (*traj.extra, "phase", "F_x", "F_y", "M_n", "margin")
+    series = contact_quantities(traj.states, p, rolling)
     records = []
     for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
         why = _REASONS[(before, after)]
@@ -742,8 +740,7 @@ def _finish(traj: Any) -> None:
         t_sw = t if why == "cone" else stop_time(t, y_ev, p)
         margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan  # no cone at μ = 0
         records.append(Switch(t_sw, before, after, why, margin, speed, t))
-    traj.switches = records
-    traj.stopping_band = p[10]
+    return series, {"switches": records, "stopping_band": p[10]}
 
 
 def stopping_band(top: Any, state: Any, rtol: float) -> float:
@@ -758,8 +755,8 @@ def stopping_band(top: Any, state: Any, rtol: float) -> float:
     return max(10.0 * rtol, 1e-13) * vscale
 
 
-def viscous_force(traj: Any) -> None:
-    """Add ``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 to a viscous "gliding" run.
+def viscous_force(traj: Any) -> dict[str, np.ndarray]:
+    """``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 of a viscous "gliding" run.
 
     So that runs under every law report their friction force (:func:`mett.simulate` with
     ``friction=Viscous(...)``); ``traj.params`` is the gliding model's (m, R, l, I1, I3, μ, g).
@@ -767,10 +764,11 @@ def viscous_force(traj: Any) -> None:
     m, R, l, I1, I3, mu, g = traj.params
     p = (m, R, l, I1, I3, g)
     nu = _kinematics(from_gliding(traj.states, p), p)[4]
-    traj.F_x = -mu * traj.gn * nu[0]
-    traj.F_y = -mu * traj.gn * nu[1]
-    traj.M_n = np.zeros_like(traj.gn)
-    traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
+    return {
+        "F_x": -mu * traj.gn * nu[0],
+        "F_y": -mu * traj.gn * nu[1],
+        "M_n": np.zeros_like(traj.gn),
+    }
 
 
 def _check_band(name: str, value: Any) -> float:
@@ -847,13 +845,9 @@ CONTENSOU = register(
 equations as :data:`MODEL` with the drilling torque, which changes λ (module docstring)."""
 
 
-def _finish_regularised(traj: Any) -> None:
-    """Force series of a regularised run (one phase, "sliding")."""
-    cq = contact_quantities(traj.states, traj.params, False)
-    for name, values in cq.items():
-        setattr(traj, name, values)
-    traj.extra = (*traj.extra, "phase", "F_x", "F_y", "M_n", "margin")
-    traj.switches = []
+def _finish_regularised(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Force series of a regularised run (one phase, "sliding"; ``Model.finish``)."""
+    return contact_quantities(traj.states, traj.params, False), {"switches": []}
 
 
 REGULARISED = register(

@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._version import __version__
+from .._version import __version__
+from ._series import SERIES, SERIES_UNITS
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -33,7 +34,6 @@ __all__ = [
     "SERIES_UNITS",
     "NetCDFTrajectory",
     "check_nc_path",
-    "load",
     "sweep_to_xarray",
     "to_netcdf",
     "trajectory_to_xarray",
@@ -43,32 +43,6 @@ __all__ = [
 
 ENGINE = "scipy"  # netCDF-3 classic, written and read by scipy.io (no extra binary)
 
-SERIES_UNITS: dict[str, tuple[str, str]] = {
-    "t": ("s", "time"),
-    "theta": ("rad", "nutation angle theta between the symmetry axis and the vertical"),
-    "thetadot": ("rad/s", "nutation rate dtheta/dt"),
-    "phidot": ("rad/s", "precession rate dphi/dt"),
-    "psidot": ("rad/s", "spin rate dpsi/dt = omega3 - phidot cos(theta)"),
-    "psi": ("rad", "spin angle psi (Euler angle about the symmetry axis)"),
-    "omega3": ("rad/s", "angular velocity about the symmetry axis omega3"),
-    "nu_x": ("m/s", "gliding velocity of the contact point along x"),
-    "nu_y": ("m/s", "gliding velocity of the contact point along y"),
-    "gn": ("N", "normal force g_n"),
-    "x": ("m", "horizontal position x of the centre of mass"),
-    "y": ("m", "horizontal position y of the centre of mass"),
-    "phi": ("rad", "precession angle phi of the axis, in (-pi, pi]"),
-    "E": ("J", "energy E"),
-    "E_mod": ("J", "modified energy E~ (the METT's energy while gliding)"),
-    "D": ("kg m^2/s", "Routh integral D"),
-    "lam": ("kg m^3/s", "Jellett integral lambda"),
-    "F_x": ("N", "friction force along x"),
-    "F_y": ("N", "friction force along y"),
-    "M_n": ("N m", "friction torque about the vertical"),
-    "margin": ("1", "stick margin of the contact (dry friction)"),
-    "phase": ("", "contact phase of the sample"),
-    "contact": ("", "which sphere touches the plane (ball or stem)"),
-}
-"""Unit and long name of every series a :class:`mett.Trajectory` may carry (SI units)."""
 
 _TOP_UNITS = {"m": "kg", "R": "m", "alpha": "1", "I1": "kg m^2", "I3": "kg m^2", "mu": "s/m",
               "g": "m/s^2"}  # fmt: skip
@@ -112,7 +86,7 @@ def _law_of(traj: Any) -> Any:
 
 
 def _friction_text(law: Any, top: Any) -> str:
-    from .friction import describe
+    from ..friction import describe
 
     if law is None:
         mu = getattr(top, "mu", None)
@@ -165,7 +139,6 @@ def _is_real(v: Any) -> bool:
 
 
 def _columns(traj: Any) -> list[str]:
-    from .dynamics.trajectory import SERIES
 
     names = ["t", *SERIES]
     if "psi" not in names and getattr(traj, "psi", None) is not None:
@@ -447,9 +420,9 @@ class NetCDFTrajectory:
     """
 
     def __init__(self, dataset: Any, path: Path) -> None:
-        from .state import State
-        from .stem import StemContactTop
-        from .top import TippeTop
+        from ..state import State
+        from ..stem import StemContactTop
+        from ..top import TippeTop
 
         a = dict(dataset.attrs)
         self.path, self.attrs = path, a
@@ -491,7 +464,7 @@ class NetCDFTrajectory:
 
     @staticmethod
     def _law(a: dict) -> Any:
-        from . import friction
+        from .. import friction
 
         name = str(a.get("friction_law", "none"))
         if name not in _LAW_UNITS:
@@ -517,7 +490,6 @@ class NetCDFTrajectory:
     def as_dict(self) -> dict[str, np.ndarray]:
         """``{"t": ..., "theta": ..., ...}``: the series of :data:`mett.dynamics.trajectory.SERIES` read (as
         :meth:`mett.Trajectory.as_dict`; the per-sample extras stay attributes)."""
-        from .dynamics.trajectory import SERIES
 
         return {"t": self.t, **{n: getattr(self, n) for n in SERIES if n in self.series}}
 
@@ -541,56 +513,3 @@ class NetCDFTrajectory:
         )
 
     at = states_at = theta_at = crossings = _no_dense
-
-
-def load(path: str | os.PathLike) -> Any:
-    """Read a run saved by mett: a ``.npz`` of :meth:`mett.Trajectory.save` or a ``.nc`` of
-    :meth:`mett.Trajectory.to_netcdf`.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The file; its suffix (``.npz`` or ``.nc``) says which format.
-
-    Returns
-    -------
-    Trajectory or NetCDFTrajectory
-        A :class:`mett.Trajectory` from ``.npz`` (everything, the dense output included: see
-        :meth:`mett.Trajectory.load`); from ``.nc`` a :class:`NetCDFTrajectory` with the samples
-        bit for bit, the top, the initial state, the friction law and the run's settings, but no
-        dense output.
-
-    Raises
-    ------
-    TypeError
-        If ``path`` is not a str or path-like.
-    ValueError
-        If the suffix is neither, the file does not exist, or is not a file mett wrote.
-    ImportError
-        For ``.nc`` without xarray (``pip install 'mett[xarray]'``).
-    """
-    from .dynamics.trajectory import Trajectory
-
-    if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"path must be a str or path-like (.npz or .nc); got {type(path).__name__}")
-    p = Path(os.fspath(path))
-    suffix = p.suffix.lower()
-    if suffix == ".npz":
-        return Trajectory.load(p)
-    if suffix != ".nc":
-        raise ValueError(
-            f"path must end in .npz (Trajectory.save) or .nc (to_netcdf); got {str(p)!r}"
-        )
-    if not p.is_file():
-        raise ValueError(f"path must be an existing NetCDF file (.nc); got {str(p)!r}")
-    xr = _require_xarray()
-    try:
-        ds = xr.load_dataset(p, engine=ENGINE)
-    except (OSError, ValueError, TypeError, KeyError, IndexError) as exc:
-        raise ValueError(f"{p} is not a readable NetCDF file: {exc}") from None
-    if not str(ds.attrs.get("title", "")).startswith("mett trajectory") or "t" not in ds:
-        raise ValueError(f"{p} is not a mett trajectory (no 'mett trajectory' title or no t)")
-    try:
-        return NetCDFTrajectory(ds, p)
-    except (ValueError, TypeError, KeyError) as exc:
-        raise ValueError(f"{p} is a damaged mett trajectory file: {exc}") from None
