@@ -6,7 +6,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .dynamics._export import ENGINE, NetCDFTrajectory, _require_xarray
+from .dynamics._export import ENGINE, NetCDFTrajectory, require_xarray
+from .dynamics.trajectory import Trajectory
 
 __all__ = ["load"]
 
@@ -37,8 +38,6 @@ def load(path: str | os.PathLike) -> Any:
     ImportError
         For ``.nc`` without xarray (``pip install 'mett[xarray]'``).
     """
-    from ..dynamics.trajectory import Trajectory
-
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or path-like (.npz or .nc); got {type(path).__name__}")
     p = Path(os.fspath(path))
@@ -51,7 +50,7 @@ def load(path: str | os.PathLike) -> Any:
         )
     if not p.is_file():
         raise ValueError(f"path must be an existing NetCDF file (.nc); got {str(p)!r}")
-    xr = _require_xarray()
+    xr = require_xarray()
     try:
         ds = xr.load_dataset(p, engine=ENGINE)
     except (OSError, ValueError, TypeError, KeyError, IndexError) as exc:

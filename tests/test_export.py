@@ -39,7 +39,10 @@ def stem_run():
 
 
 def _series(traj) -> dict[str, np.ndarray]:
-    return {"t": traj.t, **{n: getattr(traj, n) for n in SERIES}}
+    out = {"t": traj.t, **{n: getattr(traj, n) for n in SERIES}}
+    if getattr(traj, "psi", None) is not None:  # the spin angle, integrated along the dense output
+        out["psi"] = traj.psi
+    return out
 
 
 # --- CSV ------------------------------------------------------------------------------------------

@@ -69,7 +69,7 @@ _SWEEP_NAMES = {
 _RUN_ATTRS = ("rtol", "atol", "t_end")  # read with getattr: set by simulate where it records them
 
 
-def _require_xarray() -> Any:
+def require_xarray() -> Any:
     try:
         import xarray as xr
     except ImportError:
@@ -139,7 +139,6 @@ def _is_real(v: Any) -> bool:
 
 
 def _columns(traj: Any) -> list[str]:
-
     names = ["t", *SERIES]
     if "psi" not in names and getattr(traj, "psi", None) is not None:
         names.append("psi")
@@ -261,12 +260,12 @@ def _attr(value: Any) -> Any:
 def trajectory_to_xarray(traj: Any, **run: Any) -> xr.Dataset:
     """The sampled series of a run as an :class:`xarray.Dataset` (see
     :meth:`mett.Trajectory.to_xarray`); ``run`` as in :func:`write_trajectory_csv`."""
-    xr = _require_xarray()
+    xr = require_xarray()
     t = np.asarray(traj.t, dtype=float)
     data_vars = {}
     extra = [n for n in getattr(traj, "extra", ()) if n not in _columns(traj)]
     for name in [*_columns(traj)[1:], *("phase", "contact"), *extra]:
-        values = getattr(traj, name, None) if name in _columns(traj) else traj.__dict__.get(name)
+        values = getattr(traj, name, None)
         if values is None or name in data_vars:
             continue
         values = np.asarray(values)
@@ -359,7 +358,7 @@ def sweep_to_xarray(table: pd.DataFrame, dims: Sequence[str] | None = None) -> x
         settings (mett version, model, friction, rtol, t_end, the base top and start) as
         attributes.
     """
-    xr = _require_xarray()
+    xr = require_xarray()
     meta = _sweep_meta(table)
     if dims is None:
         dims = meta.get("grid")
@@ -503,7 +502,7 @@ class NetCDFTrajectory:
 
     def to_xarray(self) -> xr.Dataset:
         """The dataset as read (series, units, attributes)."""
-        xr = _require_xarray()
+        xr = require_xarray()
         return xr.load_dataset(self.path, engine=ENGINE)
 
     def _no_dense(self, *args: Any, **kwargs: Any) -> Any:
