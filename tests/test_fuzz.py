@@ -408,6 +408,7 @@ API: dict[str, tuple[Callable, st.SearchStrategy]] = {
         _call(tops(), lam_scalar, mixed(st.sampled_from(["inverted", "upright"]))),
     ),
     "escape_time": (mett.escape_time, _call(tops(), states())),
+    "predict_inversion": (mett.predict_inversion, _call(tops(), states())),
     # presets
     "presets.get": (
         lambda name, kw: presets.get(name, **kw),

@@ -1,0 +1,344 @@
+"""Predict whether and when a tippe top inverts, without resolving the nutation.
+
+:func:`predict_inversion` (re-exported as ``mett.predict_inversion``) combines
+
+* the **initiation**: the linear instability of the upright spin (:func:`mett.escape_time`), which
+  gives the size θ_u(0) of the initial state's component in the growing (inversion) mode and its
+  growth rate σ;
+* the **gyroscopic-balance flow** (Moffatt & Shimomura 2002, Nature 416, 385; Ueda, Sasaki &
+  Watanabe 2005, SIAM J. Appl. Dyn. Syst. 4, 1159): a one-dimensional slow flow of the mean
+  inclination θ̄ obtained from Jellett's integral and the dissipated power, integrated from θ_u(0)
+  (:mod:`mett.inversion._gyroscopic`);
+* for exact Coulomb friction, whether the initial slip stops before the fast motion turns it
+  (then the top rolls, conserves E, D, λ and does not invert).
+
+The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .. import _validate
+from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
+from ..integrals import jellett
+from ..stability import escape_time
+from ..state import State
+from ..thresholds import asymptotic_state
+from ..top import TippeTop
+from ._gyroscopic import NoBalance, balance_D_and_E_mod, slow_flow
+from ._result import InversionPrediction, Validity
+
+__all__ = ["InversionPrediction", "Validity", "predict_inversion"]
+
+METHODS = ("gyroscopic",)
+
+# The box of the verification table (docs/theory/inversion.md#verification): outside it the
+# prediction is flagged. Set from the table, not the reverse.
+VERIFIED = {
+    "laws": ("viscous",),
+    "theta0": (0.01, 0.5),
+    "spin_ratio": (1.5, 20.0),
+    "epsilon": 0.05,
+    "start": "centre of mass at rest",
+}
+
+
+def _law_name(law: Any) -> str:
+    if isinstance(law, Viscous):
+        return "viscous"
+    if isinstance(law, RegularisedCoulomb):
+        return "regularised-coulomb"
+    if law.contensou_radius > 0.0:
+        return "coulomb-contensou"
+    return "coulomb"
+
+
+def _linear_mu(top: TippeTop, law: Any, state: State) -> float:
+    """Viscous coefficient (s/m) of the law linearised at the upright spin.
+
+    The regularised law is viscous with μ/ε below ε; Contensou's with μ/(r* |ω_n|) (mett.friction).
+    Exact Coulomb has no linearisation: its coefficient at the initial slip scale R |ω3| sin θ0
+    only splits the state into modes (flagged as unverified).
+    """
+    if isinstance(law, Viscous):
+        return top.mu if law.mu is None else law.mu
+    if isinstance(law, RegularisedCoulomb):
+        return law.mu / law.eps
+    wn = abs(float(state.omega3))
+    if law.contensou_radius > 0.0:
+        return law.mu / (law.r_star * wn)
+    return law.mu / (top.R * wn * max(math.sin(float(state.theta)), 1e-3))
+
+
+def _empty(
+    inverts, reason, method, validity, t_start=math.inf, theta0=float("nan"), lam=float("nan")
+):
+    arr = np.array([0.0])
+    return InversionPrediction(
+        inverts=inverts,
+        reason=reason,
+        method=method,
+        t_start=t_start,
+        t_half=math.inf,
+        t_inv=math.inf,
+        tol=float("nan"),
+        t=arr,
+        theta=np.array([theta0]),
+        D=np.array([float("nan")]),
+        E_mod=np.array([float("nan")]),
+        lam=np.array([lam]),
+        theta_end=theta0,
+        validity=validity,
+    )
+
+
+def _coulomb_stick_time(top: TippeTop, state: State) -> float:
+    """Time (s) in which exact Coulomb friction stops the initial slip, if it keeps its direction.
+
+    The slip decelerates at μ g κ with κ = 1 + m R² (1 − α cos θ)²/I1 (the ν̇ equations, theory
+    §2.2, with θ̇ = 0); returned per unit μ.
+    """
+    c = math.cos(float(state.theta))
+    kappa = 1.0 + top.m * top.R**2 * (1.0 - top.alpha * c) ** 2 / top.I1
+    slip = math.hypot(float(state.nu_x), float(state.nu_y))
+    return slip / (top.g * kappa)
+
+
+def predict_inversion(
+    top: TippeTop,
+    state: State,
+    friction: Any = None,
+    *,
+    method: str = "gyroscopic",
+    tol: float = 0.05,
+) -> InversionPrediction:
+    """Predict whether, when and how a gliding tippe top inverts, without resolving the nutation.
+
+    Parameters
+    ----------
+    top : TippeTop
+        A ball top (a stemmed top is refused: its stem contact is outside the reduction).
+    state : State
+        Initial state, near the upright spin (θ0 < π/2, ω3 > 0, a positive Jellett integral).
+    friction : mett.friction law, optional
+        :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
+        or :class:`~mett.friction.Coulomb` (with or without Contensou radius).
+    method : {"gyroscopic"}
+        The reduction. ``"gyroscopic"``: linear initiation + gyroscopic-balance slow flow
+        (docs/theory/inversion.md).
+    tol : float, default 0.05
+        Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
+
+    Returns
+    -------
+    InversionPrediction
+        ``inverts``, ``reason``, ``t_start``, ``t_half``, ``t_inv`` (s), the slow path ``t``,
+        ``theta``, ``D``, ``E_mod``, ``lam`` and ``validity``. ``inverts is None`` (with the
+        reason) where the reduction cannot decide.
+
+    Raises
+    ------
+    ValueError
+        If ``top`` is stemmed, ``method`` or ``tol`` is unknown/out of range, or the state is not
+        near the upright spin (θ0 >= π/2, λ <= 0).
+    TypeError
+        If ``top``, ``state`` or ``friction`` has the wrong type.
+
+    Notes
+    -----
+    The mean inclination θ̄ is that of the growing (inversion) mode; it starts at θ_u(0), the
+    initial state's component in that mode, not at θ0 (the rest of θ0 decays first: the dip of
+    θ(t) seen before an inversion, Rutstam 2013). Sources: Moffatt & Shimomura (2002); Ueda,
+    Sasaki & Watanabe (2005); Rauch-Wojciechowski & Rutstam (2014) for λ_thres.
+    """
+    if type(top).__name__ == "StemmedTop":
+        raise ValueError(
+            "top must be a ball top (TippeTop); a stemmed top's second contact is outside the "
+            "gyroscopic-balance reduction"
+        )
+    _validate.instance("top", top, "TippeTop")
+    _validate.instance("state", state, "State")
+    if np.ndim(state.theta) != 0:
+        raise ValueError(f"state must be a single state; got shape {np.shape(state.theta)}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}; got {method!r}")
+    tol = _validate.finite_scalar("tol", tol)
+    if not 0.0 < tol < 0.5:
+        raise ValueError(f"tol must lie in (0, 0.5) rad; got {tol!r}")
+    law = Viscous() if friction is None else check_law(friction)
+    theta0 = float(state.theta)
+    if not theta0 < 0.5 * math.pi:
+        raise ValueError(
+            f"state.theta must be below pi/2 (a top near the upright spin); got {theta0!r}"
+        )
+    lam = float(jellett(top, state))
+    if not lam > 0.0:
+        raise ValueError(
+            f"the state's Jellett integral must be positive (spin omega3 > 0 near theta = 0); got {lam!r}"
+        )
+    name = _law_name(law)
+    spin_ratio = lam / top.lambda_thres
+    notes: list[str] = []
+    if name not in VERIFIED["laws"]:
+        notes.append(f"law {name} not in the verification table")
+    lo, hi = VERIFIED["theta0"]
+    if not lo <= theta0 <= hi:
+        notes.append(f"theta0 outside [{lo}, {hi}]")
+    lo, hi = VERIFIED["spin_ratio"]
+    if not lo <= spin_ratio <= hi:
+        notes.append(f"lam/lam_thres outside [{lo}, {hi}]")
+
+    # Horizontal CM velocity of the start: ṙ = ν − (ω × a)_h (theory §1); the reduction has it 0.
+    c0, s0 = math.cos(theta0), math.sin(theta0)
+    rx = float(state.nu_x) + top.R * float(state.thetadot) * (1.0 - top.alpha * c0)
+    ry = float(state.nu_y) - top.R * s0 * (
+        float(state.omega3) + float(state.phidot) * (top.alpha - c0)
+    )
+    if math.hypot(rx, ry) > 1e-6 * top.R * abs(float(state.omega3)):
+        notes.append("start with the centre of mass moving (verified: centre of mass at rest)")
+
+    def validity(eps: float) -> Validity:
+        n = list(notes)
+        if not eps <= VERIFIED["epsilon"]:
+            n.append(f"epsilon = T_n/t_half above {VERIFIED['epsilon']}")
+        return Validity(eps, spin_ratio, bool(n), tuple(n))
+
+    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+
+    if top.group == "I":
+        return _empty(
+            False,
+            "group I top (gamma <= 1 - alpha): never inverts",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    if isinstance(law, Coulomb) and law.contensou_radius > 0.0:
+        return _empty(
+            None,
+            "the Coulomb-Contensou law is not covered by the gyroscopic-balance reduction yet "
+            "(its spin dissipation makes the one-dimensional flow ill-conditioned near theta = 0)",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    if isinstance(law, Coulomb) and law.mu > 0.0:
+        t_stop = _coulomb_stick_time(top, state) / law.mu
+        if t_stop < 0.5 * T_n:
+            # The slip stops before the fast motion turns its direction: the contact sticks and
+            # the top rolls, conserving E, D and λ, so it stays in its nutation band.
+            return _empty(
+                False,
+                f"contact sticks: rolling from t = {t_stop:.3g} s (the initial slip stops within "
+                "half a nutation period; rolling conserves E, D and lam, no inversion)",
+                method,
+                validity(math.nan),
+                t_start=math.inf,
+                theta0=theta0,
+                lam=lam,
+            )
+    mu_lin = _linear_mu(top, law, state)
+    try:
+        esc = escape_time(top.replace(mu=mu_lin), state)
+    except ValueError as exc:
+        if lam <= top.lambda_0:
+            return _empty(
+                False,
+                f"below threshold lambda_0 = {top.lambda_0:.4g}: the upright spin is stable",
+                method,
+                validity(math.nan),
+                theta0=theta0,
+                lam=lam,
+            )
+        return _empty(
+            None, f"no linear initiation: {exc}", method, validity(math.nan), theta0=theta0, lam=lam
+        )
+    end = asymptotic_state(top, lam)
+    if end.kind == "inverted":
+        theta_end = math.pi
+    elif end.kind == "tumbling":
+        theta_end = float(end.theta)
+    elif end.kind == "upright":
+        return _empty(
+            False,
+            "below threshold: the end state is the upright spin",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    else:
+        return _empty(
+            None,
+            f"end state is {end.kind}: it depends on the initial state",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    amp = esc.amplitude
+    # The flow approaches its end exponentially; integrate far enough to pass within tol.
+    t_end = 60.0 * max(esc.time, 1.0 / esc.growth_rate)
+    target = theta_end - tol if theta_end > amp else theta_end + tol
+    events = {"start": theta0, "half": 0.5 * math.pi, "end": target}
+    try:
+        sol, times = slow_flow(top, lam, law, amp, t_end, events)
+    except NoBalance as exc:
+        return _empty(
+            None,
+            f"no gyroscopic balance at theta = {exc.theta:.3g} (spin too low for a fast "
+            "precession): the reduction does not apply",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    if not sol.success:
+        return _empty(
+            None,
+            f"slow flow failed: {sol.message}",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    t = sol.t
+    theta = sol.y[0]
+    lam_path = sol.y[1]
+    # stop the path at the end event
+    keep = t <= times["end"] if math.isfinite(times["end"]) else slice(None)
+    t, theta, lam_path = t[keep], theta[keep], lam_path[keep]
+    D, E_mod = balance_D_and_E_mod(top, lam_path, theta)
+    t_half = times["half"]
+    eps = T_n / t_half if math.isfinite(t_half) else math.nan
+    if end.kind == "inverted":
+        inverts, reason = True, "inverts"
+    else:
+        inverts = False
+        reason = (
+            f"hangs at theta_t = {theta_end:.4g} rad (lambda_0 < lam < lambda_thres: "
+            "partial inversion to the tumbling state)"
+        )
+    t_start = 0.0 if amp >= theta0 else times["start"]
+    return InversionPrediction(
+        inverts=inverts,
+        reason=reason,
+        method=method,
+        t_start=t_start,
+        t_half=t_half,
+        t_inv=times["end"],
+        tol=tol,
+        t=np.asarray(t),
+        theta=np.asarray(theta),
+        D=np.asarray(D),
+        E_mod=np.asarray(E_mod),
+        lam=np.asarray(lam_path),
+        theta_end=theta_end,
+        validity=validity(eps),
+    )
