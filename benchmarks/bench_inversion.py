@@ -1,0 +1,73 @@
+"""Verification table and speed of mett.predict_inversion against the compiled simulation.
+
+    python benchmarks/bench_inversion.py table   # the 60-case table (docs/theory/inversion.md)
+    python benchmarks/bench_inversion.py speed   # prediction vs simulation cost, growth with ω3
+
+The reference of each case is the first crossing of θ = π/2 in a full compiled simulation
+(rtol 1e-8, t_end = min(2 t_half predicted, 60 s)).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import sys
+import time
+
+import mett
+from mett.inversion import predict_inversion
+from mett.inversion._cases import cases, simulated_t_half
+
+
+def table() -> None:
+    rows = []
+    for c in cases():
+        p = predict_inversion(c.top, c.state, c.friction)
+        t_end = min(2 * p.t_half, 60.0) if math.isfinite(p.t_half) else 20.0
+        ts, T_n, status = simulated_t_half(c, t_end, rtol=1e-8)
+        rows.append((c, p, ts, T_n, status))
+    print(
+        "| case | law | start | λ/λ_thres | θ0 | μ | ε | t_half pred (s) | sim (s) | error | status |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    verified = []
+    for c, p, ts, T_n, status in rows:
+        start = "CM at rest" if "centre of mass moving" not in " ".join(p.validity.notes) else "ν=0"
+        err = ""
+        if status == "completed" and math.isfinite(ts):
+            # one nutation period of slack (the phase of θ within the band)
+            e = max(abs(p.t_half - ts) - T_n, 0.0) / ts
+            err = f"{e:.1%}"
+            if not p.validity.outside_verified_range:
+                verified.append(e)
+        print(
+            f"| {c.name} | {c.law} | {start} | {p.validity.spin_ratio:.1f} | {float(c.state.theta):.3f} "
+            f"| {c.top.mu if c.law == 'viscous' else c.friction.mu:.3g} | {p.validity.epsilon:.3g} "
+            f"| {p.t_half:.3f} | {ts:.3f} | {err} | {status}{'' if p.validity.outside_verified_range else ' (verified range)'} |"
+        )
+    if verified:
+        print(
+            f"\nverified range: {len(verified)} cases, median error {statistics.median(verified):.1%}, "
+            f"worst {max(verified):.1%}"
+        )
+
+
+def speed() -> None:
+    top = mett.presets.get("rutstam2013", mu=0.05)
+    print("| ω3 (rad/s) | nutations to π/2 | prediction (s) | compiled simulation (s) | ratio |")
+    print("|---|---|---|---|---|")
+    for omega3 in (155.0, 310.0, 620.0):
+        state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=omega3)
+        t0 = time.perf_counter()
+        p = predict_inversion(top, state)
+        tp = time.perf_counter() - t0
+        mett.simulate(top, state, 0.01, backend="compiled")  # compile outside the timing
+        t0 = time.perf_counter()
+        mett.simulate(top, state, p.t_half, rtol=1e-9, backend="compiled")
+        ts = time.perf_counter() - t0
+        n = p.t_half / (2 * math.pi * top.I1 / (top.I3 * omega3))
+        print(f"| {omega3:.0f} | {n:.0f} | {tp:.3f} | {ts:.3f} | {tp / ts:.3f} |")
+
+
+if __name__ == "__main__":
+    {"table": table, "speed": speed}[sys.argv[1] if len(sys.argv) > 1 else "table"]()
