@@ -116,12 +116,14 @@ def test_between_thresholds_hangs_at_tumbling_angle(thesis):
 
 def test_exact_coulomb_cohen_top_sticks():
     # The example: Cohen's top, CM at rest, ω3 = 100, θ0 = 0.1, μ = 0.3: the simulated
-    # slip stops at t ≈ 0.03 s; the prediction says so within a factor of the deceleration model.
+    # slip stops at t ≈ 0.03 s. The constant-deceleration model ignores the turning of the slip
+    # direction during the stop, a relative error of order t_stop/T_n ≈ 0.5 (T_n = 0.063 s); the
+    # tolerance 30 % is below that bound.
     top = mett.presets.get("cohen1977")
     state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=100.0)
     p = predict_inversion(top, state, Coulomb(0.3))
     assert p.inverts is False and p.reason.startswith("contact sticks")
-    traj = mett.simulate(top, state, 0.2, friction=Coulomb(0.3))
+    traj = mett.simulate(top, state, 0.05, friction=Coulomb(0.3))
     t_stick = traj.t[np.argmax(traj.phase == "rolling")]
     t_pred = float(p.reason.split("t = ")[1].split(" s")[0])
     assert t_pred == pytest.approx(t_stick, rel=0.3)
