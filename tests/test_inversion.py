@@ -144,8 +144,10 @@ def test_bad_input_is_refused(thesis):
         predict_inversion(thesis, state, tol=0.0)
     with pytest.raises(ValueError, match=r"state\.theta"):
         predict_inversion(thesis, mett.State(theta=2.0, omega3=155.0))
-    with pytest.raises(ValueError, match="Jellett"):
+    with pytest.raises(ValueError, match="omega3"):
         predict_inversion(thesis, mett.State(theta=0.1, omega3=-155.0))
+    with pytest.raises(ValueError, match="Jellett"):
+        predict_inversion(thesis, mett.State(theta=1.4, omega3=1.0, phidot=-50.0))
     with pytest.raises(ValueError, match="stemmed"):
         predict_inversion(thesis.with_stem(0.004, 0.02), state)
     with pytest.raises(TypeError):

@@ -17,6 +17,7 @@ The derivation, its assumptions and its verification table are on docs/theory/in
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -75,10 +76,9 @@ def _linear_mu(top: TippeTop, law: Any, state: State) -> float:
     return law.mu / (top.R * wn * max(math.sin(float(state.theta)), 1e-3))
 
 
-def _empty(
-    inverts, reason, method, validity, t_start=math.inf, theta0=float("nan"), lam=float("nan")
-):
-    arr = np.array([0.0])
+def _empty(inverts, reason, method, validity, t_start=math.inf, theta0=0.0, lam=0.0, tol=0.05):
+    # No slow path: empty arrays, the top stays where it is as far as the reduction can tell.
+    empty = np.empty(0)
     return InversionPrediction(
         inverts=inverts,
         reason=reason,
@@ -86,12 +86,12 @@ def _empty(
         t_start=t_start,
         t_half=math.inf,
         t_inv=math.inf,
-        tol=float("nan"),
-        t=arr,
-        theta=np.array([theta0]),
-        D=np.array([float("nan")]),
-        E_mod=np.array([float("nan")]),
-        lam=np.array([lam]),
+        tol=tol,
+        t=empty,
+        theta=empty,
+        D=empty,
+        E_mod=empty,
+        lam=empty,
         theta_end=theta0,
         validity=validity,
     )
@@ -170,11 +170,17 @@ def predict_inversion(
     tol = _validate.finite_scalar("tol", tol)
     if not 0.0 < tol < 0.5:
         raise ValueError(f"tol must lie in (0, 0.5) rad; got {tol!r}")
+    empty = functools.partial(_empty, tol=tol)
     law = Viscous() if friction is None else check_law(friction)
     theta0 = float(state.theta)
     if not theta0 < 0.5 * math.pi:
         raise ValueError(
             f"state.theta must be below pi/2 (a top near the upright spin); got {theta0!r}"
+        )
+    if not float(state.omega3) > 0.0:
+        raise ValueError(
+            f"state.omega3 must be positive (a top spun about its axis, near theta = 0); "
+            f"got {float(state.omega3)!r}"
         )
     lam = float(jellett(top, state))
     if not lam > 0.0:
@@ -211,7 +217,7 @@ def predict_inversion(
     T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
 
     if top.group == "I":
-        return _empty(
+        return empty(
             False,
             "group I top (gamma <= 1 - alpha): never inverts",
             method,
@@ -220,7 +226,7 @@ def predict_inversion(
             lam=lam,
         )
     if isinstance(law, Coulomb) and law.contensou_radius > 0.0:
-        return _empty(
+        return empty(
             None,
             "the Coulomb-Contensou law is not covered by the gyroscopic-balance reduction yet "
             "(its spin dissipation makes the one-dimensional flow ill-conditioned near theta = 0)",
@@ -240,7 +246,7 @@ def predict_inversion(
         if t_stop * turn < 1.0:
             # Coulomb friction removes the slip before its direction turns: the contact sticks
             # and the top rolls, conserving E, D and λ, so it stays in its nutation band.
-            return _empty(
+            return empty(
                 False,
                 f"contact sticks: rolling from t = {t_stop:.3g} s (the slip stops before the "
                 "precession turns it; rolling conserves E, D and lam, no inversion)",
@@ -255,7 +261,7 @@ def predict_inversion(
         esc = escape_time(top.replace(mu=mu_lin), state)
     except ValueError as exc:
         if lam <= top.lambda_0:
-            return _empty(
+            return empty(
                 False,
                 f"below threshold lambda_0 = {top.lambda_0:.4g}: the upright spin is stable",
                 method,
@@ -263,7 +269,7 @@ def predict_inversion(
                 theta0=theta0,
                 lam=lam,
             )
-        return _empty(
+        return empty(
             None, f"no linear initiation: {exc}", method, validity(math.nan), theta0=theta0, lam=lam
         )
     end = asymptotic_state(top, lam)
@@ -272,7 +278,7 @@ def predict_inversion(
     elif end.kind == "tumbling":
         theta_end = float(end.theta)
     elif end.kind == "upright":
-        return _empty(
+        return empty(
             False,
             "below threshold: the end state is the upright spin",
             method,
@@ -281,7 +287,7 @@ def predict_inversion(
             lam=lam,
         )
     else:
-        return _empty(
+        return empty(
             None,
             f"end state is {end.kind}: it depends on the initial state",
             method,
@@ -294,7 +300,7 @@ def predict_inversion(
     try:
         t, theta = slow_path(top, lam, law, amp, target)
     except NoBalance as exc:
-        return _empty(
+        return empty(
             None,
             f"no gyroscopic balance at theta = {exc.theta:.3g} (spin too low for a fast "
             "precession): the reduction does not apply",
@@ -304,7 +310,7 @@ def predict_inversion(
             lam=lam,
         )
     except ValueError as exc:
-        return _empty(None, f"slow flow: {exc}", method, validity(math.nan), theta0=theta0, lam=lam)
+        return empty(None, f"slow flow: {exc}", method, validity(math.nan), theta0=theta0, lam=lam)
     lam_path = np.full_like(theta, lam)
 
     def time_at(th: float) -> float:
