@@ -1,6 +1,6 @@
 """Verification table and speed of mett.predict_inversion against the compiled simulation.
 
-    python benchmarks/bench_inversion.py table   # the 60-case table (docs/theory/inversion.md)
+    python benchmarks/bench_inversion.py table   # the 60-case table, written into docs/theory/inversion.md
     python benchmarks/bench_inversion.py speed   # prediction vs simulation cost, growth with ω3
 
 The reference of each case is the first crossing of θ = π/2 in a full compiled simulation
@@ -20,6 +20,23 @@ from mett.inversion._cases import cases, simulated_t_half
 
 
 def table() -> None:
+    import contextlib
+    import io
+    import pathlib
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        _table()
+    text = buf.getvalue()
+    print(text)
+    page = pathlib.Path(__file__).resolve().parents[1] / "docs" / "theory" / "inversion.md"
+    doc = page.read_text(encoding="utf-8")
+    start, end = "<!-- table:start -->\n", "<!-- table:end -->"
+    i, j = doc.index(start) + len(start), doc.index(end)
+    page.write_text(doc[:i] + text + doc[j:], encoding="utf-8")
+
+
+def _table() -> None:
     rows = []
     for c in cases():
         p = predict_inversion(c.top, c.state, c.friction)

@@ -154,3 +154,19 @@ def test_bad_input_is_refused(thesis):
         predict_inversion(thesis, state, friction="viscous")
     p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3))
     assert p.inverts is None and "Contensou" in p.reason
+
+
+def test_cli_predict_prints_the_prediction(capsys):
+    import json
+
+    from mett.cli import main
+
+    argv = ["predict", "--preset", "rutstam2013", "--theta0", "0.1", "--omega3", "155"]
+    assert main([*argv, "--cm-at-rest", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    top = mett.presets.get("rutstam2013")
+    state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
+    assert out["inverts"] is True
+    assert out["t_half"] == pytest.approx(predict_inversion(top, state).t_half, rel=1e-12)
+    assert main([*argv[:-1], "-155"]) == 2
+    assert "omega3" in capsys.readouterr().err

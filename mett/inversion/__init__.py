@@ -210,7 +210,7 @@ def predict_inversion(
 
     def validity(eps: float) -> Validity:
         n = list(notes)
-        if not eps <= VERIFIED["epsilon"]:
+        if math.isfinite(eps) and eps > VERIFIED["epsilon"]:
             n.append(f"epsilon = T_n/t_half above {VERIFIED['epsilon']}")
         return Validity(eps, spin_ratio, bool(n), tuple(n))
 
