@@ -42,7 +42,8 @@ METHODS = ("gyroscopic",)
 # prediction is flagged. Set from the table, not the reverse.
 VERIFIED = {
     "laws": ("viscous",),
-    "theta0": (0.01, 0.5),
+    "theta0": (0.01, 0.25),
+    "theta0_moving_cm": 0.03,
     "spin_ratio": (1.5, 20.0),
     "epsilon": 0.05,
     "start": "centre of mass at rest",
@@ -205,8 +206,14 @@ def predict_inversion(
     ry = float(state.nu_y) - top.R * s0 * (
         float(state.omega3) + float(state.phidot) * (top.alpha - c0)
     )
-    if math.hypot(rx, ry) > 1e-6 * top.R * abs(float(state.omega3)):
-        notes.append("start with the centre of mass moving (verified: centre of mass at rest)")
+    if (
+        math.hypot(rx, ry) > 1e-6 * top.R * abs(float(state.omega3))
+        and theta0 > VERIFIED["theta0_moving_cm"]
+    ):
+        notes.append(
+            "start with the centre of mass moving and theta0 > "
+            f"{VERIFIED['theta0_moving_cm']} (verified: centre of mass at rest, or theta0 smaller)"
+        )
 
     def validity(eps: float) -> Validity:
         n = list(notes)
