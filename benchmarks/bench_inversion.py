@@ -49,7 +49,8 @@ def _table() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     verified = []
     for c, p, ts, T_n, status in rows:
-        start = "CM at rest" if "centre of mass moving" not in " ".join(p.validity.notes) else "ν=0"
+        at_rest = float(c.state.nu_x) == 0.0 and float(c.state.nu_y) == 0.0
+        start = "ν=0" if at_rest else "CM at rest"
         err = ""
         if status == "completed" and math.isfinite(ts):
             # one nutation period of slack (the phase of θ within the band)
