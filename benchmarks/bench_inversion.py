@@ -103,5 +103,56 @@ def speed() -> None:
         )
 
 
+def atlas_figure() -> None:
+    """docs/figures/inversion_atlas.png: predicted t_half over (μ, ω3) per law, thesis top."""
+    import pathlib
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mett.inversion import atlas
+
+    top = mett.presets.get("rutstam2013")
+    spins = np.geomspace(100.0, 1000.0, 19)
+    grids = {"viscous": np.geomspace(0.03, 3.0, 21), "regularised-coulomb": np.geomspace(0.03, 1.0, 21),
+             "coulomb": np.geomspace(0.03, 1.0, 21)}  # fmt: skip
+    fig, axes = plt.subplots(1, 4, figsize=(17, 4.2), constrained_layout=True)
+    for ax, (law, mus) in zip(axes[:3], grids.items(), strict=True):
+        res = atlas(top, mus, spins, laws=(law,))[law]
+        T = np.where(res["inverts"] == 1, res["t_half"], np.nan)
+        if np.isfinite(T).any():
+            im = ax.pcolormesh(spins, mus, np.log10(T), shading="nearest", cmap="viridis")
+            fig.colorbar(im, ax=ax, label="log10 t_half [s]")
+        stick = res["inverts"] == 0
+        if stick.any():
+            ax.contourf(spins, mus, stick.astype(float), levels=[0.5, 1.5], colors="none",
+                        hatches=["//"])  # fmt: skip
+            ax.text(0.5, 0.5, "contact sticks:\nrolls, no inversion", transform=ax.transAxes,
+                    ha="center", va="center", fontsize=11,
+                    bbox={"facecolor": "white", "alpha": 0.8})  # fmt: skip
+        unit = "s/m" if law == "viscous" else "1"
+        ax.set(xscale="log", yscale="log", xlabel="ω3(0) [rad/s]", ylabel=f"μ [{unit}]",
+               title=law + (" (ε = 0.01 m/s)" if law.startswith("reg") else ""))  # fmt: skip
+    from matplotlib.ticker import NullFormatter
+
+    for a in axes[:3]:
+        a.xaxis.set_minor_formatter(NullFormatter())
+    ax = axes[3]
+    for w in (155.0, 400.0, 1000.0):
+        res = atlas(top, grids["viscous"], [w], laws=("viscous",))["viscous"]
+        ax.plot(grids["viscous"], grids["viscous"] * res["t_half"][:, 0], label=f"ω3 = {w:.0f}")
+    ax.set(xscale="log", xlabel="μ [s/m]", ylabel="μ · t_half [s²/m]",
+           title="viscous law: μ · t_half", ylim=(0, None))  # fmt: skip
+    ax.legend()
+    out = pathlib.Path(__file__).resolve().parents[1] / "docs" / "figures" / "inversion_atlas.png"
+    fig.savefig(out, dpi=110)
+    print(out.name)
+
+
 if __name__ == "__main__":
-    {"table": table, "speed": speed}[sys.argv[1] if len(sys.argv) > 1 else "table"]()
+    {"table": table, "speed": speed, "atlas": atlas_figure}[
+        sys.argv[1] if len(sys.argv) > 1 else "table"
+    ]()

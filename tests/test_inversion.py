@@ -186,3 +186,16 @@ def test_cli_predict_prints_the_prediction(capsys):
     assert out["t_half"] == pytest.approx(predict_inversion(top, state).t_half, rel=1e-12)
     assert main([*argv[:-1], "-155"]) == 2
     assert "omega3" in capsys.readouterr().err
+
+
+def test_atlas_is_the_prediction_on_a_grid(thesis):
+    from mett.inversion import atlas
+
+    res = atlas(thesis, [0.1, 0.3], [155.0, 300.0], laws=("viscous", "coulomb"))
+    state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=300.0)
+    p = predict_inversion(thesis, state, Viscous(0.3))
+    assert res["viscous"]["t_half"][1, 1] == p.t_half
+    assert np.all(res["viscous"]["inverts"] == 1)
+    assert np.all(res["coulomb"]["inverts"] == 0) and np.all(np.isinf(res["coulomb"]["t_half"]))
+    with pytest.raises(ValueError, match="laws"):
+        atlas(thesis, [0.1], [155.0], laws=("dry",))

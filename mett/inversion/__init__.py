@@ -34,7 +34,7 @@ from ..top import TippeTop
 from ._gyroscopic import NoBalance, balance_D_and_E_mod, slow_path
 from ._result import InversionPrediction, Validity
 
-__all__ = ["InversionPrediction", "Validity", "predict_inversion"]
+__all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
 
 METHODS = ("gyroscopic",)
 
@@ -355,3 +355,68 @@ def predict_inversion(
         theta_end=theta_end,
         validity=validity(eps),
     )
+
+
+def atlas(
+    top: TippeTop,
+    mu: Any,
+    omega3: Any,
+    laws: Any = ("viscous",),
+    *,
+    theta0: float = 0.1,
+    cm_at_rest: bool = True,
+    eps: float = 0.01,
+) -> dict[str, dict[str, np.ndarray]]:
+    """Predicted inversion times over a grid of friction coefficients and spins, per law.
+
+    Parameters
+    ----------
+    top : TippeTop
+    mu, omega3 : array_like
+        1-D grids: friction coefficients (s/m for "viscous", dimensionless for the Coulomb laws)
+        and initial spins (rad/s, > 0).
+    laws : sequence of {"viscous", "regularised-coulomb", "coulomb"}
+        The laws; "regularised-coulomb" uses the regularisation velocity ``eps`` (m/s).
+    theta0 : float, default 0.1
+        Initial inclination (rad).
+    cm_at_rest : bool, default True
+        Start with the centre of mass at rest (else the contact point at rest).
+
+    Returns
+    -------
+    dict
+        law → {"t_half", "t_inv" (s, inf where it does not invert), "inverts" (1, 0, or -1 where
+        the reduction cannot tell), "outside" (the verified-range flag)}, arrays of shape
+        (len(mu), len(omega3)).
+    """
+    mus = np.atleast_1d(np.asarray(mu, dtype=float))
+    spins = np.atleast_1d(np.asarray(omega3, dtype=float))
+    if mus.ndim != 1 or spins.ndim != 1 or not (mus.size and spins.size):
+        raise ValueError("mu and omega3 must be non-empty 1-D grids")
+    known = ("viscous", "regularised-coulomb", "coulomb")
+    out = {}
+    for name in laws:
+        if name not in known:
+            raise ValueError(f"laws must be among {known}; got {name!r}")
+        shape = (mus.size, spins.size)
+        res = {k: np.full(shape, np.inf) for k in ("t_half", "t_inv")}
+        res["inverts"] = np.zeros(shape)
+        res["outside"] = np.zeros(shape, dtype=bool)
+        for i, m in enumerate(mus):
+            law = {
+                "viscous": lambda m=m: Viscous(m),
+                "regularised-coulomb": lambda m=m: RegularisedCoulomb(m, eps),
+                "coulomb": lambda m=m: Coulomb(m),
+            }[name]()
+            for j, w in enumerate(spins):
+                if cm_at_rest:
+                    st = State.with_cm_at_rest(top, theta=theta0, omega3=w)
+                else:
+                    st = State(theta=theta0, omega3=w)
+                p = predict_inversion(top, st, law)
+                res["t_half"][i, j] = p.t_half
+                res["t_inv"][i, j] = p.t_inv if p.inverts else math.inf
+                res["inverts"][i, j] = -1 if p.inverts is None else float(p.inverts)
+                res["outside"][i, j] = p.validity.outside_verified_range
+        out[name] = res
+    return out
