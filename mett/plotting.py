@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from .dynamics import Trajectory
+    from .inversion import InversionPrediction
     from .top import TippeTop
 
 __all__ = [
@@ -306,6 +307,7 @@ def plot_potential_map(
     minimum: bool = True,
     colorbar: bool = True,
     ax: Axes | None = None,
+    prediction: InversionPrediction | None = None,
 ) -> Figure:
     """V(cos θ, D, λ) as a filled-contour map over (D, z), with the well's track and a run's path.
 
@@ -337,12 +339,15 @@ def plot_potential_map(
     colorbar : bool, default True
         Draw a colour bar of V (mJ).
     ax : Axes, optional
+    prediction : InversionPrediction, optional
+        A :func:`mett.predict_inversion` result with this λ: its slow path (D̄(t), cos θ̄(t)),
+        from the theory alone, is drawn as the line "predicted slow path".
 
     Returns
     -------
     Figure
-        Lines carry the labels "well minimum" and "trajectory" (data in the plotted units:
-        D in 10⁻³ kg m²/s, z or θ in rad).
+        Lines carry the labels "well minimum", "trajectory" and "predicted slow path" (data in
+        the plotted units: D in 10⁻³ kg m²/s, z or θ in rad).
     """
     from .estimates import potential_minimum
 
@@ -382,6 +387,11 @@ def plot_potential_map(
         ax.plot(x, y, color="C1", lw=0.6, label="trajectory")
         ax.plot([x[0]], [y[0]], "o", color="C1", ms=6, mec="k", clip_on=False, label="start")
         ax.plot([x[-1]], [y[-1]], "s", color="C1", ms=6, mec="k", clip_on=False, label="end")
+    if prediction is not None and len(prediction.t):
+        th = np.asarray(prediction.theta)
+        y = np.cos(th) if coordinate == "z" else th
+        ax.plot(np.asarray(prediction.D) * D_SCALE, y, color="C3", lw=2.0,
+                label="predicted slow path")  # fmt: skip
     ax.set_xlim(Dg[0] * D_SCALE, Dg[-1] * D_SCALE)
     ax.set_ylim(u[0], u[-1])
     ax.set_xlabel(D_LABEL)
@@ -392,7 +402,7 @@ def plot_potential_map(
         ax.set_title(rf"$V$ over $(D, \theta)$, {_lam_text(lam)}")
     if colorbar:
         fig.colorbar(cs, ax=ax, label=f"V [{ENERGY_UNIT}]", ticks=MaxNLocator(6))
-    if minimum or trajectory is not None:
+    if minimum or trajectory is not None or prediction is not None:
         ax.legend(loc="best", fontsize="small", framealpha=0.85)
     return fig
 

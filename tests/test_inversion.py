@@ -199,3 +199,21 @@ def test_atlas_is_the_prediction_on_a_grid(thesis):
     assert np.all(res["coulomb"]["inverts"] == 0) and np.all(np.isinf(res["coulomb"]["t_half"]))
     with pytest.raises(ValueError, match="laws"):
         atlas(thesis, [0.1], [155.0], laws=("dry",))
+
+
+def test_potential_map_draws_the_predicted_slow_path(thesis):
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mett.plotting import D_SCALE, plot_potential_map
+
+    state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
+    p = predict_inversion(thesis, state)
+    fig = plot_potential_map(thesis, float(p.lam[0]), prediction=p, n=41)
+    (line,) = [ln for ln in fig.axes[0].lines if ln.get_label() == "predicted slow path"]
+    np.testing.assert_allclose(line.get_xdata(), p.D * D_SCALE)
+    np.testing.assert_allclose(line.get_ydata(), np.cos(p.theta))
+    plt.close(fig)
