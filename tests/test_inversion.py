@@ -217,3 +217,11 @@ def test_potential_map_draws_the_predicted_slow_path(thesis):
     np.testing.assert_allclose(line.get_xdata(), p.D * D_SCALE)
     np.testing.assert_allclose(line.get_ydata(), np.cos(p.theta))
     plt.close(fig)
+
+
+def test_group_III_top_hangs_below_theta_f(thesis):
+    # γ = 1.4 > 1 + α: tumbling states exist only for cos θ > α/(1 − γ) (theory §7).
+    top = thesis.replace(I1=1.4 * thesis.I3)
+    p = predict_inversion(top, mett.State.with_cm_at_rest(top, theta=0.1, omega3=300.0))
+    assert p.inverts is False and "group III" in p.reason
+    assert p.theta_end < math.acos(top.alpha / (1.0 - top.gamma))

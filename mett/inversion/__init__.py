@@ -334,10 +334,12 @@ def predict_inversion(
         inverts, reason = True, "inverts"
     else:
         inverts = False
-        reason = (
-            f"hangs at theta_t = {theta_end:.4g} rad (lambda_0 < lam < lambda_thres: "
-            "partial inversion to the tumbling state)"
-        )
+        if top.group == "III":
+            theta_f = math.acos(top.alpha / (1.0 - top.gamma))
+            why = f"group III: the tumbling state below theta_f = {theta_f:.4g} rad"
+        else:
+            why = "lambda_0 < lam < lambda_thres: partial inversion to the tumbling state"
+        reason = f"hangs at theta_t = {theta_end:.4g} rad ({why})"
     t_start = 0.0 if amp >= theta0 else times["start"]
     return InversionPrediction(
         inverts=inverts,
