@@ -25,7 +25,7 @@ def thesis():
 
 
 def test_balance_state_is_a_steady_precession(thesis):
-    # θ̈ = 0 of the Euler-angle equations (theory §2.2) with θ̇ = 0, g_n = m g, no friction, and
+    # θ̈ = 0 of the Euler-angle equations (docs/theory/equations.md#euler-form) with θ̇ = 0, g_n = m g, no friction, and
     # λ = −L·a recomputed from (θ, φ̇, ω3): both are independent of the quadratic's algebra.
     lam = 6.8944e-6
     t = thesis
@@ -107,7 +107,7 @@ def test_slow_path_is_monotone_and_consistent(thesis):
     state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
     p = predict_inversion(thesis, state)
     assert np.all(np.diff(p.t) > 0) and np.all(np.diff(p.theta) > 0)
-    # D̄ passes from near D0 to near D1 (theory §6) and λ stays Jellett's.
+    # D̄ passes from near D0 to near D1 (docs/theory/thresholds.md#boundary-values) and λ stays Jellett's.
     assert np.allclose(p.lam, float(mett.jellett(thesis, state)), rtol=1e-9)
     assert p.D[0] > 0 > p.D[-1]
     # linear interpolation between solver steps: error ~ h² θ̈/8, below 2e-3 rad at these steps
@@ -115,7 +115,7 @@ def test_slow_path_is_monotone_and_consistent(thesis):
 
 
 def test_below_lambda_0_does_not_invert(thesis):
-    # λ < λ_0: the upright spin is stable (theory §7).
+    # λ < λ_0: the upright spin is stable (docs/theory/thresholds.md#thresholds).
     omega3 = 0.5 * thesis.lambda_0 / (thesis.R * thesis.I3 * (math.cos(0.1) - thesis.alpha))
     p = predict_inversion(thesis, mett.State(theta=0.1, omega3=omega3))
     assert p.inverts is False and "lambda_0" in p.reason and p.t_half == math.inf
@@ -220,7 +220,7 @@ def test_potential_map_draws_the_predicted_slow_path(thesis):
 
 
 def test_group_III_top_hangs_below_theta_f(thesis):
-    # γ = 1.4 > 1 + α: tumbling states exist only for cos θ > α/(1 − γ) (theory §7).
+    # γ = 1.4 > 1 + α: tumbling states exist only for cos θ > α/(1 − γ) (docs/theory/thresholds.md#thresholds).
     top = thesis.replace(I1=1.4 * thesis.I3)
     p = predict_inversion(top, mett.State.with_cm_at_rest(top, theta=0.1, omega3=300.0))
     assert p.inverts is False and "group III" in p.reason

@@ -101,8 +101,8 @@ def _empty(inverts, reason, method, validity, t_start=math.inf, theta0=0.0, lam=
 def _coulomb_stick_time(top: TippeTop, state: State) -> float:
     """Time (s) in which exact Coulomb friction stops the initial slip, if it keeps its direction.
 
-    The slip decelerates at μ g κ with κ = 1 + m R² (1 − α cos θ)²/I1 (the ν̇ equations, theory
-    §2.2, with θ̇ = 0); returned per unit μ.
+    The slip decelerates at μ g κ with κ = 1 + m R² (1 − α cos θ)²/I1 (the ν̇ equations,
+    docs/theory/equations.md#euler-form, with θ̇ = 0); returned per unit μ.
     """
     c = math.cos(float(state.theta))
     kappa = 1.0 + top.m * top.R**2 * (1.0 - top.alpha * c) ** 2 / top.I1
@@ -200,7 +200,7 @@ def predict_inversion(
     if not lo <= spin_ratio <= hi:
         notes.append(f"lam/lam_thres outside [{lo}, {hi}]")
 
-    # Horizontal CM velocity of the start: ṙ = ν − (ω × a)_h (theory §1); the reduction has it 0.
+    # Horizontal CM velocity of the start: ṙ = ν − (ω × a)_h (docs/theory/model.md#frames); the reduction has it 0.
     c0, s0 = math.cos(theta0), math.sin(theta0)
     rx = float(state.nu_x) + top.R * float(state.thetadot) * (1.0 - top.alpha * c0)
     ry = float(state.nu_y) - top.R * s0 * (
@@ -245,7 +245,7 @@ def predict_inversion(
     if isinstance(law, Coulomb) and law.mu > 0.0:
         t_stop = _coulomb_stick_time(top, state) / law.mu
         # The slip direction turns with the precession: the slow (gyroscopic) precession of a
-        # top spinning about its tilted axis (theory §9), or the start's own φ̇ if larger.
+        # top spinning about its tilted axis (docs/theory/high-spin.md), or the start's own φ̇ if larger.
         turn = max(
             abs(float(state.phidot)),
             abs(float(high_spin(top, theta0, float(state.omega3)).precession)),

@@ -116,7 +116,7 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
 def balance_D_and_E_mod(top: TippeTop, lam: np.ndarray, theta: np.ndarray):
     """Routh integral D = I3 ω3 √d(z) and modified energy Ẽ = E + ½ m v_A² of the balance state.
 
-    With the centre of mass at rest v_A = ω × a, and Ẽ = E + ½ m |ν|² − m ν·ṙ (theory §3).
+    With the centre of mass at rest v_A = ω × a, and Ẽ = E + ½ m |ν|² − m ν·ṙ (docs/theory/equations.md#integrals).
     """
     _, omega3, E, nu, _ = balance_state(top, lam, theta)
     z = np.cos(theta)

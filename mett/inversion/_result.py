@@ -15,7 +15,7 @@ class Validity:
     ----------
     epsilon : float
         Nutation period at the start over the predicted time to pass π/2,
-        ε = T_n/t_half with T_n = 2π I1/(I3 |ω3(0)|) (the gliding nutation period, theory §8);
+        ε = T_n/t_half with T_n = 2π I1/(I3 |ω3(0)|) (the gliding nutation period, docs/theory/estimates.md#gliding-periods);
         the reduction is an expansion in ε. ``nan`` when the top does not reach π/2.
     spin_ratio : float
         λ/λ_thres: how far above the inversion threshold the top is.
