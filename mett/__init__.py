@@ -14,6 +14,7 @@ from .classification import AsymptoticState, asymptotic_state, subgroup
 from .dynamics import Trajectory, simulate
 from .estimates import period_estimates, potential_minimum
 from .integrals import energy, jellett, modified_energy, routh
+from .inversion import predict_inversion
 from .potential import V, V_rational, d, d2V_dz2, dV_dz, g
 from .separation import (
     Band,
@@ -85,6 +86,7 @@ __all__ = [
     "nutation_period",
     "period_estimates",
     "potential_minimum",
+    "predict_inversion",
     "presets",
     "routh",
     "show_versions",

@@ -725,6 +725,47 @@ def _probe_scheduler(address: str, timeout: float) -> None:
         ) from None
 
 
+# --- mett predict (mett.predict_inversion) ---------------------------------------------------------
+def _cmd_predict(args: argparse.Namespace) -> int:
+    top = _top_from_args(args)
+    state = _state_from_args(args, top)
+    from .inversion import predict_inversion
+
+    p = predict_inversion(top, state, args.friction, tol=args.tol)
+    v = p.validity
+    values = {
+        "inverts": p.inverts,
+        "reason": p.reason,
+        "t_start": p.t_start,
+        "t_half": p.t_half,
+        "t_inv": p.t_inv,
+        "tol": p.tol,
+        "epsilon": v.epsilon,
+        "lambda_over_lambda_thres": v.spin_ratio,
+        "outside_verified_range": v.outside_verified_range,
+        "notes": list(v.notes),
+    }
+    if args.json:
+        out = {k: (_json_number(x) if isinstance(x, float) else x) for k, x in values.items()}
+        out["units"] = {"t_start": "s", "t_half": "s", "t_inv": "s", "tol": "rad"}
+        _print_json(out)
+        return 0
+    rows = [
+        ("inverts", str(p.inverts)),
+        ("reason", p.reason),
+        ("t_start [s]", _fmt(p.t_start)),
+        ("t_half (mean theta passes pi/2) [s]", _fmt(p.t_half)),
+        (f"t_inv (within {p.tol:g} rad of the end) [s]", _fmt(p.t_inv)),
+        ("epsilon = T_nutation/t_half", _fmt(v.epsilon)),
+        (
+            "outside verified range",
+            str(v.outside_verified_range) + (f" ({'; '.join(v.notes)})" if v.notes else ""),
+        ),
+    ]
+    _print_rows(rows)
+    return 0
+
+
 # --- the parser ----------------------------------------------------------------------------------
 def _build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
@@ -868,6 +909,15 @@ def _build_parser() -> argparse.ArgumentParser:
         "--progress", action=argparse.BooleanOptionalAction, default=None, help=progress_help
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar (as --no-progress)")
+    # mett predict: the inversion-time prediction (mett.predict_inversion)
+    p = add("predict", "predict whether and when a top inverts, without simulating", _cmd_predict)
+    _add_top_arguments(p)
+    _add_state_arguments(p, required=True)
+    p.add_argument("--friction", type=_friction, default=None, metavar="LAW:ARGS",
+                   help=friction_help)  # fmt: skip
+    p.add_argument("--tol", type=_positive, default=0.05,
+                   help="t_inv: mean theta within this of its end state [rad], in (0, 0.5)")  # fmt: skip
+    p.add_argument("--json", action="store_true", help=json_help)
     return parser
 
 

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from .dynamics import Trajectory
+    from .inversion import InversionPrediction
     from .top import TippeTop
 
 __all__ = [
@@ -360,6 +361,7 @@ def plot_potential_map(
     minimum: bool = True,
     colorbar: bool = True,
     ax: Axes | None = None,
+    prediction: InversionPrediction | None = None,
 ) -> Figure:
     """V(cos θ, D, λ) as a filled-contour map over (D, z), with the well's track and a run's path.
 
@@ -392,14 +394,17 @@ def plot_potential_map(
     colorbar : bool, default True
         Draw a colour bar of V (mJ).
     ax : Axes, optional
+    prediction : InversionPrediction, optional
+        A :func:`mett.predict_inversion` result with this λ: its slow path (D̄(t), cos θ̄(t)),
+        from the theory alone, is drawn as the line "predicted slow path".
 
     Returns
     -------
     Figure
-        Lines carry the labels "well minimum", "trajectory", "start" and "end" (data in the
-        plotted units: D in 10⁻³ kg m²/s, z or θ in rad). With a trajectory the limits leave a
-        margin of 4 % of each range around the map, so the start and end marks, which sit on its
-        edges (the run starts and ends next to a pole), are drawn whole.
+        Lines carry the labels "well minimum", "trajectory", "start", "end" and "predicted slow
+        path" (data in the plotted units: D in 10⁻³ kg m²/s, z or θ in rad). With a trajectory
+        the limits leave a margin of 4 % of each range around the map, so the start and end
+        marks, which sit on its edges (the run starts and ends next to a pole), are drawn whole.
     """
     from .estimates import potential_minimum
 
@@ -440,6 +445,11 @@ def plot_potential_map(
         ax.plot(x, y, color="C1", lw=_lw(0.6), label="trajectory")
         ax.plot([x[0]], [y[0]], "o", color="C1", mec="k", label="start")
         ax.plot([x[-1]], [y[-1]], "s", color="C1", mec="k", label="end")
+    if prediction is not None and len(prediction.t):
+        th = np.asarray(prediction.theta)
+        y = np.cos(th) if coordinate == "z" else th
+        ax.plot(np.asarray(prediction.D) * D_SCALE, y, color="C3", lw=_lw(2.0),
+                label="predicted slow path")  # fmt: skip
     x0, x1, y0, y1 = Dg[0] * D_SCALE, Dg[-1] * D_SCALE, u[0], u[-1]
     if trajectory is not None:  # room for the marks on the edges
         px, py = _MAP_MARGIN * (x1 - x0), _MAP_MARGIN * (y1 - y0)
@@ -454,7 +464,7 @@ def plot_potential_map(
         ax.set_title(rf"$V$ over $(D, \theta)$, {_lam_text(lam)}")
     if colorbar:
         fig.colorbar(cs, ax=ax, label=f"V [{ENERGY_UNIT}]", ticks=MaxNLocator(6))
-    if minimum or trajectory is not None:
+    if minimum or trajectory is not None or prediction is not None:
         ax.legend(loc="best", fontsize="small", framealpha=0.85)
     return fig
 

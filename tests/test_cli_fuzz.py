@@ -152,6 +152,12 @@ def period_argv(draw, tmp: str, thorough: bool) -> list[str]:
 
 
 @st.composite
+def predict_argv(draw, tmp: str, thorough: bool) -> list[str]:
+    flags = ("--json", "--cm-at-rest")
+    return ["predict", *draw(top_args()), *draw(perturbed(STATE, flags))]
+
+
+@st.composite
 def grid_spec(draw) -> str:
     name = draw(st.sampled_from(["mu", "omega3", "theta0", "gamma", "lam_ratio"]))
     if draw(st.integers(0, 4)) == 0:
@@ -222,6 +228,7 @@ COMMANDS = {
     "info": info_argv,
     "simulate": simulate_argv,
     "period": period_argv,
+    "predict": predict_argv,
     "sweep": sweep_argv,
     "figures": figures_argv,
     "any": any_argv,

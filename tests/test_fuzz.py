@@ -200,6 +200,8 @@ DOCUMENTED_NAN = {
     # kind "bistable": two stable end states, both in .candidates; θ and ω3 are NaN by design
     ("asymptotic_state", "theta"),
     ("asymptotic_state", "omega3"),
+    # no time to pass π/2: the small parameter T_n/t_half is undefined
+    ("predict_inversion", "epsilon"),
 }
 # ... and ±inf: λ_0 = inf in group I, λ_thres = inf in group III, no inverting spin ("never");
 # V = +inf at a pole where N does not vanish (and so its derivatives and f)
@@ -207,6 +209,8 @@ DOCUMENTED_INF = {
     ("TippeTop properties", "result"),
     ("min_spin_for_inversion", "result"),
     *((fn, "result") for fn in ("V", "V_rational", "dV_dz", "d2V_dz2", "f")),
+    # a top that never starts, passes π/2 or arrives: math.inf by the documented contract
+    *(("predict_inversion", k) for k in ("t_start", "t_half", "t_inv")),
 }
 
 
@@ -413,6 +417,7 @@ API: dict[str, tuple[Callable, st.SearchStrategy]] = {
         mett.load,
         _call(mixed(st.sampled_from(["missing.nc", "missing.npz", "x.txt", "", ".", "a.NC"]))),
     ),
+    "predict_inversion": (mett.predict_inversion, _call(tops(), states())),
     # presets
     "presets.get": (
         lambda name, kw: presets.get(name, **kw),

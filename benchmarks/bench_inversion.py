@@ -1,0 +1,169 @@
+"""Verification table and speed of mett.predict_inversion against the compiled simulation.
+
+    python benchmarks/bench_inversion.py table   # the 60-case table, written into docs/theory/inversion.md
+    python benchmarks/bench_inversion.py speed   # prediction vs simulation cost, growth with ω3
+
+The reference of each case is the first crossing of θ = π/2 in a full compiled simulation
+(rtol 1e-8, t_end = min(2 t_half predicted, 60 s)).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import sys
+import time
+
+import mett
+from mett.inversion import predict_inversion
+from mett.inversion._cases import cases, simulated_t_half
+
+
+def table() -> None:
+    import contextlib
+    import io
+    import pathlib
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        _table()
+    text = buf.getvalue()
+    print(text)
+    page = pathlib.Path(__file__).resolve().parents[1] / "docs" / "theory" / "inversion.md"
+    doc = page.read_text(encoding="utf-8")
+    start, end = "<!-- table:start -->\n", "<!-- table:end -->"
+    i, j = doc.index(start) + len(start), doc.index(end)
+    page.write_text(doc[:i] + text + doc[j:], encoding="utf-8")
+
+
+def _table() -> None:
+    rows = []
+    for c in cases():
+        p = predict_inversion(c.top, c.state, c.friction)
+        t_end = min(2 * p.t_half, 60.0) if math.isfinite(p.t_half) else 20.0
+        ts, T_n, status = simulated_t_half(c, t_end, rtol=1e-8)
+        rows.append((c, p, ts, T_n, status))
+    print(
+        "| case | law | start | λ/λ_thres | θ0 | μ | ε | t_half pred (s) | sim (s) | error | status |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    verified = []
+    for c, p, ts, T_n, status in rows:
+        at_rest = float(c.state.nu_x) == 0.0 and float(c.state.nu_y) == 0.0
+        start = "ν=0" if at_rest else "CM at rest"
+        err = ""
+        if status == "completed" and math.isfinite(ts):
+            # one nutation period of slack (the phase of θ within the band)
+            e = max(abs(p.t_half - ts) - T_n, 0.0) / ts
+            err = f"{e:.1%}"
+            if not p.validity.outside_verified_range:
+                verified.append(e)
+        print(
+            f"| {c.name} | {c.law} | {start} | {p.validity.spin_ratio:.1f} | {float(c.state.theta):.3f} "
+            f"| {c.top.mu if c.law == 'viscous' else c.friction.mu:.3g} | {p.validity.epsilon:.3g} "
+            f"| {p.t_half:.3f} | {ts:.3f} | {err} | {status}{'' if p.validity.outside_verified_range else ' (verified range)'} |"
+        )
+    if verified:
+        print(
+            f"\nverified range: {len(verified)} cases, median error {statistics.median(verified):.1%}, "
+            f"worst {max(verified):.1%}"
+        )
+
+
+def _best(fn, repeat: int = 3) -> float:
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def speed() -> None:
+    """Prediction vs the compiled simulation to t_half, in one run (best of 3 each), as ω3 and
+    as the number of nutations (μ smaller: a slower inversion) grow."""
+    print(
+        "| μ (s/m) | ω3 (rad/s) | nutations to π/2 | prediction (ms) | compiled simulation (ms) | ratio |"
+    )
+    print("|---|---|---|---|---|---|")
+    for mu, omega3 in ((0.05, 155.0), (0.05, 310.0), (0.05, 620.0), (0.2, 155.0), (0.0125, 155.0)):
+        top = mett.presets.get("rutstam2013", mu=mu)
+        state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=omega3)
+        p = predict_inversion(top, state)
+        mett.simulate(top, state, 0.01, backend="compiled")  # compile outside the timing
+        tp = _best(lambda top=top, state=state: predict_inversion(top, state))
+        ts = _best(
+            lambda top=top, state=state, p=p: mett.simulate(
+                top, state, p.t_half, rtol=1e-9, backend="compiled"
+            )
+        )
+        n = p.t_half / (2 * math.pi * top.I1 / (top.I3 * omega3))
+        print(
+            f"| {mu:g} | {omega3:.0f} | {n:.0f} | {1e3 * tp:.1f} | {1e3 * ts:.1f} | {tp / ts:.3f} |"
+        )
+
+
+def atlas_figure() -> None:
+    """docs/figures/inversion_atlas.png (predicted t_half over (μ, ω3) per law, thesis top) and
+    inversion_potential_map.png (the predicted slow path beside a simulated run)."""
+    import pathlib
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mett.inversion import atlas
+
+    top = mett.presets.get("rutstam2013")
+    spins = np.geomspace(100.0, 1000.0, 19)
+    grids = {"viscous": np.geomspace(0.03, 3.0, 21), "regularised-coulomb": np.geomspace(0.03, 1.0, 21),
+             "coulomb": np.geomspace(0.03, 1.0, 21)}  # fmt: skip
+    fig, axes = plt.subplots(1, 4, figsize=(17, 4.2), constrained_layout=True)
+    for ax, (law, mus) in zip(axes[:3], grids.items(), strict=True):
+        res = atlas(top, mus, spins, laws=(law,))[law]
+        T = np.where(res["inverts"] == 1, res["t_half"], np.nan)
+        if np.isfinite(T).any():
+            im = ax.pcolormesh(spins, mus, np.log10(T), shading="nearest", cmap="viridis")
+            fig.colorbar(im, ax=ax, label="log10 t_half [s]")
+        stick = res["inverts"] == 0
+        if stick.any():
+            ax.contourf(spins, mus, stick.astype(float), levels=[0.5, 1.5], colors="none",
+                        hatches=["//"])  # fmt: skip
+            ax.text(0.5, 0.5, "contact sticks:\nrolls, no inversion", transform=ax.transAxes,
+                    ha="center", va="center", fontsize=11,
+                    bbox={"facecolor": "white", "alpha": 0.8})  # fmt: skip
+        unit = "s/m" if law == "viscous" else "1"
+        ax.set(xscale="log", yscale="log", xlabel="ω3(0) [rad/s]", ylabel=f"μ [{unit}]",
+               title=law + (" (ε = 0.01 m/s)" if law.startswith("reg") else ""))  # fmt: skip
+    from matplotlib.ticker import NullFormatter
+
+    for a in axes[:3]:
+        a.xaxis.set_minor_formatter(NullFormatter())
+    ax = axes[3]
+    for w in (155.0, 400.0, 1000.0):
+        res = atlas(top, grids["viscous"], [w], laws=("viscous",))["viscous"]
+        ax.plot(grids["viscous"], grids["viscous"] * res["t_half"][:, 0], label=f"ω3 = {w:.0f}")
+    ax.set(xscale="log", xlabel="μ [s/m]", ylabel="μ · t_half [s²/m]",
+           title="viscous law: μ · t_half", ylim=(0, None))  # fmt: skip
+    ax.legend()
+    out = pathlib.Path(__file__).resolve().parents[1] / "docs" / "figures" / "inversion_atlas.png"
+    fig.savefig(out, dpi=110)
+    print(out.name)
+
+    from mett.plotting import plot_potential_map
+
+    state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
+    p = predict_inversion(top, state)
+    traj = mett.simulate(top, state, 8.0, rtol=1e-9)
+    fig = plot_potential_map(top, float(p.lam[0]), trajectory=traj, prediction=p)
+    out = out.with_name("inversion_potential_map.png")
+    fig.savefig(out, dpi=110)
+    print(out.name)
+
+
+if __name__ == "__main__":
+    {"table": table, "speed": speed, "atlas": atlas_figure}[
+        sys.argv[1] if len(sys.argv) > 1 else "table"
+    ]()

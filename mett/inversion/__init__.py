@@ -1,0 +1,424 @@
+"""Predict whether and when a tippe top inverts, without resolving the nutation.
+
+:func:`predict_inversion` (re-exported as ``mett.predict_inversion``) combines
+
+* the **initiation**: the linear instability of the upright spin (:func:`mett.escape_time`), which
+  gives the size θ_u(0) of the initial state's component in the growing (inversion) mode and its
+  growth rate σ;
+* the **gyroscopic-balance flow** (Moffatt & Shimomura 2002, Nature 416, 385; Ueda, Sasaki &
+  Watanabe 2005, SIAM J. Appl. Dyn. Syst. 4, 1159): a one-dimensional slow flow of the mean
+  inclination θ̄ obtained from Jellett's integral and the dissipated power, integrated from θ_u(0)
+  (:mod:`mett.inversion._gyroscopic`);
+* for exact Coulomb friction, whether the initial slip stops before the fast motion turns it
+  (then the top rolls, conserves E, D, λ and does not invert).
+
+The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Any
+
+import numpy as np
+
+from .. import _validate
+from ..asymptotics import high_spin
+from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
+from ..integrals import jellett
+from ..stability import escape_time
+from ..state import State
+from ..thresholds import asymptotic_state
+from ..top import TippeTop
+from ._gyroscopic import NoBalance, balance_D_and_E_mod, slow_path
+from ._result import InversionPrediction, Validity
+
+__all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
+
+METHODS = ("gyroscopic",)
+
+# The box of the verification table (docs/theory/inversion.md#verification): outside it the
+# prediction is flagged. Set from the table, not the reverse.
+VERIFIED = {
+    "laws": ("viscous",),
+    "theta0": (0.01, 0.25),
+    "theta0_moving_cm": 0.03,
+    "spin_ratio": (1.5, 20.0),
+    "epsilon": 0.05,
+    "start": "centre of mass at rest",
+}
+
+
+def _law_name(law: Any) -> str:
+    if isinstance(law, Viscous):
+        return "viscous"
+    if isinstance(law, RegularisedCoulomb):
+        return "regularised-coulomb"
+    if law.contensou_radius > 0.0:
+        return "coulomb-contensou"
+    return "coulomb"
+
+
+def _linear_mu(top: TippeTop, law: Any, state: State) -> float:
+    """Viscous coefficient (s/m) of the law linearised at the upright spin.
+
+    The regularised law is viscous with μ/ε below ε; Contensou's with μ/(r* |ω_n|) (mett.friction).
+    Exact Coulomb has no linearisation: its coefficient at the initial slip scale R |ω3| sin θ0
+    only splits the state into modes (flagged as unverified).
+    """
+    if isinstance(law, Viscous):
+        return top.mu if law.mu is None else law.mu
+    if isinstance(law, RegularisedCoulomb):
+        return law.mu / law.eps
+    wn = abs(float(state.omega3))
+    if law.contensou_radius > 0.0:
+        return law.mu / (law.r_star * wn)
+    return law.mu / (top.R * wn * max(math.sin(float(state.theta)), 1e-3))
+
+
+def _empty(inverts, reason, method, validity, t_start=math.inf, theta0=0.0, lam=0.0, tol=0.05):
+    # No slow path: empty arrays, the top stays where it is as far as the reduction can tell.
+    empty = np.empty(0)
+    return InversionPrediction(
+        inverts=inverts,
+        reason=reason,
+        method=method,
+        t_start=t_start,
+        t_half=math.inf,
+        t_inv=math.inf,
+        tol=tol,
+        t=empty,
+        theta=empty,
+        D=empty,
+        E_mod=empty,
+        lam=empty,
+        theta_end=theta0,
+        validity=validity,
+    )
+
+
+def _coulomb_stick_time(top: TippeTop, state: State) -> float:
+    """Time (s) in which exact Coulomb friction stops the initial slip, if it keeps its direction.
+
+    The slip decelerates at μ g κ with κ = 1 + m R² (1 − α cos θ)²/I1 (the ν̇ equations,
+    docs/theory/equations.md#euler-form, with θ̇ = 0); returned per unit μ.
+    """
+    c = math.cos(float(state.theta))
+    kappa = 1.0 + top.m * top.R**2 * (1.0 - top.alpha * c) ** 2 / top.I1
+    slip = math.hypot(float(state.nu_x), float(state.nu_y))
+    return slip / (top.g * kappa)
+
+
+def predict_inversion(
+    top: TippeTop,
+    state: State,
+    friction: Any = None,
+    *,
+    method: str = "gyroscopic",
+    tol: float = 0.05,
+) -> InversionPrediction:
+    """Predict whether, when and how a gliding tippe top inverts, without resolving the nutation.
+
+    Parameters
+    ----------
+    top : TippeTop
+        A ball top (a stemmed top is refused: its stem contact is outside the reduction).
+    state : State
+        Initial state, near the upright spin (θ0 < π/2, ω3 > 0, a positive Jellett integral).
+    friction : mett.friction law, optional
+        :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
+        or :class:`~mett.friction.Coulomb` (with or without Contensou radius).
+    method : {"gyroscopic"}
+        The reduction. ``"gyroscopic"``: linear initiation + gyroscopic-balance slow flow
+        (docs/theory/inversion.md).
+    tol : float, default 0.05
+        Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
+
+    Returns
+    -------
+    InversionPrediction
+        ``inverts``, ``reason``, ``t_start``, ``t_half``, ``t_inv`` (s), the slow path ``t``,
+        ``theta``, ``D``, ``E_mod``, ``lam`` and ``validity``. ``inverts is None`` (with the
+        reason) where the reduction cannot decide.
+
+    Raises
+    ------
+    ValueError
+        If ``top`` is stemmed, ``method`` or ``tol`` is unknown/out of range, or the state is not
+        near the upright spin (θ0 >= π/2, λ <= 0).
+    TypeError
+        If ``top``, ``state`` or ``friction`` has the wrong type.
+
+    Notes
+    -----
+    The mean inclination θ̄ is that of the growing (inversion) mode; it starts at θ_u(0), the
+    initial state's component in that mode, not at θ0 (the rest of θ0 decays first: the dip of
+    θ(t) seen before an inversion, Rutstam 2013). Sources: Moffatt & Shimomura (2002); Ueda,
+    Sasaki & Watanabe (2005); Rauch-Wojciechowski & Rutstam (2014) for λ_thres.
+    """
+    if type(top).__name__ == "StemmedTop":
+        raise ValueError(
+            "top must be a ball top (TippeTop); a stemmed top's second contact is outside the "
+            "gyroscopic-balance reduction"
+        )
+    _validate.instance("top", top, "TippeTop")
+    _validate.instance("state", state, "State")
+    if np.ndim(state.theta) != 0:
+        raise ValueError(f"state must be a single state; got shape {np.shape(state.theta)}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}; got {method!r}")
+    tol = _validate.finite_scalar("tol", tol)
+    if not 0.0 < tol < 0.5:
+        raise ValueError(f"tol must lie in (0, 0.5) rad; got {tol!r}")
+    empty = functools.partial(_empty, tol=tol)
+    law = Viscous() if friction is None else check_law(friction)
+    theta0 = float(state.theta)
+    if not theta0 < 0.5 * math.pi:
+        raise ValueError(
+            f"state.theta must be below pi/2 (a top near the upright spin); got {theta0!r}"
+        )
+    if not float(state.omega3) > 0.0:
+        raise ValueError(
+            f"state.omega3 must be positive (a top spun about its axis, near theta = 0); "
+            f"got {float(state.omega3)!r}"
+        )
+    lam = float(jellett(top, state))
+    if not lam > 0.0:
+        raise ValueError(
+            f"the state's Jellett integral must be positive (spin omega3 > 0 near theta = 0); got {lam!r}"
+        )
+    name = _law_name(law)
+    spin_ratio = lam / top.lambda_thres
+    notes: list[str] = []
+    if name not in VERIFIED["laws"]:
+        notes.append(f"law {name} not in the verification table")
+    lo, hi = VERIFIED["theta0"]
+    if not lo <= theta0 <= hi:
+        notes.append(f"theta0 outside [{lo}, {hi}]")
+    lo, hi = VERIFIED["spin_ratio"]
+    if not lo <= spin_ratio <= hi:
+        notes.append(f"lam/lam_thres outside [{lo}, {hi}]")
+
+    # Horizontal CM velocity of the start: ṙ = ν − (ω × a)_h (docs/theory/model.md#frames); the reduction has it 0.
+    c0, s0 = math.cos(theta0), math.sin(theta0)
+    rx = float(state.nu_x) + top.R * float(state.thetadot) * (1.0 - top.alpha * c0)
+    ry = float(state.nu_y) - top.R * s0 * (
+        float(state.omega3) + float(state.phidot) * (top.alpha - c0)
+    )
+    if (
+        math.hypot(rx, ry) > 1e-6 * top.R * abs(float(state.omega3))
+        and theta0 > VERIFIED["theta0_moving_cm"]
+    ):
+        notes.append(
+            "start with the centre of mass moving and theta0 > "
+            f"{VERIFIED['theta0_moving_cm']} (verified: centre of mass at rest, or theta0 smaller)"
+        )
+
+    def validity(eps: float) -> Validity:
+        n = list(notes)
+        if math.isfinite(eps) and eps > VERIFIED["epsilon"]:
+            n.append(f"epsilon = T_n/t_half above {VERIFIED['epsilon']}")
+        return Validity(eps, spin_ratio, bool(n), tuple(n))
+
+    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+
+    if top.group == "I":
+        return empty(
+            False,
+            "group I top (gamma <= 1 - alpha): never inverts",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    if isinstance(law, Coulomb) and law.contensou_radius > 0.0:
+        return empty(
+            None,
+            "the Coulomb-Contensou law is not covered by the gyroscopic-balance reduction yet "
+            "(its spin dissipation makes the one-dimensional flow ill-conditioned near theta = 0)",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    if isinstance(law, Coulomb) and law.mu > 0.0:
+        t_stop = _coulomb_stick_time(top, state) / law.mu
+        # The slip direction turns with the precession: the slow (gyroscopic) precession of a
+        # top spinning about its tilted axis (docs/theory/high-spin.md), or the start's own φ̇ if larger.
+        turn = max(
+            abs(float(state.phidot)),
+            abs(float(high_spin(top, theta0, float(state.omega3)).precession)),
+        )
+        if t_stop * turn < 1.0:
+            # Coulomb friction removes the slip before its direction turns: the contact sticks
+            # and the top rolls, conserving E, D and λ, so it stays in its nutation band.
+            return empty(
+                False,
+                f"contact sticks: rolling from t = {t_stop:.3g} s (the slip stops before the "
+                "precession turns it; rolling conserves E, D and lam, no inversion)",
+                method,
+                validity(math.nan),
+                t_start=math.inf,
+                theta0=theta0,
+                lam=lam,
+            )
+    mu_lin = _linear_mu(top, law, state)
+    try:
+        esc = escape_time(top.replace(mu=mu_lin), state)
+    except ValueError as exc:
+        if lam <= top.lambda_0:
+            return empty(
+                False,
+                f"below threshold lambda_0 = {top.lambda_0:.4g}: the upright spin is stable",
+                method,
+                validity(math.nan),
+                theta0=theta0,
+                lam=lam,
+            )
+        return empty(
+            None, f"no linear initiation: {exc}", method, validity(math.nan), theta0=theta0, lam=lam
+        )
+    end = asymptotic_state(top, lam)
+    if end.kind == "inverted":
+        theta_end = math.pi
+    elif end.kind == "tumbling":
+        theta_end = float(end.theta)
+    elif end.kind == "upright":
+        return empty(
+            False,
+            "below threshold: the end state is the upright spin",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    else:
+        return empty(
+            None,
+            f"end state is {end.kind}: it depends on the initial state",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    amp = esc.amplitude
+    target = theta_end - tol if theta_end > amp else theta_end + tol
+    try:
+        t, theta = slow_path(top, lam, law, amp, target)
+    except NoBalance as exc:
+        return empty(
+            None,
+            f"no gyroscopic balance at theta = {exc.theta:.3g} (spin too low for a fast "
+            "precession): the reduction does not apply",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    except ValueError as exc:
+        return empty(None, f"slow flow: {exc}", method, validity(math.nan), theta0=theta0, lam=lam)
+    lam_path = np.full_like(theta, lam)
+
+    def time_at(th: float) -> float:
+        # θ(t) is monotone on the path; interpolate t in the quadrature variable.
+        if not theta[0] <= th <= theta[-1]:
+            return math.inf
+        return float(np.interp(th, theta, t))
+
+    times = {"start": time_at(theta0), "half": time_at(0.5 * math.pi), "end": float(t[-1])}
+    D, E_mod = balance_D_and_E_mod(top, lam_path, theta)
+    t_half = times["half"]
+    eps = T_n / t_half if math.isfinite(t_half) else math.nan
+    if end.kind == "inverted":
+        inverts, reason = True, "inverts"
+    else:
+        inverts = False
+        if top.group == "III":
+            theta_f = math.acos(top.alpha / (1.0 - top.gamma))
+            why = f"group III: the tumbling state below theta_f = {theta_f:.4g} rad"
+        else:
+            why = "lambda_0 < lam < lambda_thres: partial inversion to the tumbling state"
+        reason = f"hangs at theta_t = {theta_end:.4g} rad ({why})"
+    t_start = 0.0 if amp >= theta0 else times["start"]
+    return InversionPrediction(
+        inverts=inverts,
+        reason=reason,
+        method=method,
+        t_start=t_start,
+        t_half=t_half,
+        t_inv=times["end"],
+        tol=tol,
+        t=np.asarray(t),
+        theta=np.asarray(theta),
+        D=np.asarray(D),
+        E_mod=np.asarray(E_mod),
+        lam=np.asarray(lam_path),
+        theta_end=theta_end,
+        validity=validity(eps),
+    )
+
+
+def atlas(
+    top: TippeTop,
+    mu: Any,
+    omega3: Any,
+    laws: Any = ("viscous",),
+    *,
+    theta0: float = 0.1,
+    cm_at_rest: bool = True,
+    eps: float = 0.01,
+) -> dict[str, dict[str, np.ndarray]]:
+    """Predicted inversion times over a grid of friction coefficients and spins, per law.
+
+    Parameters
+    ----------
+    top : TippeTop
+    mu, omega3 : array_like
+        1-D grids: friction coefficients (s/m for "viscous", dimensionless for the Coulomb laws)
+        and initial spins (rad/s, > 0).
+    laws : sequence of {"viscous", "regularised-coulomb", "coulomb"}
+        The laws; "regularised-coulomb" uses the regularisation velocity ``eps`` (m/s).
+    theta0 : float, default 0.1
+        Initial inclination (rad).
+    cm_at_rest : bool, default True
+        Start with the centre of mass at rest (else the contact point at rest).
+
+    Returns
+    -------
+    dict
+        law → {"t_half", "t_inv" (s, inf where it does not invert), "inverts" (1, 0, or -1 where
+        the reduction cannot tell), "outside" (the verified-range flag)}, arrays of shape
+        (len(mu), len(omega3)).
+    """
+    mus = np.atleast_1d(np.asarray(mu, dtype=float))
+    spins = np.atleast_1d(np.asarray(omega3, dtype=float))
+    if mus.ndim != 1 or spins.ndim != 1 or not (mus.size and spins.size):
+        raise ValueError("mu and omega3 must be non-empty 1-D grids")
+    known = ("viscous", "regularised-coulomb", "coulomb")
+    out = {}
+    for name in laws:
+        if name not in known:
+            raise ValueError(f"laws must be among {known}; got {name!r}")
+        shape = (mus.size, spins.size)
+        res = {k: np.full(shape, np.inf) for k in ("t_half", "t_inv")}
+        res["inverts"] = np.zeros(shape)
+        res["outside"] = np.zeros(shape, dtype=bool)
+        for i, m in enumerate(mus):
+            law = {
+                "viscous": lambda m=m: Viscous(m),
+                "regularised-coulomb": lambda m=m: RegularisedCoulomb(m, eps),
+                "coulomb": lambda m=m: Coulomb(m),
+            }[name]()
+            for j, w in enumerate(spins):
+                if cm_at_rest:
+                    st = State.with_cm_at_rest(top, theta=theta0, omega3=w)
+                else:
+                    st = State(theta=theta0, omega3=w)
+                p = predict_inversion(top, st, law)
+                res["t_half"][i, j] = p.t_half
+                res["t_inv"][i, j] = p.t_inv if p.inverts else math.inf
+                res["inverts"][i, j] = -1 if p.inverts is None else float(p.inverts)
+                res["outside"][i, j] = p.validity.outside_verified_range
+        out[name] = res
+    return out
