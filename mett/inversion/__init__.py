@@ -25,11 +25,11 @@ import numpy as np
 
 from .. import _validate
 from ..asymptotics import high_spin
+from ..classification import asymptotic_state
 from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
 from ..integrals import jellett
 from ..stability import escape_time
 from ..state import State
-from ..thresholds import asymptotic_state
 from ..top import TippeTop
 from ._gyroscopic import NoBalance, balance_D_and_E_mod, slow_path
 from ._result import InversionPrediction, Validity
@@ -162,8 +162,8 @@ def predict_inversion(
             "top must be a ball top (TippeTop); a stemmed top's second contact is outside the "
             "gyroscopic-balance reduction"
         )
-    _validate.instance("top", top, "TippeTop")
-    _validate.instance("state", state, "State")
+    _validate.instance("top", top, TippeTop)
+    _validate.instance("state", state, State)
     if np.ndim(state.theta) != 0:
         raise ValueError(f"state must be a single state; got shape {np.shape(state.theta)}")
     if method not in METHODS:
