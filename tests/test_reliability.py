@@ -250,8 +250,9 @@ def test_a_point_whose_simulation_raises_is_a_row_and_the_sweep_goes_on(monkeypa
 
     monkeypatch.setattr(batch, "run_prepared", flaky)
     # the Taylor backend runs several points at once: its failing point is one of the batch
-    real_batchable = batch._batchable
-    monkeypatch.setattr(batch, "_batchable", lambda p: p.run.top.mu != 0.4 and real_batchable(p))
+    taylor = batch.REGISTRY["taylor"]
+    real_batchable = taylor.batchable
+    monkeypatch.setattr(taylor, "batchable", lambda p: p.run.top.mu != 0.4 and real_batchable(p))
     table = sweep(TOP, {"mu": [0.3, 0.4, 0.5]}, t_end=0.05, progress=False, backend=backend)
     assert list(table["status"]) == ["completed", "error", "completed"]
     assert table["message"].iloc[1] == "RuntimeError: solver exploded"
