@@ -741,7 +741,6 @@ def _probe_options(base: dict, grid: _Grid) -> None:
             )
         if np.any(np.diff(te) <= 0):
             raise ValueError("t_eval must be strictly increasing")
-    t_probe = min(base["t_end"], _PROBE_T_END)
     for point in grid:
         try:
             top, ic = _point_setup(base, point)
@@ -756,10 +755,10 @@ def _probe_options(base: dict, grid: _Grid) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # each run reports its own warnings
             try:  # what simulate checks before its first step, without integrating
-                check_run(top, state, t_probe, **kw, **own)
+                check_run(top, state, base["t_end"], **kw, **own)
             except (ValueError, TypeError) as exc:
                 try:  # the point's own values, or the options?
-                    check_run(top, state, t_probe)
+                    check_run(top, state, base["t_end"])
                 except (ValueError, TypeError):
                     continue  # the point: an "invalid" row
                 except Exception:
@@ -770,7 +769,6 @@ def _probe_options(base: dict, grid: _Grid) -> None:
         return
 
 
-_PROBE_T_END = 1e-6  # s: short, since friction=Viscous(...) checks by running simulate itself
 _STATE_DEFAULTS = dict(theta0=0.1, thetadot=0.0, phidot=0.0, omega3=155.0, nu_x=0.0, nu_y=0.0)
 
 

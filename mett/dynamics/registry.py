@@ -77,7 +77,7 @@ from typing import Any
 
 import numpy as np
 
-from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
+from ..friction import Viscous, check_law, registered, spelling
 
 __all__ = [
     "ACTIONS",
@@ -303,10 +303,10 @@ class Model:
             raise ValueError(f"Model.name must be a non-empty str; got {self.name!r}")
         object.__setattr__(self, "friction", tuple(self.friction))
         for law in self.friction:
-            if law not in _LAW_SPELLING:
+            if law is not type(None) and law not in registered():
                 raise ValueError(
-                    f"model {self.name!r}: friction must list types among "
-                    f"{', '.join(c.__name__ for c in _LAW_SPELLING)}; got {law!r}"
+                    f"model {self.name!r}: friction must list None or registered law types "
+                    f"({', '.join(c.__name__ for c in registered())}); got {law!r}"
                 )
         if not getattr(self.derive, "chunked", False):
             object.__setattr__(self, "derive", _chunked(self.derive))
@@ -413,12 +413,9 @@ def lookup(model: str | Model) -> Model:
     return _REGISTRY[model]
 
 
-_LAW_SPELLING = {
-    type(None): "None (the top's mu)",
-    Viscous: "mett.friction.Viscous(mu)",
-    Coulomb: "mett.friction.Coulomb(mu)",
-    RegularisedCoulomb: "mett.friction.RegularisedCoulomb(mu, eps)",
-}
+def _spelled(law: type) -> str:
+    """How ``law`` (a registered law class, or ``type(None)``) is written in messages."""
+    return "None (the top's mu)" if law is type(None) else spelling(law)
 
 
 def check_friction(model: Model, law: Any) -> Any:
@@ -431,7 +428,11 @@ def check_friction(model: Model, law: Any) -> Any:
     """
     if isinstance(law, model.friction):
         return law
-    spelled = [_LAW_SPELLING[c] for c in model.friction]
+    if law is not None:  # a law that hands the run over to another model (its model_for)
+        target = _REGISTRY.get(law.model_for(model.name))
+        if target is not None and target is not model and isinstance(law, target.friction):
+            return law
+    spelled = [_spelled(c) for c in model.friction]
     needs = spelled[0] if len(spelled) == 1 else ", ".join(spelled[:-1]) + " or " + spelled[-1]
     verb = "takes" if type(None) in model.friction else "needs"
     owners = [m.name for m in _REGISTRY.values() if law is not None and isinstance(law, m.friction)]

@@ -23,7 +23,6 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import inspect
 import math
@@ -39,6 +38,7 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
+from .gliding import viscous_force
 from .registry import (
     MODELS,
     JumpFailed,
@@ -394,9 +394,13 @@ def simulate(
     prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
                     events=events, method=method, backend=backend, max_step=max_step,
                     friction=friction, **options)  # fmt: skip
-    if not isinstance(prep, PreparedRun):  # a run decided before the first step
-        return prep
-    return run_prepared(prep)
+    # a run decided before the first step is returned as it is
+    traj = run_prepared(prep) if isinstance(prep, PreparedRun) else prep
+    if friction is not None:
+        viscous_top, law = friction.applied(top)
+        if law is None:  # the top's viscous law, given explicitly: its force series
+            viscous_force(traj, viscous_top.mu)
+    return traj
 
 
 SIMULATE_DEFAULTS = {
@@ -491,26 +495,13 @@ def prepare_run(
         raise ValueError(f"unknown method {method!r}; known methods: {', '.join(_METHODS)}")
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(BACKENDS)}")
-    if friction is not None:
+    if friction is not None:  # the law decides the top and the model, before anything runs
         friction = _friction.check_law(friction)
         check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
-        if isinstance(friction, _friction.Viscous):
-            if friction.mu is not None:
-                top = dataclasses.replace(top, mu=friction.mu)
-            traj = simulate(
-                top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
-                events=events, method=method, backend=backend, max_step=max_step, **options,
-            )  # fmt: skip
-            if traj.model == "gliding":  # the force series, as dry-friction runs report them
-                from .stickslip import viscous_force
-
-                viscous_force(traj)
-            return traj
-        # a dry law given to "gliding": the registered model that declares the option
-        # ``friction`` and runs the law ("coulomb", "coulomb-regularised", :mod:`.stickslip`)
-        if not _declares(mdl, "friction"):
-            mdl = _model_of_law(friction)
-        options = {**options, "friction": friction}
+        top, law = friction.applied(top)  # Viscous(mu): the top with that mu, no law left
+        if law is not None:
+            mdl = lookup(law.model_for(mdl.name))
+            options = {**options, "friction": law}
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
@@ -1217,16 +1208,3 @@ def _truncate(dense: Any, t_stop: float) -> Any:
 
 def _declares(mdl: Model, option: str) -> bool:
     return any(o.name == option for o in mdl.options)
-
-
-def _model_of_law(law: Any) -> Model:
-    """The first registered model that declares the option ``friction`` and needs ``law``'s kind
-    (:attr:`Model.friction`; a model that also runs without a law, as "stemmed", is skipped)."""
-    for mdl in MODELS.values():
-        if (
-            _declares(mdl, "friction")
-            and type(None) not in mdl.friction
-            and isinstance(law, mdl.friction)
-        ):
-            return mdl
-    raise ValueError(f"no registered model runs friction={law!r}")

@@ -2,10 +2,11 @@
 "stemmed-coulomb-contensou" (docs/theory/stem.md#dry-friction).
 
 ``mett.simulate(top.with_stem(...), state, t_end, friction=Coulomb(...))`` runs this hybrid model
-(the ``variant`` of "stemmed", :mod:`.stem`). It is the stemmed top of :mod:`.stem` (state: that
-of :mod:`.stickslip`, with the Jellett integral of the sphere in contact in place of L_z, plus the
-contact flag ``y[10]``, 0 ball, 1 stem) with the exact stick–slip of
-:mod:`.stickslip` on whichever sphere touches: four phases, the contact × the friction phase,
+(the one :meth:`mett.friction.Coulomb.model_for` names for "stemmed", :mod:`.stem`). It is the
+stemmed top of :mod:`.stem` (state: that of :mod:`.stickslip`, with the Jellett integral of the
+sphere in contact in place of L_z, plus the contact flag ``y[10]``, 0 ball, 1 stem) with the
+exact stick–slip of :mod:`.stickslip` on whichever sphere touches: four phases, the contact ×
+the friction phase,
 
     "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling".
 
@@ -531,7 +532,6 @@ MODEL = register(
             ),
         ),
         start_phase=_start_phase,
-        variant=lambda options: CONTENSOU if options["friction"].contensou_radius > 0 else None,
         finish=_finish,
     )
 )
@@ -547,7 +547,6 @@ CONTENSOU = register(
             "disc), exact stick–slip on the ball or the stem, Darboux–Keller impacts "
             "(docs/theory/stem.md#dry-friction; Leine & Glocker 2003)"
         ),
-        variant=None,
     )
 )
 """The stemmed top under Coulomb–Contensou friction (``friction=Coulomb(mu, contensou_radius=r)``,

@@ -124,7 +124,6 @@ __all__ = [
     "stop_time",
     "stopping_band",
     "to_gliding",
-    "viscous_force",
 ]
 
 PHASES = ("sliding", "rolling")
@@ -758,21 +757,6 @@ def stopping_band(top: Any, state: Any, rtol: float) -> float:
     return max(10.0 * rtol, 1e-13) * vscale
 
 
-def viscous_force(traj: Any) -> None:
-    """Add ``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 to a viscous "gliding" run.
-
-    So that runs under every law report their friction force (:func:`mett.simulate` with
-    ``friction=Viscous(...)``); ``traj.params`` is the gliding model's (m, R, l, I1, I3, μ, g).
-    """
-    m, R, l, I1, I3, mu, g = traj.params
-    p = (m, R, l, I1, I3, g)
-    nu = _kinematics(from_gliding(traj.states, p), p)[4]
-    traj.F_x = -mu * traj.gn * nu[0]
-    traj.F_y = -mu * traj.gn * nu[1]
-    traj.M_n = np.zeros_like(traj.gn)
-    traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
-
-
 def _check_band(name: str, value: Any) -> float:
     from .registry import positive_length
 
@@ -825,7 +809,6 @@ MODEL = register(
         ),
         conserves=("lam",),
         start_phase=_start_phase,
-        variant=lambda options: CONTENSOU if options["friction"].contensou_radius > 0 else None,
         finish=_finish,
     )
 )
@@ -840,7 +823,6 @@ CONTENSOU = register(
             "phases sliding and rolling (Leine & Glocker 2003)"
         ),
         conserves=(),
-        variant=None,
     )
 )
 """Coulomb–Contensou stick–slip (``friction=Coulomb(mu, contensou_radius=r)``, r > 0): the same
