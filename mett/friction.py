@@ -62,9 +62,11 @@ __all__ = [
     "RegularisedCoulomb",
     "Viscous",
     "check_law",
+    "check_params",
     "describe",
     "from_args",
     "from_name",
+    "label",
     "register",
     "registered",
     "spelling",
@@ -126,7 +128,7 @@ class FrictionLaw(Protocol):
         ...
 
 
-def _checked(law: Any) -> None:
+def check_params(law: Any) -> None:
     """Every declared parameter of ``law`` checked in place (None kept where it is the default)."""
     for par in law.params:
         value = getattr(law, par.name)
@@ -136,7 +138,7 @@ def _checked(law: Any) -> None:
         object.__setattr__(law, par.name, par.check(value))
 
 
-def _label(law: Any) -> str:
+def label(law: Any) -> str:
     """``Name(a=1, b=2)`` of the parameters that differ from their defaults (and the required)."""
     parts = []
     for f in dataclasses.fields(law):
@@ -161,7 +163,7 @@ class Viscous:
     params: ClassVar[tuple[Param, ...]] = (Param("mu", "s/m", doc="viscous coefficient"),)
 
     def __post_init__(self) -> None:
-        _checked(self)
+        check_params(self)
 
     def force(self, v_A: Any, gn: Any, omega_n: Any = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Tangential force (N, shape (2, ...)) and torque about ẑ (N m, zero) of slip ``v_A``."""
@@ -220,7 +222,7 @@ class Coulomb:
     )
 
     def __post_init__(self) -> None:
-        _checked(self)
+        check_params(self)
 
     @property
     def r_star(self) -> float:
@@ -252,7 +254,7 @@ class Coulomb:
 
     def describe(self) -> str:
         """E.g. ``"Coulomb(mu=0.3)"`` or ``"Coulomb(mu=0.3, contensou_radius=0.0005)"``."""
-        return _label(self)
+        return label(self)
 
 
 @dataclass(frozen=True)
@@ -279,7 +281,7 @@ class RegularisedCoulomb:
     )
 
     def __post_init__(self) -> None:
-        _checked(self)
+        check_params(self)
 
     def force(self, v_A: Any, gn: Any, omega_n: Any = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Tangential force (N, shape (2, ...)) and zero torque."""

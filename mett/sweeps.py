@@ -180,7 +180,8 @@ def _law(base: dict, point: dict, top: TippeTop) -> Any:
         return None
     if isinstance(law, dict):  # a law given whole: friction=Coulomb(0.3), …
         fields = {k: v for k, v in law.items() if k != "law"}
-        return getattr(friction, law["law"])(**fields)
+        classes = {cls.__name__: cls for cls in friction.registered()}  # also laws of other modules
+        return classes[law["law"]](**fields)
     r = point.get("contensou_radius", base["simulate_kw"].get("contensou_radius", 0.0))
     return friction.from_name(law, top.mu, contensou_radius=r)
 

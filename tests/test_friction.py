@@ -11,7 +11,7 @@ import pytest
 import stop_bounds
 
 import mett
-from mett.dynamics import contact, gliding, stickslip
+from mett.dynamics import contact, gliding
 from mett.friction import Coulomb, RegularisedCoulomb, Viscous
 
 THESIS = mett.presets.get("rutstam2013")
@@ -229,7 +229,7 @@ def test_every_switch_met_its_condition(stick_slip_run):
             assert sw.slip == pytest.approx(band, rel=1e-3)
             assert sw.margin >= 0.0 and rel >= 0.0
             # the stop itself: |v_A| = 0 extrapolated linearly from the band crossing
-            rate = stickslip._slip_rate(y_ev, p)  # the state at the band, before the impulse
+            rate = contact.slip_rate(y_ev, p)  # the state at the band, before the impulse
             assert sw.t - sw.t_event == pytest.approx(band / rate, rel=1e-3)
         elif sw.reason == "cone":
             assert abs(sw.margin) < 1e-8 and abs(rel) < 1e-8
@@ -660,7 +660,7 @@ def test_the_stop_is_located_where_the_slip_vanishes():
                         stopping_band=band * 1e-4)  # fmt: skip
     (sw,), (sr,) = tr.switches, ref.switches
     assert sw.reason == sr.reason == "stop"
-    rate = stickslip._slip_rate(tr.jumps[0][0], tr.params)  # at the band, before the impulse
+    rate = contact.slip_rate(tr.jumps[0][0], tr.params)  # at the band, before the impulse
     assert 0.0 < rate < math.inf
     assert sr.t - sw.t_event == pytest.approx(band / rate, rel=0.1)  # the band's bias, removed
     assert abs(sw.t - sr.t) <= band / (10.0 * rate)  # measured 2.4e-11 s of 1.2e-9 s

@@ -52,6 +52,7 @@ __all__ = [
     "slide_rhs",
     "sliding_contact",
     "slip",
+    "slip_rate",
     "slip_velocity",
     "spin_term",
     "start_phase",
@@ -408,7 +409,7 @@ def set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:
     return out
 
 
-def _slip_rate(y: np.ndarray, p: tuple) -> float:
+def slip_rate(y: np.ndarray, p: tuple) -> float:
     """a = −d|γ|/dt (m/s²) of the sliding law at ``y``: the rate at which the slip falls.
 
     Coulomb: −γ̂·v̇_A of :func:`slide`, exactly. With Contensou's r* the spin part r* ω̇_z is the
@@ -432,7 +433,7 @@ def stop_time(t: float, y: np.ndarray, p: tuple) -> float:
     """The instant the slip reaches 0, extrapolated from the band crossing ``(t, y)``.
 
     Under Coulomb friction the slip falls to 0 in finite time at a finite rate a = −d|γ|/dt
-    (:func:`_slip_rate`; μ g_n times the contact's inverse effective mass along the slip, less
+    (:func:`slip_rate`; μ g_n times the contact's inverse effective mass along the slip, less
     the pull of the required force), so |γ| is linear in t near the stop and the stop is at
     t + |γ|/a, to O(|γ|²): the band crossing precedes it by |γ|/a = δ/a. The state needs no
     advancing: the stopping impulse at the band equals the integral of the friction force
@@ -441,7 +442,7 @@ def stop_time(t: float, y: np.ndarray, p: tuple) -> float:
     extrapolation).
     """
     speed = float(np.linalg.norm(slip(y, p)))
-    a = _slip_rate(y, p)
+    a = slip_rate(y, p)
     return t + speed / a if a > 0.0 else t
 
 

@@ -59,12 +59,13 @@ for "no law given") that ``simulate(..., model=name, friction=law)`` accepts for
 default, ``(type(None), Viscous)``, is that of a model whose contact has no law of its own (the
 viscous law's μ replaces the top's). :func:`check_friction` refuses any other pairing, before
 any work, with one ``ValueError`` naming the model and what it needs, e.g. ``model 'coulomb'
-needs friction=mett.friction.Coulomb(mu); got None``.
+needs friction=mett.friction.Coulomb(mu); got None``. Which model runs a law is the law's
+(``law.model_for(name)``, :mod:`mett.friction`): a law accepted by the model it names (e.g.
+"gliding" asked with ``Coulomb(...)`` names "coulomb") passes here too.
 
-**Variants.** An option can change which equations run, not only their parameters (a friction
-law object choosing between the viscous model and a stick–slip hybrid): ``variant(options)``
-returns the model that runs instead, and :func:`mett.simulate` validates the options again
-against it.
+**Variants.** An option can change which equations run, not only their parameters:
+``variant(options)`` returns the model that runs instead, and :func:`mett.simulate` validates
+the options again against it.
 """
 
 from __future__ import annotations
@@ -248,8 +249,8 @@ class Model:
         ``start_phase(y0, p) -> str``: the phase at t = 0 (default: the first).
     variant : callable, optional
         ``variant(options) -> Model or None``: the model that actually runs for these validated
-        options (None: this one). E.g. "gliding" with ``friction=Coulomb(...)`` can hand over to a
-        hybrid stick–slip model; the variant must accept the same options.
+        options (None: this one); the variant must accept the same options. (A friction law
+        names its model itself, ``law.model_for``.)
     vectors : tuple of tuple of int
         Index tuples of state components that form one physical vector (a position, velocity,
         angular momentum, unit axis): the Taylor backend measures a vector's truncation error

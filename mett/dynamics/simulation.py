@@ -241,7 +241,7 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
-    friction: Any = None,
+    friction: _friction.FrictionLaw | None = None,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
@@ -322,10 +322,10 @@ def simulate(
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
-        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
-        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). A dry law selects the
-        registered model that declares the option ``friction`` and accepts it
-        (:mod:`mett.dynamics.stickslip`): :class:`~mett.friction.Coulomb` the hybrid
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, the run also
+        carries the force ``F_x``, ``F_y``, ``M_n`` as below). Any other law names the registered
+        model that runs it (``law.model_for(model)``, :mod:`mett.friction`; e.g.
+        :mod:`mett.dynamics.stickslip`): :class:`~mett.friction.Coulomb` the hybrid
         ``"coulomb"`` (exact stick–slip, phases "sliding"/"rolling"; ``"coulomb-contensou"`` with
         a contact radius), :class:`~mett.friction.RegularisedCoulomb` ``"coulomb-regularised"``
         (stiff: ``method="LSODA"`` or ``"Radau"``). They run on either backend, with user events;
@@ -333,6 +333,7 @@ def simulate(
         ``F_x``, ``F_y`` (N, lab frame), the torque ``M_n`` about the normal (N m), the cone
         ``margin`` (N) and ``switches`` (:class:`mett.dynamics.stickslip.Switch`). Their option
         ``stopping_band`` (m/s) defaults to 10 rtol × the start's velocity scale.
+        :class:`~mett.dynamics.resistance.RollingResistance` runs ``"rolling-resistance"``.
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -472,7 +473,7 @@ def prepare_run(
 ) -> PreparedRun | Trajectory:
     """Everything :func:`simulate` does before integrating: validation, the model that runs (its
     friction law and variant), the backend, parameters and start; a run decided at t = 0 (contact
-    lost, a guard, the viscous law's own run) is returned as its Trajectory."""  # fmt: skip
+    lost, a guard) is returned as its Trajectory; a law is applied first (never run here)."""  # fmt: skip
     mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
