@@ -501,7 +501,8 @@ def prepare_run(
         check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
         top, law = friction.applied(top)  # Viscous(mu): the top with that mu, no law left
         if law is not None:
-            mdl = lookup(law.model_for(mdl.name))
+            runs = law.model_for(mdl.name)  # the model given (also an unregistered one), or
+            mdl = mdl if runs == mdl.name else lookup(runs)  # the registered one the law names
             options = {**options, "friction": law}
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)

@@ -55,7 +55,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..friction import Coulomb
-from . import contact, stem, stickslip
+from . import contact as dry
+from . import stem, stickslip
 from .contact import (
     cone_event,
     cone_jump,
@@ -293,14 +294,14 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray, fl
     else:
         P, Q, _ = dry_impulse(f, p[0], p[6], p[7])
     after = apply_impulse(y, f, p[0], P, to, Q)  # on the new contact (its flag set)
-    return _converted(after, p, contact.from_gliding), P, Q
+    return _converted(after, p, dry.from_gliding), P, Q
 
 
 def _impact_to(to: str) -> Any:
     """The jump of a change of contact: the impact, then the slip settled on the new contact."""
 
     def jump(y: np.ndarray, p: tuple) -> np.ndarray:
-        return contact.settle(impact(y, p, to)[0], _contact(p, to == "stem"))
+        return dry.settle(impact(y, p, to)[0], _contact(p, to == "stem"))
 
     return jump
 
@@ -308,7 +309,7 @@ def _impact_to(to: str) -> Any:
 def _select(y: np.ndarray, p: tuple) -> str:
     """The phase after an impact: the new contact, rolling if its slip was settled."""
     on_stem = y[10] > 0.5
-    return ("stem-" if on_stem else "ball-") + contact.start_phase(y, _contact(p, on_stem))
+    return ("stem-" if on_stem else "ball-") + dry.start_phase(y, _contact(p, on_stem))
 
 
 # --- conversions and the trajectory's series ---------------------------------------------------
@@ -330,7 +331,7 @@ def _converted(Y: Any, p: tuple, convert: Any) -> np.ndarray:
 
 def _lz(Y: Any, p: tuple) -> np.ndarray:
     """The states of the viscous stemmed model (:mod:`.stem`: L_z in row 6) of states ``Y``."""
-    return _converted(Y, p, contact.to_gliding)
+    return _converted(Y, p, dry.to_gliding)
 
 
 def _params(top: Any, options: dict) -> tuple:
@@ -340,8 +341,8 @@ def _params(top: Any, options: dict) -> tuple:
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
     """The stemmed state on the lower sphere; a slip within the band settled there."""
-    y = _converted(stem.MODEL.initial(state, _viscous(p)), p, contact.from_gliding)
-    return contact.settle(y, _contact(p, y[10] > 0.5))
+    y = _converted(stem.MODEL.initial(state, _viscous(p)), p, dry.from_gliding)
+    return dry.settle(y, _contact(p, y[10] > 0.5))
 
 
 def _rolling(Y: np.ndarray, p: tuple, on_stem: np.ndarray) -> np.ndarray:
@@ -349,7 +350,7 @@ def _rolling(Y: np.ndarray, p: tuple, on_stem: np.ndarray) -> np.ndarray:
     out = np.zeros(on_stem.shape, dtype=bool)
     for mask, q in ((~on_stem, _ball(p)), (on_stem, _stem(p))):
         if mask.any():
-            out[mask] = contact.rolling_guess(Y[:, mask], q)
+            out[mask] = dry.rolling_guess(Y[:, mask], q)
     return out
 
 
@@ -362,7 +363,7 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
     out: dict[str, np.ndarray] = {}
     for mask, q in ((~on, _ball(p)), (on, _stem(p))):
         if mask.any():
-            part = contact.contact_quantities(Y[:, mask], q, rolling[mask])
+            part = dry.contact_quantities(Y[:, mask], q, rolling[mask])
             for k, v in part.items():
                 out.setdefault(k, np.empty(Y.shape[1], dtype=np.asarray(v).dtype))[mask] = v
     return out
@@ -420,14 +421,14 @@ def _finish(traj: Any) -> None:
             Pt = math.hypot(P[0], P[1], Q / p[7]) if p[7] > 0.0 else math.hypot(P[0], P[1])
             mu_pn = p[6] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
             margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
-            speed = float(np.linalg.norm(contact.slip(y_imp, q)))
+            speed = float(np.linalg.norm(dry.slip(y_imp, q)))
         else:
             why = _REASONS[(f0, f1)]
-            y_dec = y_ev if why == "cone" else contact.set_slip(y_ev, q, np.zeros(3))
-            gn, _, m = contact.required(y_dec, q)
+            y_dec = y_ev if why == "cone" else dry.set_slip(y_ev, q, np.zeros(3))
+            gn, _, m = dry.required(y_dec, q)
             margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan
-            speed = float(np.linalg.norm(contact.slip(y_ev, q)))
-        t_sw = contact.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
+            speed = float(np.linalg.norm(dry.slip(y_ev, q)))
+        t_sw = dry.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
         records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
     traj.switches = records
     traj.touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
