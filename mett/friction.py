@@ -379,9 +379,10 @@ def registered() -> tuple[type, ...]:
 
 
 def spelling(law: type) -> str:
-    """How the law is written in Python, e.g. ``"mett.friction.Coulomb(mu)"`` (required arguments)."""
-    required = [f.name for f in dataclasses.fields(law) if f.default is dataclasses.MISSING]
-    return f"{law.__module__}.{law.__qualname__}({', '.join(required)})"
+    """How the law is written in Python, e.g. ``"mett.friction.Coulomb(mu)"``: the arguments of its
+    first name in :data:`LAWS`."""
+    args = next((f.args for f in LAWS.values() if f.law is law), ())
+    return f"{law.__module__}.{law.__qualname__}({', '.join(args)})"
 
 
 def check_law(friction: Any) -> FrictionLaw:
