@@ -23,6 +23,7 @@ import math
 import os
 import re
 import sys
+import textwrap
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -71,6 +72,12 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
         if action.default is None or action.default is False or action.help is None:
             return action.help or ""
         return super()._get_help_string(action)
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        # argparse's own, without breaking at hyphens: a law's name (rolling-resistance:MU_R,MU)
+        # stays whole in the help
+        return textwrap.wrap(self._whitespace_matcher.sub(" ", text).strip(), width,
+                             break_on_hyphens=False)  # fmt: skip
 
 
 # --- argument types: checked by argparse, so a bad value is a one-line usage error -------------

@@ -15,6 +15,14 @@ Pass one to :func:`mett.simulate` as ``friction=...`` (see ``docs/theory/frictio
 
 Every law also evaluates its force as a function (:meth:`force`), vectorised over samples.
 
+**The protocol and the registry.** A law is any object of the :class:`FrictionLaw` protocol whose
+class is registered with :func:`register`: it declares its parameters (:class:`Param`: name, unit,
+range), the names it is written by (:data:`LAWS`, the command line's ``--friction NAME:ARGS``),
+``applied(top)`` (the top and the law the model receives: :class:`Viscous` puts its μ on the top
+and leaves no law) and ``model_for(base)`` (the registered model that runs it when ``base`` is
+asked). :func:`mett.simulate` asks these two and nothing else, so a law defined in another module
+(:mod:`mett.dynamics.resistance`, rolling resistance) is added by that module alone.
+
 Coulomb–Contensou (Leine & Glocker 2003, Eur. J. Mech. A/Solids 22, 193–216). For a contact disc
 of radius r with uniform pressure, the force and the drilling torque M (about the normal ẑ) of
 combined slip v_A and spin ω_n = ω·ẑ are integrals over the disc; in pure slip the force is
@@ -33,10 +41,11 @@ the ellipsoid.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -49,11 +58,18 @@ __all__ = [
     "Coulomb",
     "FrictionLaw",
     "LawForm",
+    "Param",
     "RegularisedCoulomb",
     "Viscous",
     "check_law",
+    "check_params",
     "describe",
+    "from_args",
     "from_name",
+    "label",
+    "register",
+    "registered",
+    "spelling",
 ]
 
 CONTENSOU_UNIFORM = 2.0 / 3.0
@@ -61,8 +77,75 @@ CONTENSOU_UNIFORM = 2.0 / 3.0
 2003)."""
 
 
-def _mu(value: Any, name: str = "mu") -> float:
-    return _validate.positive_scalar(name, value, allow_zero=True)
+class Param(NamedTuple):
+    """One parameter of a friction law: its name, unit and range (checked by :meth:`check`)."""
+
+    name: str
+    """The constructor's argument (and the law's attribute)."""
+    unit: str
+    """Its unit ("1": dimensionless)."""
+    positive: bool = False
+    """True: the range is (0, ∞); False: [0, ∞)."""
+    doc: str = ""
+    """What it is, for help texts."""
+
+    @property
+    def range(self) -> str:
+        """The valid range, as error messages print it."""
+        return "(0, inf)" if self.positive else "[0, inf)"
+
+    def check(self, value: Any) -> float:
+        """``value`` as a float, or ``ValueError``/``TypeError`` naming the parameter and range."""
+        return _validate.positive_scalar(self.name, value, allow_zero=not self.positive)
+
+
+@runtime_checkable
+class FrictionLaw(Protocol):
+    """What :func:`mett.simulate` needs of a friction law (a frozen dataclass, :func:`register`).
+
+    ``params`` declares the coefficients; ``force`` evaluates the law; ``applied(top)`` is the top
+    and the law the model receives (a viscous μ goes onto the top and no law is left);
+    ``model_for(base)`` names the registered model that runs the law when model ``base`` is asked
+    (``base`` itself when the law runs there as it is); ``describe()`` is a short label.
+    """
+
+    params: ClassVar[tuple[Param, ...]]
+
+    def force(self, v_A: Any, gn: Any, omega_n: Any = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Tangential force (N, shape (2, ...)) and torque about ẑ (N m) of slip ``v_A`` (m/s)."""
+        ...
+
+    def applied(self, top: Any) -> tuple[Any, FrictionLaw | None]:
+        """The top and the law (None: none) that the model runs with."""
+        ...
+
+    def model_for(self, base: str) -> str:
+        """The registered model that runs this law when model ``base`` is asked."""
+        ...
+
+    def describe(self) -> str:
+        """A short label, e.g. ``"Coulomb(mu=0.3)"``."""
+        ...
+
+
+def check_params(law: Any) -> None:
+    """Every declared parameter of ``law`` checked in place (None kept where it is the default)."""
+    for par in law.params:
+        value = getattr(law, par.name)
+        default = {f.name: f.default for f in dataclasses.fields(law)}.get(par.name)
+        if value is None and default is None:
+            continue
+        object.__setattr__(law, par.name, par.check(value))
+
+
+def label(law: Any) -> str:
+    """``Name(a=1, b=2)`` of the parameters that differ from their defaults (and the required)."""
+    parts = []
+    for f in dataclasses.fields(law):
+        value = getattr(law, f.name)
+        if f.default is dataclasses.MISSING or value != f.default:
+            parts.append(f"{f.name}={value:g}" if isinstance(value, float) else f"{f.name}={value}")
+    return f"{type(law).__name__}({', '.join(parts)})"
 
 
 @dataclass(frozen=True)
@@ -77,9 +160,10 @@ class Viscous:
 
     mu: float | None = None
 
+    params: ClassVar[tuple[Param, ...]] = (Param("mu", "s/m", doc="viscous coefficient"),)
+
     def __post_init__(self) -> None:
-        if self.mu is not None:
-            object.__setattr__(self, "mu", _mu(self.mu))
+        check_params(self)
 
     def force(self, v_A: Any, gn: Any, omega_n: Any = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Tangential force (N, shape (2, ...)) and torque about ẑ (N m, zero) of slip ``v_A``."""
@@ -88,6 +172,28 @@ class Viscous:
         v = np.asarray(v_A, dtype=float)
         gn = np.asarray(gn, dtype=float)
         return -self.mu * gn * v, np.zeros(np.broadcast(gn, v[0]).shape)
+
+    def applied(self, top: Any) -> tuple[Any, None]:
+        """The top with this μ (``top.mu`` is the viscous coefficient of every model), no law."""
+        return (top if self.mu is None else dataclasses.replace(top, mu=self.mu)), None
+
+    def model_for(self, base: str) -> str:
+        """``base``: every model with a viscous contact runs it through ``top.mu``."""
+        return base
+
+    def describe(self) -> str:
+        """``"viscous"`` (μ from the top) or ``"Viscous(mu=…)"``."""
+        return "viscous" if self.mu is None else f"Viscous(mu={self.mu:g})"
+
+
+# the dry models of mett.dynamics.stickslip and .stemslip, by the model asked for
+_COULOMB_MODELS = {"gliding": "coulomb", "stemmed": "stemmed-coulomb"}
+_CONTENSOU_MODELS = {
+    "gliding": "coulomb-contensou",
+    "coulomb": "coulomb-contensou",
+    "stemmed": "stemmed-coulomb-contensou",
+    "stemmed-coulomb": "stemmed-coulomb-contensou",
+}
 
 
 @dataclass(frozen=True)
@@ -110,10 +216,13 @@ class Coulomb:
     mu: float
     contensou_radius: float = 0.0
 
+    params: ClassVar[tuple[Param, ...]] = (
+        Param("mu", "1", doc="friction coefficient"),
+        Param("contensou_radius", "m", doc="radius of the contact disc"),
+    )
+
     def __post_init__(self) -> None:
-        object.__setattr__(self, "mu", _mu(self.mu))
-        r = _validate.positive_scalar("contensou_radius", self.contensou_radius, allow_zero=True)
-        object.__setattr__(self, "contensou_radius", r)
+        check_params(self)
 
     @property
     def r_star(self) -> float:
@@ -132,6 +241,20 @@ class Coulomb:
         norm = np.sqrt(v[0] ** 2 + v[1] ** 2 + (rs * wn) ** 2)
         k = np.where(norm > 0.0, -self.mu * gn / np.where(norm > 0.0, norm, 1.0), 0.0)
         return k * v, k * rs * rs * wn
+
+    def applied(self, top: Any) -> tuple[Any, Coulomb]:
+        """The top unchanged and this law (the dry models take μ from the law)."""
+        return top, self
+
+    def model_for(self, base: str) -> str:
+        """The stick–slip model: "coulomb" or "coulomb-contensou" (r > 0) for "gliding", their
+        stemmed forms for "stemmed"; ``base`` for any other model."""
+        table = _CONTENSOU_MODELS if self.contensou_radius > 0 else _COULOMB_MODELS
+        return table.get(base, base)
+
+    def describe(self) -> str:
+        """E.g. ``"Coulomb(mu=0.3)"`` or ``"Coulomb(mu=0.3, contensou_radius=0.0005)"``."""
+        return label(self)
 
 
 @dataclass(frozen=True)
@@ -152,9 +275,13 @@ class RegularisedCoulomb:
     mu: float
     eps: float
 
+    params: ClassVar[tuple[Param, ...]] = (
+        Param("mu", "1", doc="friction coefficient"),
+        Param("eps", "m/s", positive=True, doc="regularisation velocity"),
+    )
+
     def __post_init__(self) -> None:
-        object.__setattr__(self, "mu", _mu(self.mu))
-        object.__setattr__(self, "eps", _validate.positive_scalar("eps", self.eps))
+        check_params(self)
 
     def force(self, v_A: Any, gn: Any, omega_n: Any = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Tangential force (N, shape (2, ...)) and zero torque."""
@@ -163,45 +290,24 @@ class RegularisedCoulomb:
         k = -self.mu * gn / np.sqrt(v[0] ** 2 + v[1] ** 2 + self.eps**2)
         return k * v, np.zeros(np.broadcast(gn, v[0]).shape)
 
+    def applied(self, top: Any) -> tuple[Any, RegularisedCoulomb]:
+        """The top unchanged and this law."""
+        return top, self
 
-FrictionLaw = Viscous | Coulomb | RegularisedCoulomb
-"""Any friction law :func:`mett.simulate` accepts."""
+    def model_for(self, base: str) -> str:
+        """ "coulomb-regularised" for "gliding", ``base`` for any other model."""
+        return "coulomb-regularised" if base == "gliding" else base
 
-
-def check_law(friction: Any) -> FrictionLaw:
-    """``friction`` itself if it is a friction law, else ``TypeError`` naming the argument."""
-    if not isinstance(friction, Viscous | Coulomb | RegularisedCoulomb):
-        raise TypeError(
-            "friction must be mett.friction.Viscous, Coulomb or RegularisedCoulomb; "
-            f"got {type(friction).__name__}"
-        )
-    return friction
-
-
-LAW_NAMES = ("viscous", "coulomb")
-"""Names of the laws for :func:`from_name` (and the ``friction`` dimension of :func:`mett.sweep`)."""
-
-
-def from_name(name: str, mu: float, contensou_radius: float = 0.0) -> FrictionLaw:
-    """The law called ``name`` with coefficient ``mu``: ``"viscous"`` (s/m) or ``"coulomb"`` (–).
-
-    ``contensou_radius`` (m) applies to ``"coulomb"`` only. For parameter sweeps, where a grid
-    point carries the law as a name and its μ as the top's ``mu``.
-    """
-    if name == "viscous":
-        if contensou_radius:
-            raise ValueError("contensou_radius applies to the 'coulomb' law only")
-        return Viscous(mu)
-    if name == "coulomb":
-        return Coulomb(mu, contensou_radius=contensou_radius)
-    raise ValueError(f"friction must be one of {', '.join(LAW_NAMES)}; got {name!r}")
+    def describe(self) -> str:
+        """E.g. ``"RegularisedCoulomb(mu=0.3, eps=0.001)"``."""
+        return f"RegularisedCoulomb(mu={self.mu:g}, eps={self.eps:g})"
 
 
 class LawForm(NamedTuple):
     """How a law is written by name (:data:`LAWS`): its constructor and its positional arguments."""
 
     law: type
-    """The law's class (a constructor of :mod:`mett.friction`)."""
+    """The law's class (registered with :func:`register`)."""
     args: tuple[str, ...]
     """Names of the constructor's arguments, in the order they are written."""
     units: tuple[str, ...]
@@ -218,26 +324,118 @@ class LawForm(NamedTuple):
         return f"{name}:{','.join(a.upper() for a in self.args)}"
 
 
-LAWS: Mapping[str, LawForm] = MappingProxyType(
-    {
-        "viscous": LawForm(Viscous, ("mu",), ("s/m",)),
-        "coulomb": LawForm(Coulomb, ("mu",), ("1",)),
-        "coulomb-contensou": LawForm(Coulomb, ("mu", "contensou_radius"), ("1", "m")),
-        "regularised": LawForm(RegularisedCoulomb, ("mu", "eps"), ("1", "m/s")),
-    }
-)
-"""Every law by name, with its arguments: the one table of the command line's ``--friction
-NAME:ARGS`` (``coulomb-contensou:0.3,5e-4`` is ``Coulomb(0.3, contensou_radius=5e-4)``). A law
-added to this module is added here, and the command line accepts it by this name."""
+_FORMS: dict[str, LawForm] = {}
+_CLASSES: list[type] = []
+
+LAWS: Mapping[str, LawForm] = MappingProxyType(_FORMS)
+"""Every law by name, with its arguments: the registry (:func:`register`) and the one table of the
+command line's ``--friction NAME:ARGS`` (``coulomb-contensou:0.3,5e-4`` is ``Coulomb(0.3,
+contensou_radius=5e-4)``). A read-only view: a law registered later appears here."""
+
+
+def register(law: type, forms: Mapping[str, tuple[str, ...]]) -> type:
+    """Register the friction-law class ``law`` under the names of ``forms`` and return it.
+
+    Parameters
+    ----------
+    law : type
+        A frozen dataclass following :class:`FrictionLaw`, with ``params`` declaring every
+        constructor argument (name, unit, range).
+    forms : mapping of str to tuple of str
+        Each name the law is written by (``--friction NAME:ARGS``, :func:`from_args`) and the
+        arguments, in order, that the name takes (the others keep their defaults).
+
+    Raises
+    ------
+    ValueError
+        A name already taken, an argument the law does not declare, or a class without the
+        protocol's methods.
+    """
+    missing = [m for m in ("force", "applied", "model_for", "describe") if not hasattr(law, m)]
+    declared = {par.name: par for par in getattr(law, "params", ())}
+    if missing or not declared:
+        raise ValueError(f"{law!r} is not a friction law: it lacks {missing or ['params']}")
+    for name, args in forms.items():
+        if name in _FORMS and _FORMS[name].law is not law:
+            raise ValueError(f"friction law name {name!r} is taken by {_FORMS[name].law.__name__}")
+        unknown = [a for a in args if a not in declared]
+        if unknown:
+            raise ValueError(f"{law.__name__} does not declare parameters {unknown}")
+    for name, args in forms.items():
+        _FORMS[name] = LawForm(law, tuple(args), tuple(declared[a].unit for a in args))
+    if law not in _CLASSES:
+        _CLASSES.append(law)
+    return law
+
+
+register(Viscous, {"viscous": ("mu",)})
+register(Coulomb, {"coulomb": ("mu",), "coulomb-contensou": ("mu", "contensou_radius")})
+register(RegularisedCoulomb, {"regularised": ("mu", "eps")})
+
+
+def registered() -> tuple[type, ...]:
+    """The registered law classes, in the order of registration."""
+    return tuple(_CLASSES)
+
+
+def spelling(law: type) -> str:
+    """How the law is written in Python, e.g. ``"mett.friction.Coulomb(mu)"``: the arguments of its
+    first name in :data:`LAWS`."""
+    args = next((f.args for f in LAWS.values() if f.law is law), ())
+    return f"{law.__module__}.{law.__qualname__}({', '.join(args)})"
+
+
+def check_law(friction: Any) -> FrictionLaw:
+    """``friction`` itself if it is a registered friction law, else ``TypeError`` naming it."""
+    if not isinstance(friction, tuple(_CLASSES)):
+        names = [c.__name__ for c in _CLASSES]
+        raise TypeError(
+            f"friction must be a registered friction law ({', '.join(names)}; "
+            f"mett.friction.LAWS); got {type(friction).__name__}"
+        )
+    return friction
+
+
+LAW_NAMES = ("viscous", "coulomb")
+"""Names of the laws for :func:`from_name` (and the ``friction`` dimension of :func:`mett.sweep`):
+those of :data:`LAWS` whose one coefficient is ``mu``."""
+
+
+def from_args(name: str, values: Any) -> FrictionLaw:
+    """The law written ``name`` in :data:`LAWS` with the positional ``values``.
+
+    ``from_args("coulomb-contensou", (0.3, 5e-4))`` is ``Coulomb(0.3, contensou_radius=5e-4)``.
+    ``ValueError`` for an unknown name, ``TypeError`` for a wrong number of values.
+    """
+    form = LAWS.get(name) if isinstance(name, str) else None
+    if form is None:
+        raise ValueError(f"friction must be one of {', '.join(LAWS)}; got {name!r}")
+    return form.build(*values)
+
+
+def from_name(name: str, mu: float, contensou_radius: float = 0.0, **coefficients: float) -> Any:
+    """The law called ``name`` (:data:`LAWS`) with coefficient ``mu`` and the other ``coefficients``.
+
+    ``"viscous"``: μ in s/m; ``"coulomb"``: μ dimensionless, ``contensou_radius`` (m) > 0 giving
+    the Coulomb–Contensou law. For parameter sweeps, where a grid point carries the law as a name
+    and its μ as the top's ``mu``. A nonzero coefficient the law does not take is a ValueError.
+    """
+    form = LAWS.get(name) if isinstance(name, str) else None
+    if form is None:
+        raise ValueError(f"friction must be one of {', '.join(LAWS)}; got {name!r}")
+    given = {"contensou_radius": contensou_radius, **coefficients}
+    declared = {par.name for par in form.law.params}
+    for key, value in given.items():
+        if key not in declared and value:
+            names = [(f.law, n) for n, f in LAWS.items() if key in {q.name for q in f.law.params}]
+            owners = dict(names[::-1])  # each law by its first name
+            raise ValueError(
+                f"{key} applies to the {' / '.join(map(repr, owners.values()))} law only"
+            )
+    kw = {k: v for k, v in given.items() if k in declared}
+    return form.law(mu, **kw)
 
 
 def describe(friction: FrictionLaw) -> str:
     """A short label, e.g. ``"Coulomb(mu=0.3)"``, for tables and sweeps."""
-    if isinstance(friction, Viscous):
-        return "viscous" if friction.mu is None else f"Viscous(mu={friction.mu:g})"
-    if isinstance(friction, Coulomb):
-        extra = (
-            f", contensou_radius={friction.contensou_radius:g}" if friction.contensou_radius else ""
-        )
-        return f"Coulomb(mu={friction.mu:g}{extra})"
-    return f"RegularisedCoulomb(mu={friction.mu:g}, eps={friction.eps:g})"
+    return check_law(friction).describe()

@@ -180,7 +180,8 @@ def _law(base: dict, point: dict, top: TippeTop) -> Any:
         return None
     if isinstance(law, dict):  # a law given whole: friction=Coulomb(0.3), …
         fields = {k: v for k, v in law.items() if k != "law"}
-        return getattr(friction, law["law"])(**fields)
+        classes = {cls.__name__: cls for cls in friction.registered()}  # also laws of other modules
+        return classes[law["law"]](**fields)
     r = point.get("contensou_radius", base["simulate_kw"].get("contensou_radius", 0.0))
     return friction.from_name(law, top.mu, contensou_radius=r)
 
@@ -753,7 +754,6 @@ def _probe_options(base: dict, grid: _Grid) -> None:
             )
         if np.any(np.diff(te) <= 0):
             raise ValueError("t_eval must be strictly increasing")
-    t_probe = min(base["t_end"], _PROBE_T_END)
     for point in grid:
         try:
             top, ic = _point_setup(base, point)
@@ -768,10 +768,10 @@ def _probe_options(base: dict, grid: _Grid) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # each run reports its own warnings
             try:  # what simulate checks before its first step, without integrating
-                check_run(top, state, t_probe, **kw, **own)
+                check_run(top, state, base["t_end"], **kw, **own)
             except (ValueError, TypeError) as exc:
                 try:  # the point's own values, or the options?
-                    check_run(top, state, t_probe)
+                    check_run(top, state, base["t_end"])
                 except (ValueError, TypeError):
                     continue  # the point: an "invalid" row
                 except Exception:
@@ -782,7 +782,6 @@ def _probe_options(base: dict, grid: _Grid) -> None:
         return
 
 
-_PROBE_T_END = 1e-6  # s: short, since friction=Viscous(...) checks by running simulate itself
 _STATE_DEFAULTS = dict(theta0=0.1, thetadot=0.0, phidot=0.0, omega3=155.0, nu_x=0.0, nu_y=0.0)
 
 

@@ -61,6 +61,7 @@ _NEEDED = {
     "coulomb": {"friction": mett.friction.Coulomb(0.3)},
     "coulomb-contensou": {"friction": mett.friction.Coulomb(0.3, contensou_radius=3e-3)},
     "coulomb-regularised": {"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-3)},
+    "rolling-resistance": {"friction": mett.dynamics.resistance.RollingResistance(1e-4)},
 }
 
 

@@ -11,7 +11,7 @@ import pytest
 import stop_bounds
 
 import mett
-from mett.dynamics import gliding, stickslip
+from mett.dynamics import contact, gliding
 from mett.friction import Coulomb, RegularisedCoulomb, Viscous
 
 THESIS = mett.presets.get("rutstam2013")
@@ -135,10 +135,10 @@ def test_sliding_core_with_viscous_force_is_the_gliding_model():
             nu_y=rng.normal(0, 0.05),
         )
         y = gliding.MODEL.initial(st, pg)
-        ys = stickslip.from_gliding(y, p)  # L_z → λ = −L·a
-        assert np.allclose(stickslip.to_gliding(ys, p), y, rtol=1e-14, atol=1e-18)
-        nu = stickslip._nu(ys, p)
-        d = stickslip._slide(ys, p, -THESIS.mu * nu[0], -THESIS.mu * nu[1], 0.0)
+        ys = contact.from_gliding(y, p)  # L_z → λ = −L·a
+        assert np.allclose(contact.to_gliding(ys, p), y, rtol=1e-14, atol=1e-18)
+        nu = contact.slip_velocity(ys, p)
+        d = contact.slide(ys, p, -THESIS.mu * nu[0], -THESIS.mu * nu[1], 0.0)
         rate = np.array(d[0])
         ref = gliding.gliding_rhs(0.0, y, pg)
         same = np.arange(10) != 6
@@ -223,13 +223,13 @@ def test_every_switch_met_its_condition(stick_slip_run):
     band = tr.stopping_band
     for sw, (y_ev, _) in zip(tr.switches, tr.jumps, strict=True):
         y = tr.states_at(sw.t)
-        _, gn, F, _, _ = stickslip._stick(y, p)
+        _, gn, F, _, _ = contact.stick(y, p)
         rel = 1.0 - math.hypot(F[0], F[1]) / (0.02 * gn)  # the force rolling needs, recomputed
         if sw.reason == "stop":
             assert sw.slip == pytest.approx(band, rel=1e-3)
             assert sw.margin >= 0.0 and rel >= 0.0
             # the stop itself: |v_A| = 0 extrapolated linearly from the band crossing
-            rate = stickslip._slip_rate(y_ev, p)  # the state at the band, before the impulse
+            rate = contact.slip_rate(y_ev, p)  # the state at the band, before the impulse
             assert sw.t - sw.t_event == pytest.approx(band / rate, rel=1e-3)
         elif sw.reason == "cone":
             assert abs(sw.margin) < 1e-8 and abs(rel) < 1e-8
@@ -274,7 +274,7 @@ def test_jellett_kept_over_long_runs_at_default_tolerances(top, omega3, mu, t_en
         drift = np.max(np.abs(tr.E[i0:i1] - tr.E[i0])) / tr.E[0]
         assert drift <= energy_step(1e-10) * (i1 - i0), (i0, i1, drift)
     # the reconstruction L_z = −(λ + L_x a_x + L_y a_y)/a_z inverts λ = −L·a
-    back = stickslip.from_gliding(stickslip.to_gliding(tr.states, tr.params), tr.params)
+    back = contact.from_gliding(contact.to_gliding(tr.states, tr.params), tr.params)
     assert np.allclose(back, tr.states, rtol=1e-14, atol=0.0)
 
 
@@ -315,12 +315,12 @@ def test_slip_starts_in_the_direction_of_the_excess_force():
     st = mett.State(theta=0.5, thetadot=1.0, phidot=2.0, omega3=120.0)
     mu = 0.01
     p = params(THESIS, mu)
-    y = stickslip.from_gliding(gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {})), p)
-    _, gn, F, _, _ = stickslip._stick(y, p)
+    y = contact.from_gliding(gliding.MODEL.initial(st, gliding.MODEL.params(THESIS, {})), p)
+    _, gn, F, _, _ = contact.stick(y, p)
     assert math.hypot(F[0], F[1]) > mu * gn  # rolling would need more than the cone gives
-    u = stickslip._excess_direction(y, p, -np.array(F))[:2]
+    u = contact.excess_direction(y, p, -np.array(F))[:2]
     assert np.linalg.norm(u) == pytest.approx(1.0, rel=1e-14)
-    vdot = np.array(stickslip._slide(y, p, -mu * u[0], -mu * u[1], 0.0)[4][:2])
+    vdot = np.array(contact.slide(y, p, -mu * u[0], -mu * u[1], 0.0)[4][:2])
     s = float(vdot @ u)
     assert s > 0.0
     assert abs(u[0] * vdot[1] - u[1] * vdot[0]) < 1e-9 * np.linalg.norm(vdot)
@@ -551,7 +551,7 @@ def test_contensou_full_stick_after_the_spin_is_consumed():
     assert [s.reason for s in tr.switches] == ["stop"] and 3.4 < tr.switches[0].t < 3.7
     roll = tr.phase == "rolling"
     assert roll.sum() > 10 and np.all(roll[tr.t > tr.switches[0].t])
-    kin = stickslip._kinematics(tr.states[:, roll], tr.params)
+    kin = contact.kinematics(tr.states[:, roll], tr.params)
     assert np.max(np.abs(kin[1][2])) < 1e-6  # no spin about the normal (rad/s)
     assert np.max(np.hypot(tr.nu_x[roll], tr.nu_y[roll])) < 1e-8
     assert np.all(tr.margin[roll] >= 0.0)
@@ -629,18 +629,18 @@ def test_the_cone_decides_between_stop_and_reversal_at_the_band():
     for mu, inside in ((0.01, False), (5.0, True)):
         p = params(THESIS, mu)
         band = p[10]
-        y = stickslip._set_slip(stickslip.from_gliding(y0, p), p, np.array([0.5 * band, 0.0, 0.0]))
-        assert np.linalg.norm(stickslip._slip(y, p)) == pytest.approx(0.5 * band, rel=1e-6)
-        stop, rev = stickslip._stop_event(0.0, y, p), stickslip._reversal_event(0.0, y, p)
+        y = contact.set_slip(contact.from_gliding(y0, p), p, np.array([0.5 * band, 0.0, 0.0]))
+        assert np.linalg.norm(contact.slip(y, p)) == pytest.approx(0.5 * band, rel=1e-6)
+        stop, rev = contact.stop_event(0.0, y, p), contact.reversal_event(0.0, y, p)
         assert (stop < 0.0) == inside and (rev < 0.0) == (not inside)
         if not inside:
-            z = stickslip._reversal_jump(y, p)
-            slip = stickslip._slip(z, p)
+            z = contact.reversal_jump(y, p)
+            slip = contact.slip(z, p)
             assert np.linalg.norm(slip) == pytest.approx(2.0 * band, rel=1e-6)
-            u = stickslip._excess_direction(stickslip._set_slip(y, p, np.zeros(3)), p, np.ones(3))
+            u = contact.excess_direction(contact.set_slip(y, p, np.zeros(3)), p, np.ones(3))
             assert slip[:2] / np.linalg.norm(slip) == pytest.approx(u[:2], abs=1e-6)
             # λ is untouched by the impulses at A
-            ys = stickslip.to_gliding(np.c_[y, z], p)
+            ys = contact.to_gliding(np.c_[y, z], p)
             lam = gliding.MODEL.derive(ys, gliding.MODEL.params(THESIS, {}))["lam"]
             assert lam[1] == pytest.approx(lam[0], rel=1e-14)
 
@@ -660,7 +660,7 @@ def test_the_stop_is_located_where_the_slip_vanishes():
                         stopping_band=band * 1e-4)  # fmt: skip
     (sw,), (sr,) = tr.switches, ref.switches
     assert sw.reason == sr.reason == "stop"
-    rate = stickslip._slip_rate(tr.jumps[0][0], tr.params)  # at the band, before the impulse
+    rate = contact.slip_rate(tr.jumps[0][0], tr.params)  # at the band, before the impulse
     assert 0.0 < rate < math.inf
     assert sr.t - sw.t_event == pytest.approx(band / rate, rel=0.1)  # the band's bias, removed
     assert abs(sw.t - sr.t) <= band / (10.0 * rate)  # measured 2.4e-11 s of 1.2e-9 s

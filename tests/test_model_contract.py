@@ -19,6 +19,7 @@ import pytest
 import mett
 from mett.dynamics import MODELS, _kernels, simulate
 from mett.dynamics.registry import ACTIONS
+from mett.dynamics.resistance import RollingResistance
 
 TOP = mett.presets.get("rutstam2013")
 
@@ -333,6 +334,13 @@ class TestCoulombRegularised(ModelContract):
     name = "coulomb-regularised"
     states = (_SPUN, _SLIPPING)
     options = {"friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-2)}  # noqa: RUF012
+    bad_options = (({"friction": mett.friction.Coulomb(0.3)}, ValueError),)
+
+
+class TestRollingResistance(ModelContract):
+    name = "rolling-resistance"
+    states = (_SPUN, _SLIPPING)
+    options = {"friction": RollingResistance(1e-4)}  # noqa: RUF012
     bad_options = (({"friction": mett.friction.Coulomb(0.3)}, ValueError),)
 
 

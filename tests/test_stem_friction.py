@@ -16,7 +16,7 @@ import stop_bounds
 from scipy.integrate import solve_ivp
 
 import mett
-from mett.dynamics import simulate, stemslip, stickslip
+from mett.dynamics import contact, simulate, stemslip
 from mett.dynamics.stem import impact_frame
 from mett.friction import Coulomb
 
@@ -107,7 +107,7 @@ def test_rolling_phases_keep_the_contact_at_rest_inside_the_cone(run):
         if not sel.any():
             continue
         q = _geometry(run, on_stem)
-        slip = np.linalg.norm(stickslip.slip(run.states[:, sel], q), axis=0)
+        slip = np.linalg.norm(contact.slip(run.states[:, sel], q), axis=0)
         assert np.all(slip <= 2e-9), slip.max()  # the stopping band is 1.9e-9 m/s
         gn = run.gn[sel]
         assert np.all(gn > 0.0)

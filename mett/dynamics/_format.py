@@ -579,7 +579,7 @@ def _encode_option(name: str, v: Any) -> Any:
         return {"__dataclass__": _qualified_name(type(v)), "fields": fields}
     raise TypeError(
         f"option {name!r} must be a plain value (number, string, bool, None, list, dict or a "
-        f"friction law of mett.friction) to be saved; got {type(v).__name__}"
+        f"registered friction law) to be saved; got {type(v).__name__}"
     )
 
 
@@ -590,7 +590,7 @@ def _qualified_name(cls: type) -> str:
 def _saved_classes() -> dict[str, dict[str, type]]:
     """The only classes a trajectory file can name, by the name it uses: a file never chooses
     code to import or to call (no import by name, no attribute walk)."""
-    from ..friction import Coulomb, RegularisedCoulomb, Viscous
+    from ..friction import registered
     from ..stem import StemContactTop
     from ..top import TippeTop
     from .stickslip import Switch
@@ -600,7 +600,7 @@ def _saved_classes() -> dict[str, dict[str, type]]:
 
     return {
         "top": table(TippeTop, StemContactTop),
-        "option": table(Viscous, Coulomb, RegularisedCoulomb),
+        "option": table(*registered()),  # the registered friction laws
         "record": table(Switch),
     }
 

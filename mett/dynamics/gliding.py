@@ -41,7 +41,14 @@ from ._model import (
 )
 from .registry import Event, Model, register
 
-__all__ = ["MODEL", "gliding_core", "gliding_normal_force", "gliding_rhs", "gliding_series"]
+__all__ = [
+    "MODEL",
+    "gliding_core",
+    "gliding_normal_force",
+    "gliding_rhs",
+    "gliding_series",
+    "viscous_force",
+]
 
 N_STATE = 10
 
@@ -216,3 +223,31 @@ MODEL = register(
         friction=(type(None), Viscous, Coulomb, RegularisedCoulomb),
     )
 )
+
+
+def viscous_force(traj: Any, mu: float) -> dict[str, np.ndarray]:
+    """``F_x``, ``F_y`` = −μ g_n v_A (N, lab frame) and ``M_n`` = 0 of a viscous run.
+
+    So that a run with ``friction=Viscous(...)`` reports its friction force as the dry laws' runs
+    do (Rutstam 2013, thesis eq. (3)); v_A = (ν_x, ν_y) and g_n are the run's derived series.
+
+    Parameters
+    ----------
+    traj : mett.Trajectory
+        The finished run (not changed).
+    mu : float
+        The viscous coefficient μ (s/m) the run used (``top.mu``).
+
+    Returns
+    -------
+    dict
+        The three series by name, for :meth:`mett.Trajectory.with_extras`; empty for a model
+        without those series (no contact slip velocity).
+    """
+    try:
+        nu = np.stack([np.asarray(traj.nu_x, dtype=float), np.asarray(traj.nu_y, dtype=float)])
+        gn = np.asarray(traj.gn, dtype=float)
+    except AttributeError:
+        return {}
+    F, M = Viscous(mu).force(nu, gn)
+    return {"F_x": F[0], "F_y": F[1], "M_n": M}

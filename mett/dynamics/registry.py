@@ -59,12 +59,13 @@ for "no law given") that ``simulate(..., model=name, friction=law)`` accepts for
 default, ``(type(None), Viscous)``, is that of a model whose contact has no law of its own (the
 viscous law's μ replaces the top's). :func:`check_friction` refuses any other pairing, before
 any work, with one ``ValueError`` naming the model and what it needs, e.g. ``model 'coulomb'
-needs friction=mett.friction.Coulomb(mu); got None``.
+needs friction=mett.friction.Coulomb(mu); got None``. Which model runs a law is the law's
+(``law.model_for(name)``, :mod:`mett.friction`): a law accepted by the model it names (e.g.
+"gliding" asked with ``Coulomb(...)`` names "coulomb") passes here too.
 
-**Variants.** An option can change which equations run, not only their parameters (a friction
-law object choosing between the viscous model and a stick–slip hybrid): ``variant(options)``
-returns the model that runs instead, and :func:`mett.simulate` validates the options again
-against it.
+**Variants.** An option can change which equations run, not only their parameters:
+``variant(options)`` returns the model that runs instead, and :func:`mett.simulate` validates
+the options again against it.
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ from typing import Any
 
 import numpy as np
 
-from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
+from ..friction import Viscous, check_law, registered, spelling
 
 __all__ = [
     "ACTIONS",
@@ -248,8 +249,8 @@ class Model:
         ``start_phase(y0, p) -> str``: the phase at t = 0 (default: the first).
     variant : callable, optional
         ``variant(options) -> Model or None``: the model that actually runs for these validated
-        options (None: this one). E.g. "gliding" with ``friction=Coulomb(...)`` can hand over to a
-        hybrid stick–slip model; the variant must accept the same options.
+        options (None: this one); the variant must accept the same options. (A friction law
+        names its model itself, ``law.model_for``.)
     vectors : tuple of tuple of int
         Index tuples of state components that form one physical vector (a position, velocity,
         angular momentum, unit axis): the Taylor backend measures a vector's truncation error
@@ -308,10 +309,10 @@ class Model:
             raise ValueError(f"Model.name must be a non-empty str; got {self.name!r}")
         object.__setattr__(self, "friction", tuple(self.friction))
         for law in self.friction:
-            if law not in _LAW_SPELLING:
+            if law is not type(None) and law not in registered():
                 raise ValueError(
-                    f"model {self.name!r}: friction must list types among "
-                    f"{', '.join(c.__name__ for c in _LAW_SPELLING)}; got {law!r}"
+                    f"model {self.name!r}: friction must list None or registered law types "
+                    f"({', '.join(c.__name__ for c in registered())}); got {law!r}"
                 )
         if not getattr(self.derive, "chunked", False):
             object.__setattr__(self, "derive", _chunked(self.derive))
@@ -418,12 +419,9 @@ def lookup(model: str | Model) -> Model:
     return _REGISTRY[model]
 
 
-_LAW_SPELLING = {
-    type(None): "None (the top's mu)",
-    Viscous: "mett.friction.Viscous(mu)",
-    Coulomb: "mett.friction.Coulomb(mu)",
-    RegularisedCoulomb: "mett.friction.RegularisedCoulomb(mu, eps)",
-}
+def _spelled(law: type) -> str:
+    """How ``law`` (a registered law class, or ``type(None)``) is written in messages."""
+    return "None (the top's mu)" if law is type(None) else spelling(law)
 
 
 def check_friction(model: Model, law: Any) -> Any:
@@ -436,7 +434,11 @@ def check_friction(model: Model, law: Any) -> Any:
     """
     if isinstance(law, model.friction):
         return law
-    spelled = [_LAW_SPELLING[c] for c in model.friction]
+    if law is not None:  # a law that hands the run over to another model (its model_for)
+        target = _REGISTRY.get(law.model_for(model.name))
+        if target is not None and target is not model and isinstance(law, target.friction):
+            return law
+    spelled = [_spelled(c) for c in model.friction]
     needs = spelled[0] if len(spelled) == 1 else ", ".join(spelled[:-1]) + " or " + spelled[-1]
     verb = "takes" if type(None) in model.friction else "needs"
     owners = [m.name for m in _REGISTRY.values() if law is not None and isinstance(law, m.friction)]

@@ -26,7 +26,6 @@ test_dynamics_compiled.py).
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import inspect
 import math
@@ -43,6 +42,7 @@ from ..stem import StemmedTop
 from ..top import TippeTop
 from . import _run, backends
 from ._run import PreparedRun, Run
+from .gliding import viscous_force
 from .hybrid import MAX_SWITCHES, solve_hybrid
 from .registry import MODELS, Model, check_friction, lookup, validate_options
 from .trajectory import Trajectory
@@ -212,7 +212,7 @@ def simulate(
     method: str = "DOP853",
     backend: str = "auto",
     max_step: float = math.inf,
-    friction: Any = None,
+    friction: _friction.FrictionLaw | None = None,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
@@ -293,10 +293,10 @@ def simulate(
     friction : mett.friction law, optional
         The contact's friction law (:mod:`mett.friction`, ``docs/theory/friction.md``). Default:
         :class:`~mett.friction.Viscous` with ``top.mu``, today's runs unchanged
-        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, a "gliding" run
-        also carries the force ``F_x``, ``F_y``, ``M_n`` as below). A dry law selects the
-        registered model that declares the option ``friction`` and accepts it
-        (:mod:`mett.dynamics.stickslip`): :class:`~mett.friction.Coulomb` the hybrid
+        (``Viscous(mu)`` is the same run with ``top.mu = mu``; given explicitly, the run also
+        carries the force ``F_x``, ``F_y``, ``M_n`` as below). Any other law names the registered
+        model that runs it (``law.model_for(model)``, :mod:`mett.friction`; e.g.
+        :mod:`mett.dynamics.stickslip`): :class:`~mett.friction.Coulomb` the hybrid
         ``"coulomb"`` (exact stick–slip, phases "sliding"/"rolling"; ``"coulomb-contensou"`` with
         a contact radius), :class:`~mett.friction.RegularisedCoulomb` ``"coulomb-regularised"``
         (stiff: ``method="LSODA"`` or ``"Radau"``). They run on either backend, with user events;
@@ -304,6 +304,7 @@ def simulate(
         ``F_x``, ``F_y`` (N, lab frame), the torque ``M_n`` about the normal (N m), the cone
         ``margin`` (N) and ``switches`` (:class:`mett.dynamics.stickslip.Switch`). Their option
         ``stopping_band`` (m/s) defaults to 10 rtol × the start's velocity scale.
+        :class:`~mett.dynamics.resistance.RollingResistance` runs ``"rolling-resistance"``.
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -365,9 +366,13 @@ def simulate(
     prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
                     events=events, method=method, backend=backend, max_step=max_step,
                     friction=friction, **options)  # fmt: skip
-    if not isinstance(prep, PreparedRun):  # a run decided before the first step
-        return prep
-    return run_prepared(prep)
+    # a run decided before the first step is returned as it is
+    traj = run_prepared(prep) if isinstance(prep, PreparedRun) else prep
+    if friction is not None:
+        viscous_top, law = friction.applied(top)
+        if law is None:  # the top's viscous law, given explicitly: its force series
+            traj = traj.with_extras(viscous_force(traj, viscous_top.mu))
+    return traj
 
 
 SIMULATE_DEFAULTS = {
@@ -402,7 +407,7 @@ def prepare_run(
 ) -> PreparedRun | Trajectory:
     """Everything :func:`simulate` does before integrating: validation, the model that runs (its
     friction law and variant), the backend, parameters and start; a run decided at t = 0 (contact
-    lost, a guard, the viscous law's own run) is returned as its Trajectory."""  # fmt: skip
+    lost, a guard) is returned as its Trajectory; a law is applied first (never run here)."""  # fmt: skip
     mdl = lookup(model)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
@@ -427,26 +432,14 @@ def prepare_run(
     known = ("auto", *backends.REGISTRY)  # BACKENDS, and any backend registered since
     if backend not in known:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(known)}")
-    if friction is not None:
+    if friction is not None:  # the law decides the top and the model, before anything runs
         friction = _friction.check_law(friction)
         check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
-        if isinstance(friction, _friction.Viscous):
-            if friction.mu is not None:
-                top = dataclasses.replace(top, mu=friction.mu)
-            traj = simulate(
-                top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
-                events=events, method=method, backend=backend, max_step=max_step, **options,
-            )  # fmt: skip
-            if traj.model == "gliding":  # the force series, as dry-friction runs report them
-                from .stickslip import viscous_force
-
-                traj = traj.with_extras(viscous_force(traj))
-            return traj
-        # a dry law given to "gliding": the registered model that declares the option
-        # ``friction`` and runs the law ("coulomb", "coulomb-regularised", :mod:`.stickslip`)
-        if not _declares(mdl, "friction"):
-            mdl = _model_of_law(friction)
-        options = {**options, "friction": friction}
+        top, law = friction.applied(top)  # Viscous(mu): the top with that mu, no law left
+        if law is not None:
+            runs = law.model_for(mdl.name)  # the model given (also an unregistered one), or
+            mdl = mdl if runs == mdl.name else lookup(runs)  # the registered one the law names
+            options = {**options, "friction": law}
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
@@ -518,16 +511,3 @@ def run_prepared(prep: PreparedRun) -> Trajectory:
 
 def _declares(mdl: Model, option: str) -> bool:
     return any(o.name == option for o in mdl.options)
-
-
-def _model_of_law(law: Any) -> Model:
-    """The first registered model that declares the option ``friction`` and needs ``law``'s kind
-    (:attr:`Model.friction`; a model that also runs without a law, as "stemmed", is skipped)."""
-    for mdl in MODELS.values():
-        if (
-            _declares(mdl, "friction")
-            and type(None) not in mdl.friction
-            and isinstance(law, mdl.friction)
-        ):
-            return mdl
-    raise ValueError(f"no registered model runs friction={law!r}")

@@ -24,7 +24,7 @@ dv/dp = W (ẑ − μ v_t), W = 𝟙/m − [a×] I⁻¹ [a×], integrated until 
 (restitution e = 0: the end of compression). Energy changes by ∫ (v_z − μ|v_t|²) dp ≤ 0 (v_z < 0
 during compression). Momentum and angular momentum about G change by P and a × P.
 
-Under dry friction (``friction=Coulomb(...)``) the variant "stemmed-coulomb" of :mod:`.stemslip`
+Under dry friction (``friction=Coulomb(...)``) the model "stemmed-coulomb" of :mod:`.stemslip`
 runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the
 Coulomb law in the impulse equations.
 """
@@ -45,7 +45,6 @@ from .registry import (
     Option,
     Phase,
     friction_law,
-    lookup,
     positive_length,
     register,
 )
@@ -333,14 +332,6 @@ STEM_DISTANCE = Option(
 )
 
 
-def _dry_variant(options: dict) -> Model | None:
-    """friction=Coulomb(...): the stick–slip models of the stemmed top (:mod:`.stemslip`)."""
-    law = options["friction"]
-    if law is None:
-        return None
-    return lookup("stemmed-coulomb-contensou" if law.contensou_radius > 0 else "stemmed-coulomb")
-
-
 def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """``Model.finish``: the contact of each sample ("ball"/"stem", also for a run that ended
     at t = 0, before any phase ran) and ``touchdowns``, the times the stem touched down (s)."""
@@ -388,7 +379,6 @@ MODEL = register(
             ),
         ),
         start_phase=_start_phase,
-        variant=_dry_variant,
         finish=_finish,
     )
 )
@@ -396,7 +386,7 @@ MODEL = register(
 
 def stemmed_run(simulate: Any, top: Any, state: Any, t_end: float, **kw: Any) -> Any:
     """:func:`mett.simulate` of a :class:`~mett.stem.StemmedTop`: the "stemmed" model on its ball
-    with its stem (with ``friction=Coulomb(...)`` its dry-friction variant "stemmed-coulomb",
+    with its stem (with ``friction=Coulomb(...)`` the dry-friction model "stemmed-coulomb",
     :mod:`.stemslip`); the Trajectory also gets ``contact`` ("ball"/"stem" per sample) and
     ``touchdowns`` (the times the stem touched down, s; the models' ``finish``)."""
     model = kw.pop("model")
@@ -406,5 +396,5 @@ def stemmed_run(simulate: Any, top: Any, state: Any, t_end: float, **kw: Any) ->
         if kw.get(name) is not None:
             raise ValueError(f"{name} is given by the StemmedTop; do not pass it to simulate")
     kw.update(stem_radius=top.radius, stem_distance=top.distance)
-    # friction=Viscous runs this model with its μ; a dry law its variant "stemmed-coulomb"
+    # friction=Viscous runs this model with its μ; a dry law "stemmed-coulomb" (its model_for)
     return simulate(top.ball, state, t_end, model=MODEL, **kw)

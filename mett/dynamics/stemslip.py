@@ -2,10 +2,11 @@
 "stemmed-coulomb-contensou" (docs/theory/stem.md#dry-friction).
 
 ``mett.simulate(top.with_stem(...), state, t_end, friction=Coulomb(...))`` runs this hybrid model
-(the ``variant`` of "stemmed", :mod:`.stem`). It is the stemmed top of :mod:`.stem` (state: that
-of :mod:`.stickslip`, with the Jellett integral of the sphere in contact in place of L_z, plus the
-contact flag ``y[10]``, 0 ball, 1 stem) with the exact stick–slip of
-:mod:`.stickslip` on whichever sphere touches: four phases, the contact × the friction phase,
+(the one :meth:`mett.friction.Coulomb.model_for` names for "stemmed", :mod:`.stem`). It is the
+stemmed top of :mod:`.stem` (state: that of :mod:`.stickslip`, with the Jellett integral of the
+sphere in contact in place of L_z, plus the contact flag ``y[10]``, 0 ball, 1 stem) with the
+exact stick–slip of :mod:`.stickslip` on whichever sphere touches: four phases, the contact ×
+the friction phase,
 
     "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling".
 
@@ -32,7 +33,7 @@ the tangential part of that impulse. The energy changes by ∫ (v_z − μ|γ|) 
 compression); the new contact's Jellett integral −L·a is unchanged (an impulse at the contact
 point has no moment about it: (a × P)·a = 0; Contensou's Q changes it as its torque does); the
 normal velocity of the new contact is 0 afterwards. The friction phase after the impact is
-chosen by the slip it leaves (:func:`mett.dynamics.stickslip.settle`): a slip within the stopping
+chosen by the slip it leaves (:func:`mett.dynamics.contact.settle`): a slip within the stopping
 band (a sticking impact) starts rolling if the cone holds, else sliding.
 
 The trajectory (``Model.finish``) carries ``contact`` ("ball"/"stem") and ``phase``
@@ -54,19 +55,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..friction import Coulomb
+from . import contact as dry
 from . import stem, stickslip
-from .registry import (
-    Event,
-    JumpFailed,
-    Model,
-    Option,
-    Phase,
-    friction_law,
-    positive_length,
-    register,
-)
-from .stem import apply_impulse, ball_clearance, impact_frame, stem_clearance
-from .stickslip import (
+from .contact import (
     cone_event,
     cone_jump,
     reversal_event,
@@ -78,6 +69,17 @@ from .stickslip import (
     stop_event,
     stop_jump,
 )
+from .registry import (
+    Event,
+    JumpFailed,
+    Model,
+    Option,
+    Phase,
+    friction_law,
+    positive_length,
+    register,
+)
+from .stem import apply_impulse, ball_clearance, impact_frame, stem_clearance
 
 __all__ = ["CONTENSOU", "MODEL", "dry_impulse", "impact"]
 
@@ -292,14 +294,14 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray, fl
     else:
         P, Q, _ = dry_impulse(f, p[0], p[6], p[7])
     after = apply_impulse(y, f, p[0], P, to, Q)  # on the new contact (its flag set)
-    return _converted(after, p, stickslip.from_gliding), P, Q
+    return _converted(after, p, dry.from_gliding), P, Q
 
 
 def _impact_to(to: str) -> Any:
     """The jump of a change of contact: the impact, then the slip settled on the new contact."""
 
     def jump(y: np.ndarray, p: tuple) -> np.ndarray:
-        return stickslip.settle(impact(y, p, to)[0], _contact(p, to == "stem"))
+        return dry.settle(impact(y, p, to)[0], _contact(p, to == "stem"))
 
     return jump
 
@@ -307,14 +309,14 @@ def _impact_to(to: str) -> Any:
 def _select(y: np.ndarray, p: tuple) -> str:
     """The phase after an impact: the new contact, rolling if its slip was settled."""
     on_stem = y[10] > 0.5
-    return ("stem-" if on_stem else "ball-") + stickslip.start_phase(y, _contact(p, on_stem))
+    return ("stem-" if on_stem else "ball-") + dry.start_phase(y, _contact(p, on_stem))
 
 
 # --- conversions and the trajectory's series ---------------------------------------------------
 
 
 def _converted(Y: Any, p: tuple, convert: Any) -> np.ndarray:
-    """``convert`` (:func:`~mett.dynamics.stickslip.to_gliding` or ``from_gliding``) applied to
+    """``convert`` (:func:`~mett.dynamics.contact.to_gliding` or ``from_gliding``) applied to
     each state of ``Y`` (shape (11,) or (11, k)) with the geometry of its own contact."""
     Y = np.asarray(Y, dtype=float)
     if Y.ndim == 1:
@@ -329,7 +331,7 @@ def _converted(Y: Any, p: tuple, convert: Any) -> np.ndarray:
 
 def _lz(Y: Any, p: tuple) -> np.ndarray:
     """The states of the viscous stemmed model (:mod:`.stem`: L_z in row 6) of states ``Y``."""
-    return _converted(Y, p, stickslip.to_gliding)
+    return _converted(Y, p, dry.to_gliding)
 
 
 def _params(top: Any, options: dict) -> tuple:
@@ -339,8 +341,8 @@ def _params(top: Any, options: dict) -> tuple:
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
     """The stemmed state on the lower sphere; a slip within the band settled there."""
-    y = _converted(stem.MODEL.initial(state, _viscous(p)), p, stickslip.from_gliding)
-    return stickslip.settle(y, _contact(p, y[10] > 0.5))
+    y = _converted(stem.MODEL.initial(state, _viscous(p)), p, dry.from_gliding)
+    return dry.settle(y, _contact(p, y[10] > 0.5))
 
 
 def _rolling(Y: np.ndarray, p: tuple, on_stem: np.ndarray) -> np.ndarray:
@@ -348,7 +350,7 @@ def _rolling(Y: np.ndarray, p: tuple, on_stem: np.ndarray) -> np.ndarray:
     out = np.zeros(on_stem.shape, dtype=bool)
     for mask, q in ((~on_stem, _ball(p)), (on_stem, _stem(p))):
         if mask.any():
-            out[mask] = stickslip.rolling_guess(Y[:, mask], q)
+            out[mask] = dry.rolling_guess(Y[:, mask], q)
     return out
 
 
@@ -361,7 +363,7 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
     out: dict[str, np.ndarray] = {}
     for mask, q in ((~on, _ball(p)), (on, _stem(p))):
         if mask.any():
-            part = stickslip.contact_quantities(Y[:, mask], q, rolling[mask])
+            part = dry.contact_quantities(Y[:, mask], q, rolling[mask])
             for k, v in part.items():
                 out.setdefault(k, np.empty(Y.shape[1], dtype=np.asarray(v).dtype))[mask] = v
     return out
@@ -418,14 +420,14 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
             Pt = math.hypot(P[0], P[1], Q / p[7]) if p[7] > 0.0 else math.hypot(P[0], P[1])
             mu_pn = p[6] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
             margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
-            speed = float(np.linalg.norm(stickslip.slip(y_imp, q)))
+            speed = float(np.linalg.norm(dry.slip(y_imp, q)))
         else:
             why = _REASONS[(f0, f1)]
-            y_dec = y_ev if why == "cone" else stickslip.set_slip(y_ev, q, np.zeros(3))
-            gn, _, m = stickslip.required(y_dec, q)
+            y_dec = y_ev if why == "cone" else dry.set_slip(y_ev, q, np.zeros(3))
+            gn, _, m = dry.required(y_dec, q)
             margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan
-            speed = float(np.linalg.norm(stickslip.slip(y_ev, q)))
-        t_sw = stickslip.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
+            speed = float(np.linalg.norm(dry.slip(y_ev, q)))
+        t_sw = dry.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
         records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
     touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
     return series, {"switches": records, "touchdowns": touchdowns, "stopping_band": p[10]}
@@ -529,7 +531,6 @@ MODEL = register(
             ),
         ),
         start_phase=_start_phase,
-        variant=lambda options: CONTENSOU if options["friction"].contensou_radius > 0 else None,
         finish=_finish,
     )
 )
@@ -545,7 +546,6 @@ CONTENSOU = register(
             "disc), exact stick–slip on the ball or the stem, Darboux–Keller impacts "
             "(docs/theory/stem.md#dry-friction; Leine & Glocker 2003)"
         ),
-        variant=None,
     )
 )
 """The stemmed top under Coulomb–Contensou friction (``friction=Coulomb(mu, contensou_radius=r)``,
