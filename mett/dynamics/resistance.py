@@ -184,13 +184,13 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     return sc
 
 
-def _finish(traj: Any) -> None:
-    """The contact force per sample, as every law reports it: ``F_x``, ``F_y`` (N, lab frame) and
-    ``M_n`` = 0 (N m); the couple is :meth:`RollingResistance.torque` of the run's ω_h."""
+def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``Model.finish``: the contact force per sample, as every law reports it: ``F_x``, ``F_y``
+    (N, lab frame) and ``M_n`` = 0 (N m); the couple is :meth:`RollingResistance.torque` of the
+    run's ω_h."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         F = wrench(np.asarray(traj.states, dtype=float), traj.params)[2]
-    traj.F_x, traj.F_y, traj.M_n = F[0], F[1], np.zeros_like(F[0])
-    traj.extra = (*traj.extra, "F_x", "F_y", "M_n")
+    return {"F_x": F[0], "F_y": F[1], "M_n": np.zeros_like(F[0])}, {}
 
 
 MODEL = register(
