@@ -803,7 +803,7 @@ def _build_parser() -> argparse.ArgumentParser:
     friction_help = (
         "the contact's friction law (default: viscous with the top's mu): one of "
         + ", ".join(f"{f.spelled(n)} [{', '.join(f.units)}]" for n, f in LAWS.items())
-        + "; a dry law runs the dry-friction model"
+        + "; a law other than viscous runs the model made for it (e.g. coulomb: the dry-friction model)"
     )
     stem_help = (
         "a stem (mett.TippeTop.with_stem): its sphere's radius and the distance from the ball's "
