@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -38,9 +38,19 @@ __all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
 
 METHODS = ("gyroscopic",)
 
+
 # The box of the verification table (docs/theory/inversion.md#verification): outside it the
 # prediction is flagged. Set from the table, not the reverse.
-VERIFIED = {
+class _Verified(TypedDict):
+    laws: tuple[str, ...]
+    theta0: tuple[float, float]  # rad
+    theta0_moving_cm: float  # rad
+    spin_ratio: tuple[float, float]  # λ/λ_thres
+    epsilon: float  # T_n/t_half
+    start: str
+
+
+VERIFIED: _Verified = {
     "laws": ("viscous",),
     "theta0": (0.01, 0.25),
     "theta0_moving_cm": 0.03,
