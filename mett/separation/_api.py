@@ -6,7 +6,7 @@ compare with). Both run the same array algorithms, the per-element path on one e
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -499,7 +499,8 @@ def band(
             str(kinds[0]), float(z_low[0]), float(z_high[0]), float(z_min[0]), float(depth[0])
         )
     # arrays of the broadcast shape in the fields (Band annotates one element's types)
-    return Band._make(a.reshape(sol.shape) for a in (kinds, z_low, z_high, z_min, depth))
+    arrays: list[Any] = [a.reshape(sol.shape) for a in (kinds, z_low, z_high, z_min, depth)]
+    return Band(*arrays)
 
 
 def minima(top: TippeTop, D: float, lam: float) -> list[float]:
