@@ -133,4 +133,5 @@ def install() -> None:
         return
     if not all(hasattr(base, n) for n in (*_HOOKS, "_open_for_write")):  # pragma: no cover
         return
-    caching.IndexDataCacheFile = _checked_class(base)
+    # replaces numba's class on purpose (its subclass with the checks)
+    caching.IndexDataCacheFile = _checked_class(base)  # type: ignore[misc, assignment]

@@ -27,7 +27,7 @@ import textwrap
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from . import __version__, presets
 from .top import TippeTop
@@ -61,7 +61,7 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = _NEGATIVE_NUMBER  # argparse's hook for "is a number"
 
-    def error(self, message: str) -> None:  # one line, exit 2
+    def error(self, message: str) -> NoReturn:  # one line, exit 2
         self.exit(2, f"mett: error: {_one_line(message)}\n")
 
 
@@ -71,7 +71,7 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
     def _get_help_string(self, action: argparse.Action) -> str:
         if action.default is None or action.default is False or action.help is None:
             return action.help or ""
-        return super()._get_help_string(action)
+        return super()._get_help_string(action) or ""
 
     def _split_lines(self, text: str, width: int) -> list[str]:
         # argparse's own, without breaking at hyphens: a law's name (rolling-resistance:MU_R,MU)
@@ -753,7 +753,9 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         "notes": list(v.notes),
     }
     if args.json:
-        out = {k: (_json_number(x) if isinstance(x, float) else x) for k, x in values.items()}
+        out: dict[str, Any] = {
+            k: (_json_number(x) if isinstance(x, float) else x) for k, x in values.items()
+        }
         out["units"] = {"t_start": "s", "t_half": "s", "t_inv": "s", "tol": "rad"}
         _print_json(out)
         return 0

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING, Any
 from ._validate import MettWarning
 
 if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
+
     from .top import TippeTop
 
 __all__ = [
@@ -55,7 +57,7 @@ DEFAULT_DPI = 110
 """Resolution (dots per inch) of the PNG figures by default; 300 is print quality. The vector
 formats store the dpi only for the few rasterised parts."""
 
-STYLE = {
+STYLE: dict[RcKeyType, Any] = {
     "figure.figsize": (6.4, 4.4),
     "lines.linewidth": 1.0,
     "svg.hashsalt": "mett",

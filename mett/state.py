@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -37,12 +38,24 @@ class State:
         the thesis start; :meth:`with_cm_at_rest` gives the other common start.
     """
 
-    theta: ArrayLike
-    thetadot: ArrayLike = 0.0
-    phidot: ArrayLike = 0.0
-    omega3: ArrayLike = 0.0
-    nu_x: ArrayLike = 0.0
-    nu_y: ArrayLike = 0.0
+    theta: float | np.ndarray
+    thetadot: float | np.ndarray = 0.0
+    phidot: float | np.ndarray = 0.0
+    omega3: float | np.ndarray = 0.0
+    nu_x: float | np.ndarray = 0.0
+    nu_y: float | np.ndarray = 0.0
+
+    if TYPE_CHECKING:  # what the dataclass's generated constructor takes, for type checkers
+
+        def __init__(
+            self,
+            theta: ArrayLike,
+            thetadot: ArrayLike = 0.0,
+            phidot: ArrayLike = 0.0,
+            omega3: ArrayLike = 0.0,
+            nu_x: ArrayLike = 0.0,
+            nu_y: ArrayLike = 0.0,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         plain = [getattr(self, name) for name in _FIELDS]

@@ -19,7 +19,7 @@ import dataclasses
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
@@ -41,7 +41,7 @@ __all__ = [
     "write_trajectory_csv",
 ]
 
-ENGINE = "scipy"  # netCDF-3 classic, written and read by scipy.io (no extra binary)
+ENGINE: Final = "scipy"  # netCDF-3 classic, written and read by scipy.io (no extra binary)
 
 
 _TOP_UNITS = {"m": "kg", "R": "m", "alpha": "1", "I1": "kg m^2", "I3": "kg m^2", "mu": "s/m",
@@ -95,7 +95,7 @@ def _friction_text(law: Any, top: Any) -> str:
 
 
 def _law_fields(law: Any) -> dict[str, tuple[float, str]]:
-    if law is None or not dataclasses.is_dataclass(law):
+    if law is None or not dataclasses.is_dataclass(law) or isinstance(law, type):
         return {}
     units = _LAW_UNITS.get(type(law).__name__, {})
     return {
@@ -106,7 +106,7 @@ def _law_fields(law: Any) -> dict[str, tuple[float, str]]:
 
 
 def _top_fields(top: Any) -> dict[str, float]:
-    if top is None or not dataclasses.is_dataclass(top):
+    if top is None or not dataclasses.is_dataclass(top) or isinstance(top, type):
         return {}
     return {
         k: float(v)
@@ -272,16 +272,16 @@ def trajectory_to_xarray(traj: Any, **run: Any) -> xr.Dataset:
         if values.shape != t.shape:
             continue
         unit, long_name = SERIES_UNITS.get(name, ("", name))
-        attrs = {"long_name": long_name}
+        var_attrs = {"long_name": long_name}
         if values.dtype.kind in "fi":
-            attrs["units"] = unit or "1"
+            var_attrs["units"] = unit or "1"
             values = values.astype(float)
         else:
             values = values.astype(str)
-        data_vars[name] = ("t", values, attrs)
-    for k, te in enumerate(getattr(traj, "t_events", [])):
-        data_vars[f"t_events_{k}"] = (f"event_{k}", np.asarray(te, dtype=float),
-                                      {"units": "s", "long_name": f"times of user event {k}"})  # fmt: skip
+        data_vars[name] = ("t", values, var_attrs)
+    for n, te in enumerate(getattr(traj, "t_events", [])):
+        data_vars[f"t_events_{n}"] = (f"event_{n}", np.asarray(te, dtype=float),
+                                      {"units": "s", "long_name": f"times of user event {n}"})  # fmt: skip
     attrs: dict[str, Any] = {
         "title": f"mett trajectory ({traj.model})",
         "source": f"mett {__version__}",
@@ -383,10 +383,10 @@ def sweep_to_xarray(table: pd.DataFrame, dims: Sequence[str] | None = None) -> x
     order = {d: list(dict.fromkeys(table[d].tolist())) for d in dims}
     ds = xr.Dataset.from_dataframe(frame).reindex(order)
     for name in ds.variables:
-        attrs = {"long_name": _SWEEP_NAMES.get(str(name), str(name))}
+        var_attrs = {"long_name": _SWEEP_NAMES.get(str(name), str(name))}
         if str(name) in _SWEEP_UNITS and ds[name].dtype.kind in "fiu":
-            attrs["units"] = _SWEEP_UNITS[str(name)]
-        ds[name].attrs.update(attrs)
+            var_attrs["units"] = _SWEEP_UNITS[str(name)]
+        ds[name].attrs.update(var_attrs)
     attrs: dict[str, Any] = {
         "title": "mett sweep",
         "mett_version": meta.get("mett_version", __version__),

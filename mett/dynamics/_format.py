@@ -42,7 +42,7 @@ import typing
 import warnings
 import zipfile
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -127,7 +127,8 @@ def save(traj: Trajectory, path: str | os.PathLike, series: Sequence[str]) -> Pa
             arrays[f"record_{name}"] = array
     text = json.dumps(meta)
     entries = {_META_KEY: np.array(text), **arrays}
-    _write_atomically(target, lambda fh: np.savez_compressed(fh, **entries))
+    # numpy's stub lets the keyword arrays reach allow_pickle (bool): a stub limitation
+    _write_atomically(target, lambda fh: np.savez_compressed(fh, **entries))  # type: ignore[arg-type]
     return given
 
 
@@ -135,7 +136,7 @@ def _slopes(traj: Trajectory) -> Any:
     """The right-hand side of ``traj``'s model (phase by phase) at states, for a dense output
     stored as Hermite data."""
     mdl = traj._model
-    table = {ph.name: ph.rhs for ph in mdl.phase_table()}
+    table: dict[str | None, Callable[..., Any]] = {ph.name: ph.rhs for ph in mdl.phase_table()}
 
     def slopes(phase: str | None, ts: np.ndarray, Y: np.ndarray) -> np.ndarray:
         rhs = table.get(phase, mdl.rhs)
@@ -222,6 +223,8 @@ def _from_saved(cls: type, meta: dict, archive: _Archive, all_series: tuple[str,
     series = _names(meta.get("series", []), "series", all_series)
     n_events = _integer(meta.get("n_events"), "n_events", 0, 10_000)
     rtol = t_end = None
+    extras_meta: dict[str, str] = {}
+    records_meta: dict[str, Any] = {}
     if version >= 3:
         rtol, t_end = meta.get("rtol"), meta.get("t_end")
         rtol = None if rtol is None else _number(rtol, "rtol")
@@ -229,9 +232,10 @@ def _from_saved(cls: type, meta: dict, archive: _Archive, all_series: tuple[str,
         if rtol is not None and not 0.0 < rtol < 1.0:
             raise _Refused(f"rtol must lie in (0, 1); got {rtol!r}")
         extras_meta = _kinds(meta.get("extras"))
-        records_meta = meta.get("records")
-        if not isinstance(records_meta, dict) or len(records_meta) > _MAX_NAMES:
+        saved_records = meta.get("records")
+        if not isinstance(saved_records, dict) or len(saved_records) > _MAX_NAMES:
             raise _Refused(f"records must be an object of at most {_MAX_NAMES} entries")
+        records_meta = saved_records
         for name in records_meta:
             _public_name(name, "a record's name")
     else:
@@ -394,7 +398,7 @@ def _decode_item(item: Any, span: tuple[float, float]) -> Any:
             else _number(x, "a record item's number", finite=False)
             for x in values
         )  # fmt: skip
-    cls = _saved_class(item["type"], "record")
+    cls = _saved_record(item["type"])
     fields = item.get("fields")
     if not isinstance(fields, dict) or set(fields) != set(cls._fields) or set(item) != {
         "type", "fields"
@@ -407,8 +411,9 @@ def _decode_item(item: Any, span: tuple[float, float]) -> Any:
         for k, x in fields.items()
     }  # fmt: skip
     record = cls(**kwargs)
-    if "t" in kwargs and not span[0] <= kwargs["t"] <= span[1]:
-        raise _Refused(f"a record at t = {kwargs['t']!r} s lies outside the run")
+    t = kwargs.get("t")  # a number (_number): the fields' hints are str or float
+    if isinstance(t, float) and not span[0] <= t <= span[1]:
+        raise _Refused(f"a record at t = {t!r} s lies outside the run")
     return record
 
 
@@ -625,6 +630,11 @@ def _saved_class(name: Any, what: str) -> type:
     return table[name]
 
 
+def _saved_record(name: Any) -> Any:
+    """The record class a file names (a :class:`typing.NamedTuple`: ``_fields``, keywords)."""
+    return _saved_class(name, "record")
+
+
 def _encode_switch(sw: Any) -> dict:
     """A switch of a hybrid run (a (t, before, after) tuple or a mett record) as JSON."""
     if hasattr(sw, "_asdict"):
@@ -813,7 +823,7 @@ class _Archive:
                     f"entry {key!r} declares {info.file_size} bytes for {nbytes} of data"
                 )
             flat = np.empty(count, dtype=dtype)
-            view = memoryview(flat.view(np.uint8))
+            view = flat.view(np.uint8).data
             pos = 0
             while pos < nbytes:
                 chunk = fp.read(min(2**20, nbytes - pos))
@@ -969,7 +979,7 @@ def _decode_switch(item: Any, phases: tuple[str, ...], span: tuple[float, float]
             raise _Refused(f"a switch must be [t, before, after]; got {_short(item)}")
         record: tuple = (_number(values[0], "a switch time"), values[1], values[2])
     else:
-        cls = _saved_class(item["type"], "record")
+        cls = _saved_record(item["type"])
         fields = item.get("fields")
         if not isinstance(fields, dict) or set(fields) != set(cls._fields):
             raise _Refused(
@@ -1021,7 +1031,7 @@ def _dense_entries(desc: Any, phases: tuple[str, ...], max_parts: int) -> list[s
     return [f"dense_{a}" for a in ARRAYS[kind]]
 
 
-def _decode_dense(desc: dict, archive: _Archive, n: int) -> Any:
+def _decode_dense(desc: Any, archive: _Archive, n: int) -> Any:
     """The dense output (checked by :func:`_dense_entries`) with every array's shape fixed by
     its times and the state size ``n``, its times in order and its steps positive."""
     if desc["kind"] != "segments":

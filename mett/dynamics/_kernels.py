@@ -26,6 +26,7 @@ from __future__ import annotations
 import hashlib
 import types
 from collections.abc import Callable
+from typing import Any
 
 import numba
 from numba.core.dispatcher import Dispatcher
@@ -73,7 +74,7 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     # the cache files are named after the qualname; the version tag keeps machine code compiled
     # with other options (numba's cache key ignores them) from being loaded
     clone.__qualname__ = f"{fn.__qualname__}__{_CACHE_TAG}{_foreign_tag(deps, fn)}"
-    options = {"inline": "always"} if inline else {}
+    options: dict[str, Any] = {"inline": "always"} if inline else {}
     _JITTED[key] = out = numba.njit(cache=True, error_model="numpy", **options)(clone)
     _DEPS[out] = frozenset(deps)
     return out
@@ -152,6 +153,11 @@ def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable
     if key not in _COMPILED:
         rhs = ph.rhs_into
         if not isinstance(rhs, Dispatcher):
+            if not isinstance(rhs, types.FunctionType):
+                raise TypeError(
+                    f"rhs_into of model {model.name!r} must be a Python function or a numba "
+                    f"function; got {type(rhs).__name__}"
+                )
             rhs = _jit(rhs)
         name = model.name if not ph.name else f"{model.name}_{ph.name}"
         _COMPILED[key] = (rhs, _events_kernel(name, ph.events))

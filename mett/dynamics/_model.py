@@ -92,16 +92,15 @@ def lab_vectors(state: State, R: float, l: float) -> dict[str, np.ndarray]:
     The CM velocity is ṙ = ν − ω × a (a = l 3̂ − R ẑ); its vertical part is then automatically the
     rate of change of the CM height R − l cosθ.
     """
-    # State declares its fields ArrayLike (what its constructor takes); a scalar State holds floats
-    th = float(state.theta)  # type: ignore[arg-type]
+    th = float(state.theta)
     # exact poles: sin(pi) is 1.2e-16 in floating point, which would tilt the axis by that much
     s = 0.0 if th in (0.0, math.pi) else math.sin(th)
     c = math.cos(th)
-    phd, thd, w3 = float(state.phidot), float(state.thetadot), float(state.omega3)  # type: ignore[arg-type]
+    phd, thd, w3 = float(state.phidot), float(state.thetadot), float(state.omega3)
     # written out in floats (a start is one state; numpy on 3-vectors cost 20 µs a run):
     # e1 = 2̂ × 3̂ = (0, −c, −s), ω = −φ̇ s e1 + θ̇ 2̂ + ω3 3̂, ν = ν_x x̂ + ν_y 2̂, a = l 3̂ − R ẑ
     w = (thd, phd * s * c - w3 * s, phd * s * s + w3 * c)
-    nu = (float(state.nu_y), -float(state.nu_x), 0.0)  # type: ignore[arg-type]
+    nu = (float(state.nu_y), -float(state.nu_x), 0.0)
     a = (0.0, -l * s, l * c - R)
     wa = (w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0])
     v = (nu[0] - wa[0], nu[1] - wa[1], nu[2] - wa[2])

@@ -49,7 +49,7 @@ _check_numba_cache()
 try:  # the C functions behind signal.getsignal/signal: those convert to enums, 12 µs a call
     import _signal as _sig
 except ImportError:  # pragma: no cover (another Python implementation)
-    _sig = signal  # type: ignore[assignment]
+    _sig = signal
 
 __all__ = ["deferred_sigint", "new_stop", "poll", "raise_pending"]
 
@@ -61,7 +61,7 @@ _fetch = types.ExternalFunction(
 )
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False)  # type: ignore[call-overload]  # numba's stub omits _nrt
 def poll(stop):
     """True if the run must stop: a SIGINT was noted (``stop[0]`` set by the deferred handler) or
     a Python signal handler raised (its exception is then held in ``stop[1:4]``)."""
@@ -97,7 +97,9 @@ class deferred_sigint:
     __slots__ = ("mine", "outer", "stop")
 
     def __init__(self, stop: np.ndarray) -> None:
-        self.stop, self.outer, self.mine = stop, None, None
+        self.stop = stop
+        self.outer: Any = None  # the handler replaced (a callable, SIG_DFL/SIG_IGN or None)
+        self.mine: _NoteSigint | None = None
 
     def __enter__(self) -> None:
         if threading.get_ident() != threading.main_thread().ident:

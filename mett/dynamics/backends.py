@@ -43,6 +43,9 @@ __all__ = [
     "register",
 ]
 
+_MODEL_TERMINAL = 1
+"""solve_ivp's ``terminal`` of every model event on the scipy backend: its first zero ends the run."""
+
 
 class UserEventError(Exception):
     """Carries an exception raised by a user event out of solve_ivp, to re-raise it unchanged."""
@@ -126,7 +129,7 @@ def _solve_scipy(run: Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, event
             # event that vanishes where its phase begins must not switch straight back)
             return math.nan if value == 0.0 and t == t0 else value
 
-        model_event.terminal = 1  # type: ignore[attr-defined]
+        model_event.terminal = _MODEL_TERMINAL  # type: ignore[attr-defined]
         model_event.direction = ev.direction  # type: ignore[attr-defined]
         all_events.append(model_event)
     n_internal = len(all_events)
@@ -193,7 +196,7 @@ def _solve_scipy(run: Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, event
             t_out = np.append(t_eval_arr[t_eval_arr < sol.t_max], sol.t_max)
             Y = np.asarray(sol(t_out), dtype=float).reshape(y0.size, -1)
         msg = f"{failed} at t = {sol.t_max:.9g} s: {reason}"
-        kw = {"t_events": events.result(sol.t_max) if events else [], "nfev": 0}
+        kw: dict[str, Any] = {"t_events": events.result(sol.t_max) if events else [], "nfev": 0}
         return run.result(t_out, Y, sol, "failed", msg, **kw)
 
     sol = res.sol
@@ -211,9 +214,9 @@ def _solve_scipy(run: Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, event
         Y = np.hstack([Y[:, keep], np.asarray(sol(t_stop), dtype=float).reshape(-1, 1)])
     t_events = [np.asarray(te, dtype=float) for te in (res.t_events or [])][:n_internal]
     by_model = [
-        (te[ev.terminal - 1], i)
-        for i, (te, ev) in enumerate(zip(t_events, all_events, strict=False))
-        if res.status == 1 and te.size >= ev.terminal
+        (te[_MODEL_TERMINAL - 1], i)
+        for i, te in enumerate(t_events)
+        if res.status == 1 and te.size >= _MODEL_TERMINAL
     ]
     user_stop = None
     if events:
@@ -232,7 +235,7 @@ def _solve_scipy(run: Run, *, t_end, rtol, atol_arr, t_eval_arr, max_step, event
                 Y = np.hstack([Y[:, keep], np.asarray(sol(t_u), dtype=float).reshape(-1, 1)])
             t_stop = t_u
 
-    kw: dict[str, Any] = {"t_events": events.result(t_stop) if events else [], "nfev": res.nfev}
+    kw = {"t_events": events.result(t_stop) if events else [], "nfev": res.nfev}
     if user_stop is not None:
         msg = f"stopped by terminal event {user_stop} at t = {t_stop:.9g} s"
         return run.result(t_out, Y, sol, "completed", msg, **kw)
@@ -283,6 +286,7 @@ def _solve_compiled(
         max_steps=max_steps,
     )
     dense = sol.dense
+    assert dense is not None  # dop853.solve stores the dense output unless told not to
     t_stop = float(sol.t_steps[-1])
     failure = None
     if sol.status < 0:
@@ -579,7 +583,17 @@ class _Adapter:
         )  # fmt: skip
 
     @staticmethod
-    def _solve(run: Run, **kw: Any) -> Piece:  # pragma: no cover - abstract
+    def _solve(
+        run: Run,
+        *,
+        t_end: float,
+        rtol: float,
+        atol_arr: np.ndarray,
+        t_eval_arr: np.ndarray | None,
+        max_step: float,
+        events: UserEvents | None,
+        method: str,
+    ) -> Piece:  # pragma: no cover - abstract
         raise NotImplementedError
 
 
@@ -651,6 +665,8 @@ class TaylorBackend(_Adapter):
         from . import taylor
 
         mdl = prep.model
+        if mdl.cos_theta is None:
+            raise ValueError(f"model {mdl.name!r} declares no cos_theta: not batchable")
         return taylor.kernel_for(
             mdl, prep.phase, prep.rtol, prep.params, lanes, n_state=prep.y0.size,
             record=[mdl.cos_theta],

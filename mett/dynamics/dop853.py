@@ -127,7 +127,7 @@ _fn = types.FunctionType(FUNCTION_SIGNATURE)
 # Helpers that only read and write existing arrays are compiled without the numba runtime (NRT):
 # with it, every call boundary and array view costs an atomic incref/decref pair, which made up
 # about a third of the time of a step (2.1 -> 1.5 us per step for a 12-dimensional linear ODE).
-_njit_nort = numba.njit(cache=True, _nrt=False)
+_njit_nort = numba.njit(cache=True, _nrt=False)  # type: ignore[call-overload]  # numba's stub omits _nrt
 
 
 @_njit_nort
@@ -1070,6 +1070,7 @@ def solve(
         rtol_arr = np.maximum(rtol_arr, 100 * _EPS)
     atol_arr = _per_component("atol", atol, n)
 
+    ev_fn: Callable[..., Any]
     if events is None:
         n_events = 0
         ev_fn = _no_events
@@ -1144,6 +1145,7 @@ def solve(
         if status == MAX_STEPS:
             message = f"Maximum number of steps ({max_steps}) reached (at t = {t_last!r})."
     if te is not None:
+        assert dense is not None  # stored whenever there are event times
         te = te[sign * te <= sign * t_last]
         t_out, y_out = te, dense(te)
     else:

@@ -52,9 +52,10 @@ def solve_hybrid(
         nfev += seg.kw.get("nfev", 0)
         sols.append(seg.sol)
         seg_phases.append(run.phase.name)
-        last = run.switch is None or len(switches) >= MAX_SWITCHES
-        if not last:
-            index, t_sw = run.switch
+        switch = run.switch
+        last = switch is None or len(switches) >= MAX_SWITCHES
+        if switch is not None and not last:
+            index, t_sw = switch
             ev = run.phase.events[index]
             y_ev = np.asarray(seg.sol(t_sw), dtype=float)
             y_sw, target = y_ev, ev.target

@@ -19,14 +19,16 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any
+from collections.abc import Sequence
+from typing import TypedDict
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import _validate
 from ..asymptotics import high_spin
 from ..classification import asymptotic_state
-from ..friction import Coulomb, RegularisedCoulomb, Viscous, check_law
+from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
 from ..integrals import jellett
 from ..stability import escape_time
 from ..state import State
@@ -38,9 +40,19 @@ __all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
 
 METHODS = ("gyroscopic",)
 
+
 # The box of the verification table (docs/theory/inversion.md#verification): outside it the
 # prediction is flagged. Set from the table, not the reverse.
-VERIFIED = {
+class _Verified(TypedDict):
+    laws: tuple[str, ...]
+    theta0: tuple[float, float]  # rad
+    theta0_moving_cm: float  # rad
+    spin_ratio: tuple[float, float]  # λ/λ_thres
+    epsilon: float  # T_n/t_half
+    start: str
+
+
+VERIFIED: _Verified = {
     "laws": ("viscous",),
     "theta0": (0.01, 0.25),
     "theta0_moving_cm": 0.03,
@@ -50,7 +62,7 @@ VERIFIED = {
 }
 
 
-def _law_name(law: Any) -> str:
+def _law_name(law: FrictionLaw) -> str:
     if isinstance(law, Viscous):
         return "viscous"
     if isinstance(law, RegularisedCoulomb):
@@ -60,7 +72,7 @@ def _law_name(law: Any) -> str:
     return "coulomb"
 
 
-def _linear_mu(top: TippeTop, law: Any, state: State) -> float:
+def _linear_mu(top: TippeTop, law: FrictionLaw, state: State) -> float:
     """Viscous coefficient (s/m) of the law linearised at the upright spin.
 
     The regularised law is viscous with μ/ε below ε; Contensou's with μ/(r* |ω_n|) (mett.friction).
@@ -113,7 +125,7 @@ def _coulomb_stick_time(top: TippeTop, state: State) -> float:
 def predict_inversion(
     top: TippeTop,
     state: State,
-    friction: Any = None,
+    friction: FrictionLaw | None = None,
     *,
     method: str = "gyroscopic",
     tol: float = 0.05,
@@ -361,9 +373,9 @@ def predict_inversion(
 
 def atlas(
     top: TippeTop,
-    mu: Any,
-    omega3: Any,
-    laws: Any = ("viscous",),
+    mu: ArrayLike,
+    omega3: ArrayLike,
+    laws: Sequence[str] = ("viscous",),
     *,
     theta0: float = 0.1,
     cm_at_rest: bool = True,
@@ -405,11 +417,13 @@ def atlas(
         res["inverts"] = np.zeros(shape)
         res["outside"] = np.zeros(shape, dtype=bool)
         for i, m in enumerate(mus):
-            law = {
-                "viscous": lambda m=m: Viscous(m),
-                "regularised-coulomb": lambda m=m: RegularisedCoulomb(m, eps),
-                "coulomb": lambda m=m: Coulomb(m),
-            }[name]()
+            law: FrictionLaw
+            if name == "viscous":
+                law = Viscous(m)
+            elif name == "regularised-coulomb":
+                law = RegularisedCoulomb(m, eps)
+            else:
+                law = Coulomb(m)
             for j, w in enumerate(spins):
                 if cm_at_rest:
                     st = State.with_cm_at_rest(top, theta=theta0, omega3=w)

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from ..friction import RegularisedCoulomb, Viscous
+from ..friction import FrictionLaw, RegularisedCoulomb, Viscous
 from ..state import State
 from ..top import TippeTop
 
@@ -25,7 +24,7 @@ class Case:
 
     name: str
     top: TippeTop
-    friction: Any
+    friction: FrictionLaw
     state: State
     law: str
 
@@ -57,6 +56,7 @@ def cases(n: int = 60, seed: int = 2026) -> list[Case]:
         ratio = math.exp(rng.uniform(math.log(1.5), math.log(20.0)))
         theta0 = math.exp(rng.uniform(math.log(0.01), math.log(0.5)))
         kind = i % 3
+        law: FrictionLaw
         if kind in (0, 1):
             mu = math.exp(rng.uniform(math.log(0.03), math.log(3.0)))
             top = _top(alpha, gamma, sigma, mu)

@@ -79,8 +79,8 @@ class InversionPrediction:
     D: np.ndarray = field(repr=False)
     E_mod: np.ndarray = field(repr=False)
     lam: np.ndarray = field(repr=False)
-    theta_end: float = float("nan")
-    validity: Validity | None = None
+    theta_end: float
+    validity: Validity
 
     def theta_at(self, t: float | np.ndarray) -> np.ndarray:
         """Mean inclination θ̄(t) (rad), interpolated on the slow path (held at its ends)."""

@@ -6,7 +6,7 @@ compare with). Both run the same array algorithms, the per-element path on one e
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -347,7 +347,11 @@ def solve(top: TippeTop, E, D, lam, z0, quantity: str | None = None) -> _Solutio
     shape, E, D, lam, z0 = _flat_inputs(top, E, D, lam, z0)
     n = E.size
     kinds = np.full(n, _NONE, dtype=np.int8)
-    sol = _Solution(shape, kinds, *(np.full(n, np.nan) for _ in range(5)), {}, np.zeros(n, bool))
+
+    def nan() -> np.ndarray:
+        return np.full(n, np.nan)
+
+    sol = _Solution(shape, kinds, nan(), nan(), nan(), nan(), nan(), {}, np.zeros(n, bool))
     W = _Wells(top, E, D, lam)
     zm, vec = _array_wells(W)
     v = np.flatnonzero(vec)
@@ -436,7 +440,7 @@ def _check_start(top: TippeTop, E, D, lam, z0, v, vec, sol: _Solution) -> None:
     vec[live[~inside]] = False
 
 
-def _solve_one(top: TippeTop, E, D, lam, z0, i: int, sol: _Solution, quantity) -> None:
+def _solve_one(top: TippeTop, E, D, lam, z0, i: int | np.integer, sol: _Solution, quantity) -> None:
     """Element i by the per-element path, in place (its error recorded, not raised)."""
     e, dd, la = E[i].item(), D[i].item(), lam[i].item()
     zz = None if z0 is None else z0[i].item()
@@ -489,9 +493,14 @@ def band(
     sol = solve(top, E, D, lam, z0)
     raise_first(sol, band_only=True)
     kinds = _KINDS[sol.kind]
+    z_low, z_high, z_min, depth = sol.z_low, sol.z_high, sol.z_min, sol.depth
     if sol.shape == ():
-        return Band(str(kinds[0]), *(float(a[0]) for a in sol[2:6]))
-    return Band(kinds.reshape(sol.shape), *(a.reshape(sol.shape) for a in sol[2:6]))
+        return Band(
+            str(kinds[0]), float(z_low[0]), float(z_high[0]), float(z_min[0]), float(depth[0])
+        )
+    # arrays of the broadcast shape in the fields (Band annotates one element's types)
+    arrays: list[Any] = [a.reshape(sol.shape) for a in (kinds, z_low, z_high, z_min, depth)]
+    return Band(*arrays)
 
 
 def minima(top: TippeTop, D: float, lam: float) -> list[float]:
@@ -523,10 +532,10 @@ def f(top: TippeTop, z: ArrayLike, E: ArrayLike, D: ArrayLike, lam: ArrayLike) -
     """
     _validate.instance("top", top, TippeTop)
     z = _validate.cos_theta(z)
-    E, D, lam, _ = _broadcast(E, D, lam)
-    fm.check_integrals(top, E=E, D=D, lam=lam)
-    Es = _shift(top, E, D, lam)
-    z, E, D, lam, Es = np.broadcast_arrays(z, E, D, lam, Es)
+    Eb, Db, lamb, _ = _broadcast(E, D, lam)
+    fm.check_integrals(top, E=Eb, D=Db, lam=lamb)
+    Es = _shift(top, Eb, Db, lamb)
+    z, E, D, lam, Es = np.broadcast_arrays(z, Eb, Db, lamb, Es)
     return _Wells(top, E, D, lam, Es).P_direct(z) / fm.g(top, z)
 
 

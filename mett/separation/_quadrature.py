@@ -173,7 +173,7 @@ def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: bool) -> tuple[fl
         return _anchored_quadrature(top, b, w, precession)
     if w.zr is not None:
         T, integral = _gauss_quadrature(
-            w, *(np.array([v]) for v in (b.z_low, b.z_high, b.z_min)), precession
+            w, np.array([b.z_low]), np.array([b.z_high]), np.array([b.z_min]), precession
         )
         return float(T[0]), math.nan if integral is None else float(integral[0])
     c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)

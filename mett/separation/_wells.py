@@ -7,7 +7,7 @@ from __future__ import annotations
 import functools
 import math
 from fractions import Fraction
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from scipy import optimize
@@ -54,7 +54,14 @@ class _Wells:
         self.C = fm.kinetic_coefficient(top)
         self.mgR = top.m * top.g * top.R
         self.pole_ref = False
-        self.zr = self.sqd_r = self.dd_r = self.w_r = self.N_r = self.depth_r = self.A_r = None
+        # the reference of set_reference (None until then): per element, floats or arrays as E
+        self.zr: Any = None
+        self.sqd_r: Any = None
+        self.dd_r: Any = None
+        self.w_r: Any = None
+        self.N_r: Any = None
+        self.depth_r: Any = None
+        self.A_r: Any = None
 
     def _derive(self, fn) -> _Wells:
         new = object.__new__(_Wells)
@@ -72,7 +79,7 @@ class _Wells:
     def col(self) -> _Wells:
         return self if self.single else self._derive(lambda v: v[:, None])
 
-    def element(self, i: int) -> _Wells:
+    def element(self, i: int | np.integer) -> _Wells:
         """Element ``i`` on its own, with float attributes."""
         if self.single:
             return self
@@ -648,7 +655,7 @@ class _PoleForm:
         if u_guess <= 0.0:
             return 0.0
         inward = 1.0 if u_in > u_guess else -1.0
-        step = 4.0 * _EPS * (1.0 + u_guess) + 1e-6 * u_guess
+        step: float = 4.0 * _EPS * (1.0 + u_guess) + 1e-6 * u_guess
         for _ in range(60):
             a = u_guess - inward * step
             b = u_guess + inward * step

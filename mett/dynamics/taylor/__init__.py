@@ -169,7 +169,7 @@ def kernel_for(
     model: Model,
     phase: Phase,
     rtol: float,
-    params: ArrayLike,
+    params: Sequence[float] | np.ndarray,
     lanes: int = 1,
     *,
     n_state: int,
@@ -188,7 +188,7 @@ def kernel_for(
         The phase integrated: its ``rhs_into`` and the ``fn`` of its events, in that order.
     rtol : float
         Relative tolerance; sets the order p = ⌈−½ ln rtol⌉ + 1 (Jorba & Zou 2005, §3.3).
-    params : array_like
+    params : sequence of float or ndarray
         The run's parameters: a right-hand side that branches on them is traced for them.
     lanes : int, default 1
         Trajectories per SIMD batch.
@@ -198,6 +198,8 @@ def kernel_for(
         Event functions ``fn(t, y, p)`` after the phase's own (a batch records the first zero
         of cos θ with them).
     """
+    if phase.rhs_into is None:
+        raise ValueError(f"phase {phase.name!r} of model {model.name!r} has no rhs_into")
     events = [ev.fn for ev in phase.events]
     events.extend(record)
     return kernel(
@@ -377,7 +379,9 @@ def solve(
         pending, room = resume, room * 4
     out = []
     for j in range(m):
-        status, hit = result[j]
+        done_j = result[j]
+        assert done_j is not None  # every run left the loop with a status
+        status, hit = done_j
         if len(parts[j]) == 1:  # the common case: views into the group's buffers, no copy
             t = np.concatenate([[t0], parts[j][0][0]])
             y = np.concatenate([Y0[j][None, :], parts[j][0][1]])

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -209,6 +209,14 @@ _SCALAR_OPS = {
 }
 
 
+@overload
+def _scalar_values(nodes: Sequence[tuple], params: np.ndarray) -> dict[int, float]: ...
+@overload
+def _scalar_values(nodes: Sequence[tuple], params: None) -> None: ...
+@overload
+def _scalar_values(
+    nodes: Sequence[tuple], params: np.ndarray | None
+) -> dict[int, float] | None: ...
 def _scalar_values(nodes: Sequence[tuple], params: np.ndarray | None) -> dict[int, float] | None:
     """Values of the nodes that depend on the parameters alone (None without parameters)."""
     if params is None:
@@ -292,7 +300,9 @@ def _freeze_lengths(
     for i, (op, a, _, _) in enumerate(nodes):
         if op == "sqrt":
             found = squares(a)
-            k = None if found is None else wanted.get(tuple(sorted(found)))
+            if found is None:
+                continue
+            k = wanted.get(tuple(sorted(found)))
             if k is not None and len(set(found)) == len(found):
                 nodes[i] = ("len", k, -1, 0.0)
     return tuple(nodes)
