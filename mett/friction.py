@@ -45,7 +45,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, ClassVar, NamedTuple, Protocol, runtime_checkable
+from typing import Any, ClassVar, NamedTuple, Protocol, cast, runtime_checkable
 
 import numpy as np
 
@@ -306,7 +306,7 @@ class RegularisedCoulomb:
 class LawForm(NamedTuple):
     """How a law is written by name (:data:`LAWS`): its constructor and its positional arguments."""
 
-    law: type
+    law: type[FrictionLaw]
     """The law's class (registered with :func:`register`)."""
     args: tuple[str, ...]
     """Names of the constructor's arguments, in the order they are written."""
@@ -325,7 +325,7 @@ class LawForm(NamedTuple):
 
 
 _FORMS: dict[str, LawForm] = {}
-_CLASSES: list[type] = []
+_CLASSES: list[type[FrictionLaw]] = []
 
 LAWS: Mapping[str, LawForm] = MappingProxyType(_FORMS)
 """Every law by name, with its arguments: the registry (:func:`register`) and the one table of the
@@ -393,7 +393,7 @@ def check_law(friction: Any) -> FrictionLaw:
             f"friction must be a registered friction law ({', '.join(names)}; "
             f"mett.friction.LAWS); got {type(friction).__name__}"
         )
-    return friction
+    return cast(FrictionLaw, friction)
 
 
 LAW_NAMES = ("viscous", "coulomb")
@@ -433,7 +433,7 @@ def from_name(name: str, mu: float, contensou_radius: float = 0.0, **coefficient
                 f"{key} applies to the {' / '.join(map(repr, owners.values()))} law only"
             )
     kw = {k: v for k, v in given.items() if k in declared}
-    return form.law(mu, **kw)
+    return form.law(mu, **kw)  # type: ignore[call-arg]  # each law its constructor (its params)
 
 
 def describe(friction: FrictionLaw) -> str:

@@ -225,3 +225,14 @@ def test_group_III_top_hangs_below_theta_f(thesis):
     p = predict_inversion(top, mett.State.with_cm_at_rest(top, theta=0.1, omega3=300.0))
     assert p.inverts is False and "group III" in p.reason
     assert p.theta_end < math.acos(top.alpha / (1.0 - top.gamma))
+
+
+def test_a_registered_law_without_a_reduction_is_no_prediction_not_an_error(thesis):
+    # rolling resistance is a registered law the gyroscopic-balance reduction has no power
+    # balance for: the answer is "no prediction" with the reason, never an AttributeError
+    from mett.dynamics.resistance import RollingResistance
+
+    p = mett.predict_inversion(thesis, mett.State(theta=0.1, omega3=155.0),
+                               friction=RollingResistance(1e-4))  # fmt: skip
+    assert p.inverts is None and "RollingResistance" in p.reason
+    assert p.validity.outside_verified_range

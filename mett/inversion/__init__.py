@@ -62,7 +62,7 @@ VERIFIED: _Verified = {
 }
 
 
-def _law_name(law: FrictionLaw) -> str:
+def _law_name(law: Viscous | Coulomb | RegularisedCoulomb) -> str:
     if isinstance(law, Viscous):
         return "viscous"
     if isinstance(law, RegularisedCoulomb):
@@ -72,7 +72,7 @@ def _law_name(law: FrictionLaw) -> str:
     return "coulomb"
 
 
-def _linear_mu(top: TippeTop, law: FrictionLaw, state: State) -> float:
+def _linear_mu(top: TippeTop, law: Viscous | Coulomb | RegularisedCoulomb, state: State) -> float:
     """Viscous coefficient (s/m) of the law linearised at the upright spin.
 
     The regularised law is viscous with μ/ε below ε; Contensou's with μ/(r* |ω_n|) (mett.friction).
@@ -199,6 +199,17 @@ def predict_inversion(
     if not lam > 0.0:
         raise ValueError(
             f"the state's Jellett integral must be positive (spin omega3 > 0 near theta = 0); got {lam!r}"
+        )
+    if not isinstance(law, (Viscous, Coulomb, RegularisedCoulomb)):
+        # a registered law the reduction has no power balance for (e.g. rolling resistance)
+        return empty(
+            None,
+            f"the friction law {type(law).__name__} is not covered by the gyroscopic-balance "
+            "reduction (it knows the viscous, Coulomb and regularised Coulomb laws)",
+            method,
+            Validity(math.nan, lam / top.lambda_thres, True, ("law not covered",)),
+            theta0=theta0,
+            lam=lam,
         )
     name = _law_name(law)
     spin_ratio = lam / top.lambda_thres
