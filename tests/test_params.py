@@ -8,11 +8,15 @@ fails here, since g ≠ μ.
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 import mett
+from mett import State, Trajectory
 from mett.dynamics import _params as ix
 from mett.dynamics.contact import LAW_COULOMB, LAW_REGULARISED
 from mett.dynamics.registry import MODELS
@@ -129,3 +133,41 @@ def test_no_legacy_order_for_models_that_always_had_the_shared_one():
     p = MODELS["gliding"].parameters(TOP)
     assert ix.from_legacy("gliding", p) is None
     assert ix.from_legacy("frictionless-routhian", (1.0,) * 8) is None  # today's length
+
+
+DATA = Path(__file__).parent / "data"
+
+
+def test_a_file_saved_in_the_order_before_loads_with_the_shared_order():
+    # written by an older mett (tests/data/README.md): its params have g (9.82) before μ (0.3)
+    path = DATA / "format2_stemmed_coulomb.npz"
+    with np.load(path, allow_pickle=False) as data:
+        saved = json.loads(str(data["mett_trajectory"]))["params"]
+    assert (saved[5], saved[6]) == (9.82, 0.3)
+    loaded = Trajectory.load(path)
+    assert (loaded.params[ix.MU], loaded.params[ix.G]) == (0.3, 9.82)
+    assert loaded.params == MODELS["stemmed-coulomb"].parameters(loaded.top, **loaded.options)
+
+
+def test_a_routhian_file_of_the_order_before_loads(tmp_path):
+    # the Routhian's tuple had no μ: (m, R, α, I1, I3, g, vertical)
+    traj = mett.simulate(
+        TOP, State(theta=0.5, omega3=100.0), 1e-3, model="frictionless-routhian", backend="scipy"
+    )
+    path = traj.save(tmp_path / "routhian.npz")
+    with np.load(path, allow_pickle=False) as data:
+        files = {k: np.array(data[k]) for k in data.files}
+    meta = json.loads(str(files["mett_trajectory"]))
+    p = meta["params"]
+    meta["params"] = [*p[:5], p[ix.G], p[ix.VERTICAL]]
+    files["mett_trajectory"] = np.array(json.dumps(meta))
+    np.savez(path, **files)
+    loaded = Trajectory.load(path)
+    assert loaded.params == traj.params and len(loaded.params) == ix.VERTICAL + 1
+    assert np.array_equal(loaded.states, traj.states)
+    # a tuple in neither order is still refused
+    meta["params"] = [*p[:5], p[ix.G] * 2.0, p[ix.VERTICAL]]
+    files["mett_trajectory"] = np.array(json.dumps(meta))
+    np.savez(path, **files)
+    with pytest.raises(ValueError, match="params"):
+        Trajectory.load(path)
