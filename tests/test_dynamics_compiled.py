@@ -282,3 +282,16 @@ def test_every_model_agrees_between_backends(top, model, state, kw):
     tt = np.linspace(0.0, 0.5, 501)
     scale = np.max(np.abs(ref.states), axis=1, keepdims=True)
     assert np.max(np.abs(comp.states_at(tt) - ref.states_at(tt)) / scale) < 1e-11
+
+
+def test_a_kernel_reading_the_parameter_positions_names_their_file_in_its_cache():
+    # numba freezes module constants (ix.MU, ...) into the machine code and stamps its cache with
+    # the kernel's own file only: the file of the positions must be part of the cache name, or an
+    # edit of it would leave kernels compiled with the old positions in the cache
+    from mett.dynamics import _params, gliding
+
+    fn = next(f for f in vars(gliding).values() if callable(f) and "ix" in getattr(
+        getattr(f, "__code__", None), "co_names", ()))  # fmt: skip
+    compiled = _kernels._jit(fn)
+    assert _params.__file__ in _kernels._DEPS[compiled]
+    assert compiled.py_func.__qualname__.split("__")[-1] != _kernels._CACHE_TAG  # a hash follows

@@ -34,7 +34,8 @@ def energy_step(rtol: float) -> float:
 
 
 def params(top: mett.TippeTop, mu: float, r_star: float = 0.0, eps: float = 0.0, law=0.0):
-    return (top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.g, mu, r_star, eps, law, 1e-9)
+    # the dry models' tuple: the shared prefix (m, R, l, I1, I3, μ, g), then r*, ε, law, δ
+    return (top.m, top.R, top.R * top.alpha, top.I1, top.I3, mu, top.g, r_star, eps, law, 1e-9)
 
 
 # --- the law objects ---------------------------------------------------------------------------

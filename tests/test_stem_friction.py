@@ -16,6 +16,7 @@ import stop_bounds
 from scipy.integrate import solve_ivp
 
 import mett
+from mett.dynamics import _params as ix
 from mett.dynamics import contact, simulate, stemslip
 from mett.dynamics.stem import impact_frame
 from mett.friction import Coulomb
@@ -181,11 +182,11 @@ def test_sliding_impacts_agree_with_an_independent_solution(run):
             continue
         to = "stem" if sw.reason == "touchdown" else "ball"
         f = impact_frame(stemslip._lz(y_ev, p), stemslip._viscous(p), to)
-        P, Q, stuck = stemslip.dry_impulse(f, p[0], p[6], 0.0)
+        P, Q, stuck = stemslip.dry_impulse(f, p[ix.M], p[ix.MU], 0.0)
         if stuck:
             continue
         n += 1
-        P_ref, dE_ref = _reference_sliding_impulse(f, p[0], p[6])
+        P_ref, dE_ref = _reference_sliding_impulse(f, p[ix.M], p[ix.MU])
         np.testing.assert_allclose(P, P_ref, rtol=1e-8, atol=1e-8 * abs(P_ref[2]))
         y_imp = stemslip.impact(y_ev, p, to)[0]
         dE = _energy(y_imp, p) - _energy(y_ev, p)

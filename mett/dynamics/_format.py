@@ -50,6 +50,7 @@ import numpy as np
 
 from .. import _validate
 from ..state import State
+from . import _params as ix
 from ._status import Status
 from .dense import ARRAYS, HermiteSolution, SegmentedSolution, from_arrays, to_arrays
 from .registry import MODELS
@@ -251,7 +252,7 @@ def _from_saved(cls: type, meta: dict, archive: _Archive, all_series: tuple[str,
             expected = tuple(model.parameters(top, **options))
         except (TypeError, ValueError, ArithmeticError) as exc:
             raise _Refused(f"the options do not fit model {model.name!r}: {exc}") from None
-        params = _decode_params(meta.get("params"), expected)
+        params = _decode_params(meta.get("params"), expected, model.name)
         init = _decode_state(meta.get("initial_state"))
         try:
             n_state = int(np.asarray(model.initial(init, params), dtype=float).size)
@@ -948,8 +949,17 @@ def _decode_option(v: Any, what: str, depth: int) -> Any:
     raise _Refused(f"{what} has a value of type {type(v).__name__}")  # pragma: no cover
 
 
-def _decode_params(v: Any, expected: tuple) -> tuple:
-    """The saved parameters, which must be those of the saved top and options (to rounding)."""
+def _decode_params(v: Any, expected: tuple, model: str = "") -> tuple:
+    """The saved parameters, which must be those of the saved top and options (to rounding).
+
+    A file written before the shared parameter order (g before mu in the dry models and rolling
+    resistance, no mu in the Routhian) stored its tuple in the old order: it is mapped to
+    today's (:func:`._params.from_legacy`) when it does not match as it stands.
+    """
+    if isinstance(v, list) and not _matches(v, expected):
+        old = ix.from_legacy(model, v)
+        if old is not None and _matches(list(old), expected):
+            v = list(old)
     if not isinstance(v, list) or len(v) != len(expected):
         raise _Refused(f"params must be a list of {len(expected)} numbers; got {_short(v)}")
     params = tuple(_number(x, f"params[{i}]") for i, x in enumerate(v))
@@ -958,6 +968,19 @@ def _decode_params(v: Any, expected: tuple) -> tuple:
         if not abs(got - want) <= 1e-12 * abs(want):  # (a later mett may round differently)
             raise _Refused(f"params[{i}] = {got!r} is not that of the top and options ({want!r})")
     return params
+
+
+def _matches(v: Any, expected: tuple) -> bool:
+    """True if ``v`` is a list of numbers equal to ``expected`` to rounding (no exception)."""
+    if not isinstance(v, list) or len(v) != len(expected):
+        return False
+    try:
+        return all(
+            abs(float(got) - float(want)) <= 1e-12 * abs(float(want))
+            for got, want in zip(v, expected, strict=True)
+        )
+    except (TypeError, ValueError):
+        return False
 
 
 def _decode_state(v: Any) -> State:

@@ -57,7 +57,8 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     back) and 29 ns with ``_core`` inlined (measured on the thesis run's machine, 1e6 calls).
 
     numba's cache is stamped with the source file of ``fn`` only; the code inlined from other
-    files is covered by a hash of those files in the cache name (:func:`_foreign_tag`).
+    files, and the modules of mett whose constants it reads (``ix.MU``), are covered by a hash of
+    those files in the cache name (:func:`_foreign_tag`).
     """
     key = (fn, inline)
     if key in _JITTED:
@@ -69,6 +70,10 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
         if isinstance(callee, types.FunctionType) and _inlinable(callee, fn):
             env[name] = _jit(callee, inline=True)
             deps |= _DEPS[env[name]] | {callee.__code__.co_filename}
+        elif isinstance(callee, types.ModuleType) and _own_module(callee):
+            # a module of mett read for its constants (e.g. the parameter positions ``ix.MU``):
+            # numba freezes them into the machine code, so its file is part of the cache name
+            deps.add(callee.__file__)
     clone = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
     clone.__module__, clone.__doc__ = fn.__module__, fn.__doc__
     # the cache files are named after the qualname; the version tag keeps machine code compiled
@@ -88,6 +93,11 @@ def _inlinable(callee: types.FunctionType, fn: types.FunctionType) -> bool:
     """A callee :func:`_jit` compiles along with ``fn``: same module, or a module of mett."""
     mod = callee.__module__ or ""
     return mod == fn.__module__ or mod == "mett" or mod.startswith("mett.")
+
+
+def _own_module(module: types.ModuleType) -> bool:
+    name = module.__name__
+    return (name == "mett" or name.startswith("mett.")) and bool(getattr(module, "__file__", None))
 
 
 def _foreign_tag(files: set[str], fn: types.FunctionType) -> str:

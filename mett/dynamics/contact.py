@@ -8,7 +8,8 @@ impulses at a switch, and the conversions between the ``"gliding"`` state (L_z) 
 with the Jellett integral λ = −L·a in its place.
 
 Every function takes the contact's geometry from the parameter tuple
-``p = (m, R, l, I1, I3, g, mu, r_star, eps, law, delta)``: the sphere's radius R and the distance
+``p = (m, R, l, I1, I3, mu, g, r_star, eps, law, delta)`` (named positions in
+:mod:`._params`): the sphere's radius R and the distance
 l from the centre of mass to its centre along 3̂, so the stem sphere of :mod:`.stemslip` is the
 same contact with (R, l) = (r_s, l + l_s). The functions are plain float arithmetic (floats or
 equal-shape arrays) where a model's compiled kernels call them (:mod:`._kernels`); a model that
@@ -23,6 +24,8 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import brentq
+
+from . import _params as ix
 
 __all__ = [
     "LAW_COULOMB",
@@ -65,7 +68,7 @@ __all__ = [
     "to_gliding",
 ]
 
-# law codes of the parameter tuple p = (m, R, l, I1, I3, g, mu, r_star, eps, law, delta)
+# law codes of the parameter tuple p = (m, R, l, I1, I3, mu, g, r_star, eps, law, delta)
 LAW_COULOMB, LAW_REGULARISED = 0.0, 1.0
 
 
@@ -76,7 +79,7 @@ delays a "stop" by one band δ, so at the band crossing the event of the cone's 
 
 def kinematics(y: Any, p: tuple) -> tuple:
     """(3̂, ω, 3̂̇, a, v_A (horizontal), h, c) of state(s) ``y``; see the module docstring."""
-    m, R, l, I1, I3, g = p[:6]
+    R, l, I1, I3, g = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.G]
     n = (y[7] * y[7] + y[8] * y[8] + y[9] * y[9]) ** 0.5
     ex, ey, ez = y[7] / n, y[8] / n, y[9] / n
     ax, ay, az = l * ex, l * ey, l * ez - R
@@ -119,7 +122,7 @@ def spin_term(e: tuple, a: tuple, I1: float, c: float) -> tuple:
 
 
 def derivatives(y: Any, p: tuple, F: tuple, M: Any, w: tuple, de: tuple, a: tuple) -> tuple:
-    m = p[0]
+    m = p[ix.M]
     Fx, Fy, Fz = F
     ax, ay, az = a
     return (
@@ -141,7 +144,7 @@ def slide(y: Any, p: tuple, fx: Any, fy: Any, fm: Any, kin: tuple | None = None)
 
     Returns (derivatives, g_n, F, M, v̇_A). ``kin``: :func:`kinematics` of ``y`` if known.
     """
-    m, R, l, I1, I3, g = p[:6]
+    m, I1 = p[ix.M], p[ix.I1]
     e, w, de, a, nu, h, c = kinematics(y, p) if kin is None else kin
     Gf = delassus((fx, fy, 1.0), e, a, m, I1, c)
     s = spin_term(e, a, I1, c)
@@ -158,7 +161,7 @@ def slide(y: Any, p: tuple, fx: Any, fy: Any, fm: Any, kin: tuple | None = None)
 
 def _law(y: Any, p: tuple, kin: tuple | None = None) -> tuple:
     """(fx, fy, fm): the sliding law per unit normal force at state(s) ``y``."""
-    mu, rs, eps, law = p[6], p[7], p[8], p[9]
+    mu, rs, eps, law = p[ix.MU], p[ix.RSTAR], p[ix.EPS], p[ix.LAW]
     e, w, de, a, nu, h, c = kinematics(y, p) if kin is None else kin
     if mu == 0.0:  # frictionless: no force, also at zero slip (where −μ v̂_A would be 0/0)
         zero = 0.0 * nu[0]
@@ -178,7 +181,7 @@ def _spin_rate(F: tuple, e: tuple, a: tuple, I1: Any, c: Any) -> Any:
 
 def _solve_G(y: Any, p: tuple, b: tuple, kin: tuple | None = None) -> tuple:
     """The force F with G F = b at state(s) ``y`` (3×3, Cramer's rule), and the kinematics."""
-    m, R, l, I1, I3, g = p[:6]
+    m, I1 = p[ix.M], p[ix.I1]
     kin = kinematics(y, p) if kin is None else kin
     e, a, c = kin[0], kin[3], kin[6]
     m11, m21, m31 = delassus((1.0, 0.0, 0.0), e, a, m, I1, c)
@@ -201,7 +204,7 @@ def _solve_GM(y: Any, p: tuple, b: tuple, bz: Any, kin: tuple) -> tuple:
     Eliminating F = G⁻¹b − M G⁻¹((J⁻¹ẑ) × a) leaves one equation for M (a Schur complement of
     the positive definite contact matrix of force and drilling torque).
     """
-    I1 = p[3]
+    I1 = p[ix.I1]
     e, a, c = kin[0], kin[3], kin[6]
     s = spin_term(e, a, I1, c)
     F0 = _solve_G(y, p, b, kin)[0]
@@ -220,9 +223,9 @@ def stick(y: Any, p: tuple) -> tuple:
     """
     kin = kinematics(y, p)
     e, w, de, a, nu, h, c = kin
-    if p[7] > 0.0:
+    if p[ix.RSTAR] > 0.0:
         # W0_z = c (L·3̂) 3̂̇_z with L·3̂ = I3 ω·3̂
-        W0z = c * p[4] * (w[0] * e[0] + w[1] * e[1] + w[2] * e[2]) * de[2]
+        W0z = c * p[ix.I3] * (w[0] * e[0] + w[1] * e[1] + w[2] * e[2]) * de[2]
         F, M = _solve_GM(y, p, (-h[0], -h[1], -h[2]), -W0z, kin)
     else:
         F = _solve_G(y, p, (-h[0], -h[1], -h[2]), kin)[0]
@@ -234,22 +237,22 @@ def stick(y: Any, p: tuple) -> tuple:
 def required(y: Any, p: tuple) -> tuple:
     """(g_n, generalised force (F_x, F_y, M/r*), cone margin μ g_n − |·|) that stick needs."""
     _, gn, F, M, _ = stick(y, p)
-    rs = p[7]
+    rs = p[ix.RSTAR]
     fm = M / rs if rs > 0.0 else 0.0 * M
-    return gn, (F[0], F[1], fm), p[6] * gn - (F[0] ** 2 + F[1] ** 2 + fm**2) ** 0.5
+    return gn, (F[0], F[1], fm), p[ix.MU] * gn - (F[0] ** 2 + F[1] ** 2 + fm**2) ** 0.5
 
 
 def _slip_speed(y: Any, p: Any) -> Any:
     """|γ| = √(|v_A|² + (r* ω_z)²) (m/s), plain arithmetic."""
     kin = kinematics(y, p)
     nu, w = kin[4], kin[1]
-    rs = p[7]
+    rs = p[ix.RSTAR]
     return (nu[0] * nu[0] + nu[1] * nu[1] + (rs * w[2]) * (rs * w[2])) ** 0.5
 
 
 def _margin(y: Any, p: Any) -> Any:
     """Cone margin of the force rolling needs, (μ g_n − |(F_t, M/r*)|)/(m g), plain arithmetic."""
-    return required(y, p)[2] * (1.0 / (p[0] * p[5]))
+    return required(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def slide_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
@@ -262,7 +265,7 @@ def slide_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     y : ndarray, shape (10,)
         Gliding state (:func:`mett.dynamics.gliding_rhs`).
     p : tuple
-        ``(m, R, l, I1, I3, g, mu, r_star, eps, law, delta)``: body, friction coefficient (–),
+        ``(m, R, l, I1, I3, mu, g, r_star, eps, law, delta)``: body, friction coefficient (–),
         effective Contensou radius (m), regularisation velocity (m/s), law code (0 Coulomb,
         1 regularised) and stopping band (m/s).
     """
@@ -304,12 +307,12 @@ def stick_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def sliding_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) while sliding: contact lost when it falls through 0."""
-    return slide_law(y, p)[1] * (1.0 / (p[0] * p[5]))
+    return slide_law(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def rolling_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) while rolling."""
-    return stick(y, p)[1] * (1.0 / (p[0] * p[5]))
+    return stick(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _positive_part(x: Any) -> Any:
@@ -319,16 +322,16 @@ def _positive_part(x: Any) -> Any:
 
 def stop_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is outside the cone: "stop" → rolling."""
-    if p[6] == 0.0:  # μ = 0: a cone of radius 0, no stop (see frictionless)
+    if p[ix.MU] == 0.0:  # μ = 0: a cone of radius 0, no stop (see frictionless)
         return 1.0 + 0.0 * y[0]  # never 0 (a constant: no series of |γ| near 0)
-    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(-_margin(y, p))
+    return _slip_speed(y, p) - p[ix.BAND] + p[ix.BAND] * _CONE_SIDE * _positive_part(-_margin(y, p))
 
 
 def reversal_event(t: float, y: Any, p: Any) -> Any:
     """|γ| − δ, kept positive while the required force is inside the cone: "reversal"."""
-    if p[6] == 0.0:  # μ = 0: no friction to reverse the slip (see frictionless)
+    if p[ix.MU] == 0.0:  # μ = 0: no friction to reverse the slip (see frictionless)
         return 1.0 + 0.0 * y[0]  # never 0 (a constant: no series of |γ| near 0)
-    return _slip_speed(y, p) - p[10] + p[10] * _CONE_SIDE * _positive_part(_margin(y, p))
+    return _slip_speed(y, p) - p[ix.BAND] + p[ix.BAND] * _CONE_SIDE * _positive_part(_margin(y, p))
 
 
 def cone_event(t: float, y: Any, p: Any) -> Any:
@@ -344,7 +347,7 @@ def slip_velocity(y: np.ndarray, p: tuple) -> np.ndarray:
 def slip(y: np.ndarray, p: tuple) -> np.ndarray:
     """The generalised slip γ = (v_A, r* ω_z) (m/s); r* = 0 for Coulomb."""
     k = kinematics(y, p)
-    return np.array([k[4][0], k[4][1], p[7] * k[1][2]])
+    return np.array([k[4][0], k[4][1], p[ix.RSTAR] * k[1][2]])
 
 
 def excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarray:
@@ -355,8 +358,8 @@ def excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarra
     Returned as the generalised direction (u_x, u_y, 0). With Contensou friction, the direction
     opposite to the generalised force stick needs (``fallback``; exact at the cone's edge).
     """
-    mu = p[6]
-    if p[7] > 0.0:
+    mu = p[ix.MU]
+    if p[ix.RSTAR] > 0.0:
         return np.asarray(fallback, dtype=float) / np.linalg.norm(fallback)
 
     def vdot(phi: float) -> tuple[float, float, float]:
@@ -395,14 +398,14 @@ def set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:
     """
     d = np.asarray(target, dtype=float) - slip(y, p)
     kin = kinematics(y, p)
-    if p[7] > 0.0:  # and the angular impulse Q ẑ that changes ω_z by d[2]/r*
-        P, Q = _solve_GM(y, p, (d[0], d[1], 0.0), d[2] / p[7], kin)
+    if p[ix.RSTAR] > 0.0:  # and the angular impulse Q ẑ that changes ω_z by d[2]/r*
+        P, Q = _solve_GM(y, p, (d[0], d[1], 0.0), d[2] / p[ix.RSTAR], kin)
     else:
         P, Q = _solve_G(y, p, (d[0], d[1], 0.0), kin)[0], 0.0
     a = kin[3]
     out = np.array(y, dtype=float)
-    out[2] += P[0] / p[0]
-    out[3] += P[1] / p[0]
+    out[2] += P[0] / p[ix.M]
+    out[3] += P[1] / p[ix.M]
     out[4] += a[1] * P[2] - a[2] * P[1]
     out[5] += a[2] * P[0] - a[0] * P[2]
     out[6] -= Q * a[2]  # Δλ = −(a × P + Q ẑ)·a = −Q a_z: the impulse P keeps λ exactly
@@ -421,8 +424,8 @@ def slip_rate(y: np.ndarray, p: tuple) -> float:
     speed = float(np.linalg.norm(g))
     d, _, _, _, vdot = slide_law(y.tolist(), p)
     rate = np.array([vdot[0], vdot[1], 0.0])
-    if p[7] > 0.0:
-        h = 1e-3 * speed / max(math.hypot(vdot[0], vdot[1]), p[6] * p[5])
+    if p[ix.RSTAR] > 0.0:
+        h = 1e-3 * speed / max(math.hypot(vdot[0], vdot[1]), p[ix.MU] * p[ix.G])
         step = np.zeros_like(y)
         step[:10] = h * np.asarray(d)
         rate[2] = (slip(y + step, p)[2] - slip(y - step, p)[2]) / (2.0 * h)
@@ -453,7 +456,7 @@ def stop_jump(y: np.ndarray, p: tuple) -> np.ndarray:
 
 def restart(y: np.ndarray, p: tuple) -> np.ndarray:
     """Slip restarted with |γ| = 2δ in the excess-force direction (from v_A = 0)."""
-    return set_slip(y, p, 2.0 * p[10] * excess_direction(y, p, -np.array(required(y, p)[1])))
+    return set_slip(y, p, 2.0 * p[ix.BAND] * excess_direction(y, p, -np.array(required(y, p)[1])))
 
 
 def reversal_jump(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -468,12 +471,12 @@ def cone_jump(y: np.ndarray, p: tuple) -> np.ndarray:
 
 def gliding_params(p: tuple) -> tuple:
     """The "gliding" model's (m, R, l, I1, I3, mu, g) with μ = 0 (its conversions only)."""
-    return (p[0], p[1], p[2], p[3], p[4], 0.0, p[5])
+    return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], 0.0, p[ix.G])
 
 
 def _a(Y: np.ndarray, p: tuple) -> tuple:
     """a = l 3̂ − R ẑ of state(s) ``Y`` (3̂ normalised), as in :func:`kinematics`."""
-    R, l = p[1], p[2]
+    R, l = p[ix.R], p[ix.L]
     n = np.sqrt(Y[7] ** 2 + Y[8] ** 2 + Y[9] ** 2)
     return l * Y[7] / n, l * Y[8] / n, l * Y[9] / n - R
 
@@ -515,7 +518,7 @@ def frictionless(p: tuple) -> bool:
     law itself is 0 (:func:`_law`); without this, a spin at a pole started rolling, crossed the
     zero cone at once, and its restart direction was 0/0.
     """
-    return p[6] == 0.0
+    return p[ix.MU] == 0.0
 
 
 def settle(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -528,7 +531,7 @@ def settle(y: np.ndarray, p: tuple) -> np.ndarray:
     """
     if frictionless(p):
         return y
-    if p[9] == LAW_COULOMB and float(np.linalg.norm(slip(y, p))) <= p[10]:
+    if p[ix.LAW] == LAW_COULOMB and float(np.linalg.norm(slip(y, p))) <= p[ix.BAND]:
         y = set_slip(y, p, np.zeros(3))
         if required(y, p)[2] < 0.0:
             y = restart(y, p)
@@ -538,7 +541,7 @@ def settle(y: np.ndarray, p: tuple) -> np.ndarray:
 def start_phase(y0: np.ndarray, p: tuple) -> str:
     if frictionless(p):
         return "sliding"
-    return "rolling" if float(np.linalg.norm(slip(y0, p))) <= p[10] else "sliding"
+    return "rolling" if float(np.linalg.norm(slip(y0, p))) <= p[ix.BAND] else "sliding"
 
 
 def rolling_guess(Y: np.ndarray, p: tuple) -> np.ndarray:
@@ -547,7 +550,9 @@ def rolling_guess(Y: np.ndarray, p: tuple) -> np.ndarray:
     speed = np.sqrt(np.sum(slip(Y, p) ** 2, axis=0))
     with np.errstate(divide="ignore", invalid="ignore"):
         margin = required(Y, p)[2]
-    return (speed <= p[10]) & (margin >= 0.0) & (p[9] == LAW_COULOMB) & (not frictionless(p))
+    return (
+        (speed <= p[ix.BAND]) & (margin >= 0.0) & (p[ix.LAW] == LAW_COULOMB) & (not frictionless(p))
+    )
 
 
 def normal_force(y: np.ndarray, p: tuple) -> Any:
@@ -576,11 +581,11 @@ def contact_quantities(Y: np.ndarray, p: tuple, rolling: Any) -> dict[str, np.nd
     Fx = np.where(rolling, r[2][0], s[2][0])
     Fy = np.where(rolling, r[2][1], s[2][1])
     M = np.where(rolling, r[3], s[3])
-    fm = M / p[7] if p[7] > 0.0 else 0.0 * M
+    fm = M / p[ix.RSTAR] if p[ix.RSTAR] > 0.0 else 0.0 * M
     return {
         "gn": gn,
         "F_x": Fx,
         "F_y": Fy,
         "M_n": M,
-        "margin": p[6] * gn - np.sqrt(Fx**2 + Fy**2 + fm**2),
+        "margin": p[ix.MU] * gn - np.sqrt(Fx**2 + Fy**2 + fm**2),
     }

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _params as ix
 from ._model import add_integrals, euler_params, lab_vectors, scales_from_state
 from .registry import Event, Model, register
 
@@ -134,7 +135,7 @@ def _rhs_into(t: float, y: Any, params: Any, out: Any) -> None:
 
 def _contact(t: float, y: Any, params: Any) -> Any:
     """The contact event g_n/(m g), for both backends."""
-    return euler_normal_force(y, params) * (1.0 / (params[0] * params[6]))
+    return euler_normal_force(y, params) * (1.0 / (params[ix.M] * params[ix.G]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:

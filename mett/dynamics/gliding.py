@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..friction import Coulomb, RegularisedCoulomb, Viscous
+from . import _params as ix
 from ._model import (
     add_integrals,
     axis_theta,
@@ -145,7 +146,7 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _contact(t: float, y: Any, p: Any) -> Any:
     """The contact event g_n/(m g): terminal when it falls through 0 (compiled like _rhs_into)."""
-    return gliding_core(y, p)[10] * (1.0 / (p[0] * p[6]))
+    return gliding_core(y, p)[10] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..friction import Viscous
+from . import _params as ix
 from . import gliding
 from ._model import add_integrals, euler_params, lab_vectors, scales_from_state
 from .registry import Event, Model, Option, positive_length, register
@@ -165,7 +166,7 @@ def _cylinder_rhs_into(t: float, y: Any, params: Any, out: Any) -> None:
 
 def _cylinder_contact(t: float, y: Any, params: Any) -> Any:
     """The contact event g_n/(m g), for both backends."""
-    return cylinder_normal_force(y, params) * (1.0 / (params[0] * params[6]))
+    return cylinder_normal_force(y, params) * (1.0 / (params[ix.M] * params[ix.G]))
 
 
 def _cyl_initial(state: Any, p: tuple) -> np.ndarray:

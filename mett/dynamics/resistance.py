@@ -39,6 +39,7 @@ import numpy as np
 
 from .. import friction
 from ..friction import Param
+from . import _params as ix
 from . import gliding
 from .contact import delassus, from_gliding, kinematics, to_gliding
 from .registry import Event, Model, Option, friction_law, register
@@ -107,10 +108,10 @@ friction.register(RollingResistance, {"rolling-resistance": ("mu_r", "mu")})
 def wrench(y: Any, p: Any) -> tuple:
     """(derivatives, g_n, F, M_r) at state(s) ``y``; plain arithmetic (module docstring).
 
-    ``p = (m, R, l, I1, I3, g, mu, mu_r, omega_eps)``; F = (F_x, F_y, g_n) (N), M_r = (M_x, M_y)
+    ``p = (m, R, l, I1, I3, mu, g, mu_r, omega_eps)``; F = (F_x, F_y, g_n) (N), M_r = (M_x, M_y)
     (N m).
     """
-    m, I1, mu, mu_r, w_eps = p[0], p[3], p[6], p[7], p[8]
+    m, I1, mu, mu_r, w_eps = p[ix.M], p[ix.I1], p[ix.MU], p[ix.MU_R], p[ix.W_EPS]
     e, w, de, a, nu, h, c = kinematics(y, p)
     fx, fy = -mu * nu[0], -mu * nu[1]
     k = -mu_r / (w[0] * w[0] + w[1] * w[1] + w_eps * w_eps) ** 0.5
@@ -152,18 +153,18 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 
 def _contact(t: float, y: Any, p: Any) -> Any:
-    return wrench(y, p)[1] * (1.0 / (p[0] * p[5]))
+    return wrench(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _gliding(p: tuple) -> tuple:
     """The "gliding" model's (m, R, l, I1, I3, μ, g)."""
-    return (p[0], p[1], p[2], p[3], p[4], p[6], p[5])
+    return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G])
 
 
 def _params(top: Any, options: dict) -> tuple:
     law = options["friction"]  # the top carries the law's μ (RollingResistance.applied)
     l = top.R * top.alpha
-    return (top.m, top.R, l, top.I1, top.I3, top.g, top.mu, law.mu_r, law.omega_eps)
+    return (top.m, top.R, l, top.I1, top.I3, top.mu, top.g, law.mu_r, law.omega_eps)
 
 
 def _normal_force(y: Any, p: tuple) -> Any:
@@ -180,7 +181,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     sc = np.array(gliding.MODEL.scales(to_gliding(y0, p), _gliding(p)), dtype=float)
-    sc[6] *= p[1]  # λ = −L·a: the momentum scale times R
+    sc[6] *= p[ix.R]  # λ = −L·a: the momentum scale times R
     return sc
 
 

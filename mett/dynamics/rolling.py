@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _params as ix
 from ._model import (
     add_integrals,
     axis_theta,
@@ -115,7 +116,7 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _contact(t: float, y: Any, p: Any) -> Any:
     """The contact event g_n/(m g), for both backends."""
-    return _core(y, p)[8] * (1.0 / (p[0] * p[6]))
+    return _core(y, p)[8] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:

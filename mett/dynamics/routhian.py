@@ -19,7 +19,8 @@ fixtures in :mod:`mett.symbolic.maple_tippe_top`. Like the Euler form, φ̈ is s
 stops with status "failed" there.
 
 State ``y = [θ, θ̇, φ̇, ω3, φ, x, y, ẋ, ẏ]`` (x, y the CM position); parameters
-``(m, R, alpha, I1, I3, g, vertical_cm)`` with ``vertical_cm`` 1.0 for (a), 0.0 for (b).
+``(m, R, alpha, I1, I3, mu, g, vertical_cm)`` in the shared order of :mod:`._params`, with mu = 0
+(no friction) and ``vertical_cm`` 1.0 for (a), 0.0 for (b).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _params as ix
 from ._model import add_integrals, lab_vectors, scales_from_state
 from .euler import POLE_GUARD, cm_velocity_horizontal
 from .registry import Event, Model, Option, boolean, register
@@ -36,7 +38,7 @@ __all__ = ["MODEL", "POLE_GUARD", "routhian_normal_force", "routhian_rhs"]
 
 
 def _thetaddot(y: Any, p: tuple) -> Any:
-    m, R, al, I1, I3, g, vertical = p
+    m, R, al, I1, I3, _mu, g, vertical = p
     th, thd, phd, w3 = y[0], y[1], y[2], y[3]
     s, c = np.sin(th), np.cos(th)
     a = R * al
@@ -51,13 +53,13 @@ def _thetaddot(y: Any, p: tuple) -> Any:
 
 def routhian_normal_force(y: Any, p: tuple) -> Any:
     """g_n = m g + m a (θ̈ sin θ + θ̇² cos θ): m times (g + the CM's vertical acceleration)."""
-    m, R, al, I1, I3, g, vertical = p
+    m, R, al, I1, I3, _mu, g, vertical = p
     th, thd = y[0], y[1]
     return m * g + m * R * al * (_thetaddot(y, p) * np.sin(th) + thd * thd * np.cos(th))
 
 
 def _phiddot(y: Any, p: tuple) -> Any:
-    m, R, al, I1, I3, g, vertical = p
+    m, R, al, I1, I3, _mu, g, vertical = p
     th, thd, phd, w3 = y[0], y[1], y[2], y[3]
     return thd * (I3 * w3 - 2.0 * I1 * phd * np.cos(th)) / (I1 * np.sin(th))
 
@@ -75,16 +77,16 @@ def _rhs_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _contact(t: float, y: Any, p: Any) -> Any:
     """The contact event g_n/(m g), for both backends."""
-    return routhian_normal_force(y, p) * (1.0 / (p[0] * p[5]))
+    return routhian_normal_force(y, p) * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _params(top: Any, options: dict) -> tuple:
     vertical = 1.0 if options.get("vertical_cm", True) else 0.0
-    return (top.m, top.R, top.alpha, top.I1, top.I3, top.g, vertical)
+    return (top.m, top.R, top.alpha, top.I1, top.I3, 0.0, top.g, vertical)
 
 
 def _euler_params(p: tuple) -> tuple:
-    m, R, al, I1, I3, g, vertical = p
+    m, R, al, I1, I3, _mu, g, vertical = p
     return (m, R, al, I1, I3, 0.0, g)
 
 
@@ -100,7 +102,7 @@ def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
 
 
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
-    m, R, al, I1, I3, g, vertical = p
+    m, R, al, I1, I3, _mu, g, vertical = p
     Y = np.asarray(Y, dtype=float)
     th, thd, phd, w3, phi, x, y, xd, yd = Y
     s, c = np.sin(th), np.cos(th)
@@ -127,7 +129,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     from ..state import State
 
-    m, R, al, I1, I3, g, vertical = p
+    m, R, al, I1, I3, _mu, g, vertical = p
     st = State(theta=y0[0], thetadot=y0[1], phidot=y0[2], omega3=y0[3])
     v = lab_vectors(st, R, R * al)
     sc = scales_from_state(v["omega"], v["v"], R, R * al, I1, I3, g)

@@ -36,6 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..friction import Coulomb, Viscous
+from . import _params as ix
 from ._model import lab_vectors, scales_from_state, unit_axis
 from .gliding import gliding_core, gliding_series
 from .registry import (
@@ -84,11 +85,11 @@ def stem_params(top: Any, options: dict) -> tuple:
 
 
 def _ball(p: Any) -> tuple:
-    return (p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+    return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G])
 
 
 def _stem(p: Any) -> tuple:
-    return (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6])
+    return (p[ix.M], p[ix.R_S], p[ix.L] + p[ix.L_S], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G])
 
 
 def _ez(y: Any) -> Any:
@@ -104,7 +105,7 @@ def ball_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
 
 
 def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
-    d = gliding_core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
+    d = gliding_core(y, (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G]))
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
     out[10] = 0.0
@@ -112,8 +113,8 @@ def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _ball_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) of the ball contact."""
-    d = gliding_core(y, (p[0], p[1], p[2], p[3], p[4], p[5], p[6]))
-    return d[10] * (1.0 / (p[0] * p[6]))
+    d = gliding_core(y, (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G]))
+    return d[10] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def stem_clearance(y: Any, R: Any, r_s: Any, l_s: Any) -> Any:
@@ -132,7 +133,7 @@ def ball_clearance(y: Any, R: Any, r_s: Any, l_s: Any) -> Any:
 
 def _touchdown(t: float, y: Any, p: Any) -> Any:
     """Stem clearance while the ball touches (:func:`stem_clearance`)."""
-    return stem_clearance(y, p[1], p[7], p[8])
+    return stem_clearance(y, p[ix.R], p[ix.R_S], p[ix.L_S])
 
 
 # --- stem phase ----------------------------------------------------------------------------------
@@ -144,7 +145,9 @@ def stem_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
 
 
 def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
-    d = gliding_core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
+    d = gliding_core(
+        y, (p[ix.M], p[ix.R_S], p[ix.L] + p[ix.L_S], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G])
+    )
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
     out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
     out[10] = 0.0
@@ -152,13 +155,15 @@ def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
 
 def _stem_contact(t: float, y: Any, p: Any) -> Any:
     """g_n/(m g) of the stem contact."""
-    d = gliding_core(y, (p[0], p[7], p[2] + p[8], p[3], p[4], p[5], p[6]))
-    return d[10] * (1.0 / (p[0] * p[6]))
+    d = gliding_core(
+        y, (p[ix.M], p[ix.R_S], p[ix.L] + p[ix.L_S], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G])
+    )
+    return d[10] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _landing(t: float, y: Any, p: Any) -> Any:
     """Ball clearance while the stem touches (:func:`ball_clearance`)."""
-    return ball_clearance(y, p[1], p[7], p[8])
+    return ball_clearance(y, p[ix.R], p[ix.R_S], p[ix.L_S])
 
 
 # --- the impact ----------------------------------------------------------------------------------
@@ -201,7 +206,7 @@ def impact_frame(y: np.ndarray, p: tuple, to: str) -> ImpactFrame:
     """:class:`ImpactFrame` of state ``y`` (on the other sphere) for an impact of contact ``to``
     ("ball" or "stem"); ``p`` the parameters of the "stemmed" model (μ unused)."""
     old, new = (_stem(p), _ball(p)) if to == "ball" else (_ball(p), _stem(p))
-    m, I1, I3 = p[0], p[3], p[4]
+    m, I1, I3 = p[ix.M], p[ix.I1], p[ix.I3]
     e, L, w, V = _body(y, old)
     a = new[2] * e - np.array([0.0, 0.0, new[1]])
     Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
@@ -234,8 +239,8 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
     new contact's normal velocity is 0 afterwards and the energy does not increase.
     """
     f = impact_frame(y, p, to)
-    P = darboux_keller(f.v, f.W, p[5]) if f.v[2] < 0.0 else np.zeros(3)
-    return apply_impulse(y, f, p[0], P, to), P
+    P = darboux_keller(f.v, f.W, p[ix.MU]) if f.v[2] < 0.0 else np.zeros(3)
+    return apply_impulse(y, f, p[ix.M], P, to), P
 
 
 def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
@@ -318,7 +323,9 @@ def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     q = _stem(p) if y0[10] > 0.5 else _ball(p)
     w = np.array(gliding_core(y0, q)[11])
-    sc = scales_from_state(w, y0[2:4], p[1], max(p[2] + p[8], p[1]), p[3], p[4], p[6])
+    sc = scales_from_state(
+        w, y0[2:4], p[ix.R], max(p[ix.L] + p[ix.L_S], p[ix.R]), p[ix.I1], p[ix.I3], p[ix.G]
+    )
     return np.array(
         [sc["length"]] * 2 + [sc["velocity"]] * 2 + [sc["momentum"]] * 3 + [0.1] * 3 + [1.0]
     )

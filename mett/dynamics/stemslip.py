@@ -11,7 +11,7 @@ the friction phase,
     "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling".
 
 Every equation of a phase is stickslip's, called through its public contact interface with the
-geometry of the sphere in contact: stickslip's parameter tuple ``(m, R, l, I1, I3, g, mu, r*,
+geometry of the sphere in contact: stickslip's parameter tuple ``(m, R, l, I1, I3, mu, g, r*,
 eps, law, δ)`` with (R, l) for the ball and (r_s, l + l_s) for the stem sphere (a = l 3̂ − R ẑ in
 both). So within a contact everything of stickslip holds: sliding F_t = −μ g_n v̂_A, rolling while
 the required force is inside the cone, the "stop", "reversal" and "cone" switches with their
@@ -55,6 +55,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..friction import Coulomb
+from . import _params as ix
 from . import contact as dry
 from . import stem, stickslip
 from .contact import (
@@ -83,18 +84,20 @@ from .stem import apply_impulse, ball_clearance, impact_frame, stem_clearance
 
 __all__ = ["CONTENSOU", "MODEL", "dry_impulse", "impact"]
 
-# p = (m, R, l, I1, I3, g, mu, r_star, eps, law, delta, r_s, l_s): stickslip's tuple of the ball,
+# p = (m, R, l, I1, I3, mu, g, r_star, eps, law, delta, r_s, l_s): stickslip's tuple of the ball,
 # then the stem geometry
 
 
 def _ball(p: Any) -> tuple:
     """stickslip's parameters of the ball contact: (R, l)."""
-    return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
+    return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G],
+            p[ix.RSTAR], p[ix.EPS], p[ix.LAW], p[ix.BAND])  # fmt: skip
 
 
 def _stem(p: Any) -> tuple:
     """stickslip's parameters of the stem contact: (r_s, l + l_s)."""
-    return (p[0], p[11], p[2] + p[12], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
+    return (p[ix.M], p[ix.DRY_R_S], p[ix.L] + p[ix.DRY_L_S], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G],
+            p[ix.RSTAR], p[ix.EPS], p[ix.LAW], p[ix.BAND])  # fmt: skip
 
 
 def _contact(p: tuple, on_stem: bool) -> tuple:
@@ -103,7 +106,17 @@ def _contact(p: tuple, on_stem: bool) -> tuple:
 
 def _viscous(p: tuple) -> tuple:
     """The "stemmed" model's parameters (m, R, l, I1, I3, μ = 0, g, r_s, l_s): its geometry."""
-    return (p[0], p[1], p[2], p[3], p[4], 0.0, p[5], p[11], p[12])
+    return (
+        p[ix.M],
+        p[ix.R],
+        p[ix.L],
+        p[ix.I1],
+        p[ix.I3],
+        0.0,
+        p[ix.G],
+        p[ix.DRY_R_S],
+        p[ix.DRY_L_S],
+    )
 
 
 # --- the phases: stickslip's equations on each contact (compiled from this source) -------------
@@ -186,12 +199,12 @@ def _stem_cone(t: float, y: Any, p: Any) -> Any:
 
 def _touchdown(t: float, y: Any, p: Any) -> Any:
     """Stem clearance while the ball touches (:func:`mett.dynamics.stem.stem_clearance`)."""
-    return stem_clearance(y, p[1], p[11], p[12])
+    return stem_clearance(y, p[ix.R], p[ix.DRY_R_S], p[ix.DRY_L_S])
 
 
 def _landing(t: float, y: Any, p: Any) -> Any:
     """Ball clearance while the stem touches (:func:`mett.dynamics.stem.ball_clearance`)."""
-    return ball_clearance(y, p[1], p[11], p[12])
+    return ball_clearance(y, p[ix.R], p[ix.DRY_R_S], p[ix.DRY_L_S])
 
 
 # --- the jumps ---------------------------------------------------------------------------------
@@ -292,8 +305,8 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray, fl
     if f.v[2] >= 0.0:  # arrives without a downward velocity: nothing to stop
         P, Q = np.zeros(3), 0.0
     else:
-        P, Q, _ = dry_impulse(f, p[0], p[6], p[7])
-    after = apply_impulse(y, f, p[0], P, to, Q)  # on the new contact (its flag set)
+        P, Q, _ = dry_impulse(f, p[ix.M], p[ix.MU], p[ix.RSTAR])
+    after = apply_impulse(y, f, p[ix.M], P, to, Q)  # on the new contact (its flag set)
     return _converted(after, p, dry.from_gliding), P, Q
 
 
@@ -336,7 +349,7 @@ def _lz(Y: Any, p: tuple) -> np.ndarray:
 
 def _params(top: Any, options: dict) -> tuple:
     pv = stem.stem_params(top, options)  # validates the stem geometry
-    return (*stickslip.MODEL.params(top, options), pv[7], pv[8])
+    return (*stickslip.MODEL.params(top, options), pv[ix.R_S], pv[ix.L_S])
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
@@ -385,7 +398,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     sc = np.array(stem.MODEL.scales(_lz(y0, p), _viscous(p)), dtype=float)
-    sc[6] *= p[1]  # λ = −L·a: the momentum scale times R
+    sc[6] *= p[ix.R]  # λ = −L·a: the momentum scale times R
     return sc
 
 
@@ -417,20 +430,24 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         if c0 != c1:
             why = "touchdown" if c1 == "stem" else "landing"
             y_imp, P, Q = impact(y_ev, p, c1)
-            Pt = math.hypot(P[0], P[1], Q / p[7]) if p[7] > 0.0 else math.hypot(P[0], P[1])
-            mu_pn = p[6] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
+            Pt = (
+                math.hypot(P[0], P[1], Q / p[ix.RSTAR])
+                if p[ix.RSTAR] > 0.0
+                else math.hypot(P[0], P[1])
+            )
+            mu_pn = p[ix.MU] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
             margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
             speed = float(np.linalg.norm(dry.slip(y_imp, q)))
         else:
             why = _REASONS[(f0, f1)]
             y_dec = y_ev if why == "cone" else dry.set_slip(y_ev, q, np.zeros(3))
             gn, _, m = dry.required(y_dec, q)
-            margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan
+            margin = float(m / (p[ix.MU] * gn)) if p[ix.MU] > 0.0 else math.nan
             speed = float(np.linalg.norm(dry.slip(y_ev, q)))
         t_sw = dry.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
         records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
     touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
-    return series, {"switches": records, "touchdowns": touchdowns, "stopping_band": p[10]}
+    return series, {"switches": records, "touchdowns": touchdowns, "stopping_band": p[ix.BAND]}
 
 
 PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling")

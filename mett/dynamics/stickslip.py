@@ -91,6 +91,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..friction import Coulomb, RegularisedCoulomb
+from . import _params as ix
 from . import gliding
 from .contact import (
     LAW_COULOMB,
@@ -149,7 +150,7 @@ def _params(top: Any, options: dict) -> tuple:
     eps = law.eps if regularised else 0.0
     code = LAW_REGULARISED if regularised else LAW_COULOMB
     l = top.R * top.alpha
-    return (top.m, top.R, l, top.I1, top.I3, top.g, law.mu, r_star, eps, code, band)
+    return (top.m, top.R, l, top.I1, top.I3, law.mu, top.g, r_star, eps, code, band)
 
 
 def _initial(state: Any, p: tuple) -> np.ndarray:
@@ -166,7 +167,7 @@ def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
 
 def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     sc = np.array(gliding.MODEL.scales(to_gliding(y0, p), gliding_params(p)), dtype=float)
-    sc[6] *= p[1]  # λ = −L·a: the momentum scale times R
+    sc[6] *= p[ix.R]  # λ = −L·a: the momentum scale times R
     return sc
 
 
@@ -216,9 +217,9 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         gn, _, m = required(y_dec, p)
         speed = float(np.linalg.norm(slip(y_ev, p)))
         t_sw = t if why == "cone" else stop_time(t, y_ev, p)
-        margin = float(m / (p[6] * gn)) if p[6] > 0.0 else math.nan  # no cone at μ = 0
+        margin = float(m / (p[ix.MU] * gn)) if p[ix.MU] > 0.0 else math.nan  # no cone at μ = 0
         records.append(Switch(t_sw, before, after, why, margin, speed, t))
-    return series, {"switches": records, "stopping_band": p[10]}
+    return series, {"switches": records, "stopping_band": p[ix.BAND]}
 
 
 def stopping_band(top: Any, state: Any, rtol: float) -> float:
