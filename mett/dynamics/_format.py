@@ -957,7 +957,7 @@ def _decode_params(v: Any, expected: tuple, model: str = "") -> tuple:
     today's (:func:`._params.from_legacy`) when it does not match as it stands.
     """
     if isinstance(v, list) and not _matches(v, expected):
-        old = ix.from_legacy(model, v)
+        old = ix.from_legacy(model, tuple(v))
         if old is not None and _matches(list(old), expected):
             v = list(old)
     if not isinstance(v, list) or len(v) != len(expected):

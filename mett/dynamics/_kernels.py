@@ -73,7 +73,7 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
         elif isinstance(callee, types.ModuleType) and _own_module(callee):
             # a module of mett read for its constants (e.g. the parameter positions ``ix.MU``):
             # numba freezes them into the machine code, so its file is part of the cache name
-            deps.add(callee.__file__)
+            deps.add(str(callee.__file__))
     clone = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
     clone.__module__, clone.__doc__ = fn.__module__, fn.__doc__
     # the cache files are named after the qualname; the version tag keeps machine code compiled
