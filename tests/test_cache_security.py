@@ -457,7 +457,14 @@ def test_numba_cache_files_of_other_code_keep_numba_behaviour(tmp_path, monkeypa
         f.load("key")
 
 
-@pytest.mark.parametrize("mode", ["index-random", "data-bitflip", "data-truncated"])
+@pytest.mark.parametrize(
+    "mode",
+    [  # a subprocess each: one in the default run, every mode with -m slow
+        pytest.param("index-random", marks=pytest.mark.slow),
+        "data-bitflip",
+        pytest.param("data-truncated", marks=pytest.mark.slow),
+    ],
+)
 def test_mett_runs_with_a_damaged_numba_cache(tmp_path, mode):
     # a copy of the package with its warm cache; one compiled function's files damaged, then used
     import mett
