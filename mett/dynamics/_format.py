@@ -405,17 +405,23 @@ def _decode_item(item: Any, span: tuple[float, float]) -> Any:
         "type", "fields"
     }:  # fmt: skip
         raise _Refused(f"a record item must have the fields {cls._fields}; got {_short(item)}")
-    hints = typing.get_type_hints(cls)
-    kwargs = {
-        k: _text(x, f"record field {k!r}", 64) if hints[k] is str
-        else _number(x, f"record field {k!r}", finite=k == "t")
-        for k, x in fields.items()
-    }  # fmt: skip
-    record = cls(**kwargs)
-    t = kwargs.get("t")  # a number (_number): the fields' hints are str or float
+    record = _record_of(cls, fields, "record")
+    t = getattr(record, "t", None)  # a number (_number): the fields' hints are str or float
     if isinstance(t, float) and not span[0] <= t <= span[1]:
         raise _Refused(f"a record at t = {t!r} s lies outside the run")
     return record
+
+
+def _record_of(cls: Any, fields: dict, label: str) -> Any:
+    """An instance of the record class ``cls`` from its checked field values: text where the
+    field's hint is ``str`` (at most 64 characters), otherwise a number (a time ``t`` finite)."""
+    hints = typing.get_type_hints(cls)
+    kwargs = {
+        k: _text(x, f"{label} field {k!r}", 64) if hints[k] is str
+        else _number(x, f"{label} field {k!r}", finite=k == "t")
+        for k, x in fields.items()
+    }  # fmt: skip
+    return cls(**kwargs)
 
 
 # --- format versions 1 and 2 -------------------------------------------------------------------
@@ -1008,13 +1014,7 @@ def _decode_switch(item: Any, phases: tuple[str, ...], span: tuple[float, float]
             raise _Refused(
                 f"a switch record must have the fields {cls._fields}; got {_short(item)}"
             )
-        hints = typing.get_type_hints(cls)
-        kwargs = {
-            k: _text(x, f"switch field {k!r}", 64) if hints[k] is str
-            else _number(x, f"switch field {k!r}", finite=k == "t")
-            for k, x in fields.items()
-        }  # fmt: skip
-        record = cls(**kwargs)
+        record = _record_of(cls, fields, "switch")
     t, before, after = record[0], record[1], record[2]
     for name in (before, after):
         _choice(name, "a switch's phase", phases)
