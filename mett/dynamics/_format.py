@@ -441,7 +441,8 @@ _PER_SAMPLE = {
     "M_n": ("f", ()),
     "margin": ("f", ()),
 }
-"""The per-sample series a run of format 2 may hold (name: dtype kind, allowed labels)."""
+"""The per-sample series a run of format 2 may hold beyond :data:`SERIES` (name: dtype kind,
+allowed labels)."""
 
 
 def _legacy_meta(meta: dict) -> _Legacy:
@@ -698,16 +699,6 @@ _MAX_TEXT = 100_000
 
 _MAX_TAYLOR_TERMS = 64
 """Most Taylor coefficients per component and step (the Taylor backend's order is at most ~20)."""
-
-_PER_SAMPLE = {
-    "phase": ("U", ("sliding", "rolling", "ball", "stem")),
-    "contact": ("U", ("ball", "stem")),
-    "F_x": ("f", ()),
-    "F_y": ("f", ()),
-    "M_n": ("f", ()),
-    "margin": ("f", ()),
-}
-"""The per-sample series a run may set beyond :data:`SERIES` (name: dtype kind, allowed labels)."""
 
 
 class _Archive:
