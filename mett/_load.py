@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 from .dynamics._export import ENGINE, NetCDFTrajectory, require_xarray
 from .dynamics.trajectory import Trajectory
@@ -12,7 +11,7 @@ from .dynamics.trajectory import Trajectory
 __all__ = ["load"]
 
 
-def load(path: str | os.PathLike) -> Any:
+def load(path: str | os.PathLike) -> Trajectory | NetCDFTrajectory:
     """Read a run saved by mett: a ``.npz`` of :meth:`mett.Trajectory.save` or a ``.nc`` of
     :meth:`mett.Trajectory.to_netcdf`.
 

@@ -109,13 +109,7 @@ def minimum_track(traj: Trajectory, times: ArrayLike | None = None) -> np.ndarra
     )
 
 
-class TurningPoints(NamedTuple):
-    """Times and angles at which θ̇ = 0 along a trajectory (the extrema of θ(t)).
-
-    ``kind`` is ``MAX`` (+1) where θ has a maximum (θ̇ goes from + to −) and ``MIN`` (−1) where
-    it has a minimum, so ``tp.t[tp.kind == TurningPoints.MAX]`` are the times of the maxima.
-    """
-
+class _TurningPointFields(NamedTuple):
     t: np.ndarray
     """Times of θ̇ = 0 (s)."""
     theta: np.ndarray
@@ -123,6 +117,17 @@ class TurningPoints(NamedTuple):
     kind: np.ndarray
     """+1 (``TurningPoints.MAX``) at a maximum of θ, −1 (``TurningPoints.MIN``) at a minimum."""
 
+
+class TurningPoints(_TurningPointFields):
+    """Times and angles at which θ̇ = 0 along a trajectory (the extrema of θ(t)).
+
+    ``kind`` is ``MAX`` (+1) where θ has a maximum (θ̇ goes from + to −) and ``MIN`` (−1) where
+    it has a minimum, so ``tp.t[tp.kind == TurningPoints.MAX]`` are the times of the maxima.
+    A named tuple ``(t, theta, kind)``; the class constants live on this subclass because a
+    ``NamedTuple`` body may hold fields only.
+    """
+
+    __slots__ = ()
     MAX = 1
     MIN = -1
 
@@ -197,7 +202,10 @@ def _theta_extrema(traj: Trajectory, subdivision: int) -> TurningPoints:
     t = np.asarray(traj.t, dtype=float)
     frac = np.arange(subdivision) / subdivision
     per_block = max(1, _BLOCK_POINTS // subdivision)  # output intervals per block
-    lo, hi, f_lo, f_hi = [], [], [], []
+    lo_l: list[np.ndarray] = []
+    hi_l: list[np.ndarray] = []
+    f_lo_l: list[np.ndarray] = []
+    f_hi_l: list[np.ndarray] = []
     for i0 in range(0, max(t.size - 1, 1), per_block):
         i1 = min(i0 + per_block, t.size - 1)
         tb = t[i0 : i1 + 1]
@@ -205,11 +213,11 @@ def _theta_extrema(traj: Trajectory, subdivision: int) -> TurningPoints:
         grid = np.append((tb[:-1, None] + np.diff(tb)[:, None] * frac).ravel(), tb[-1])
         thd = np.asarray(traj.at(grid).thetadot)
         idx = np.flatnonzero(thd[:-1] * thd[1:] < 0.0)
-        lo.append(grid[idx])
-        hi.append(grid[idx + 1])
-        f_lo.append(thd[idx])
-        f_hi.append(thd[idx + 1])
-    lo, hi, f_lo, f_hi = (np.concatenate(x) for x in (lo, hi, f_lo, f_hi))
+        lo_l.append(grid[idx])
+        hi_l.append(grid[idx + 1])
+        f_lo_l.append(thd[idx])
+        f_hi_l.append(thd[idx + 1])
+    lo, hi, f_lo, f_hi = (np.concatenate(x) for x in (lo_l, hi_l, f_lo_l, f_hi_l))
     if lo.size == 0:
         return TurningPoints(np.empty(0), np.empty(0), np.empty(0, dtype=int))
     times = _illinois(lambda tt: np.asarray(traj.at(tt).thetadot), lo, hi, f_lo, f_hi, tol=1e-13)
@@ -293,11 +301,12 @@ def period_comparison(traj: Trajectory) -> PeriodComparison:
     s = traj.at(mids)
     D, lam = _integrals_at(traj, s)
     E = np.atleast_1d(modified_energy(traj.top, s))
+    theta_mid = np.atleast_1d(s.theta)
     rolling = np.full(mids.shape, np.nan)
     for i in range(mids.size):
         try:
             rolling[i] = separation.nutation_period(
-                traj.top, E[i], sign * D[i], sign * lam[i], z0=float(np.cos(s.theta[i]))
+                traj.top, E[i], sign * D[i], sign * lam[i], z0=float(np.cos(theta_mid[i]))
             )
         except ValueError:
             pass

@@ -11,7 +11,7 @@ every energy in mJ (:data:`ENERGY_UNIT`) and the Routh integral D in 10⁻³ kg 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -23,6 +23,7 @@ from . import _validate, classification, potential, separation, thresholds
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d import Axes3D
     from numpy.typing import ArrayLike
 
     from .dynamics import Trajectory
@@ -64,11 +65,19 @@ def _figure(width: float = 1.0, height: float = 1.0) -> Figure:
     return plt.figure(figsize=(width * w, height * h), layout="constrained")
 
 
-def _axes(ax: Axes | None, projection: str | None = None) -> tuple[Figure, Axes]:
+def _axes(ax: Axes | None) -> tuple[Figure, Axes]:
     if ax is not None:
-        return ax.figure, ax
+        # an axes of a SubFigure hands back its SubFigure, which draws like a Figure
+        return cast("Figure", ax.figure), ax
     fig = _figure()
-    return fig, fig.add_subplot(projection=projection)
+    return fig, fig.add_subplot()
+
+
+def _axes3d(ax: Axes3D | None) -> tuple[Figure, Axes3D]:
+    if ax is not None:
+        return cast("Figure", ax.figure), ax
+    fig = _figure()
+    return fig, fig.add_subplot(projection="3d")
 
 
 def _lw(factor: float) -> float:
@@ -189,7 +198,7 @@ def _trimmed_grid(
     """
     u, Vs = _V_grid(top, lam, D, coordinate, max(4 * n, 801))
     below = Vs <= level
-    has = below.any(axis=1)
+    has = np.asarray(below.any(axis=1))
     j0 = np.argmax(below, axis=1)
     j1 = below.shape[1] - 1 - np.argmax(below[:, ::-1], axis=1)
 
@@ -247,7 +256,7 @@ def plot_potential_surface(
     n_D: int = 81,
     colorbar: bool = True,
     minimum: bool = True,
-    ax: Axes | None = None,
+    ax: Axes3D | None = None,
 ) -> Figure:
     """The surface V(cos θ, D, λ) over the poles' interval and D ∈ [D1, D0] (Rutstam 2012).
 
@@ -301,7 +310,7 @@ def plot_potential_surface(
     if not np.isfinite(Vt).any():
         raise ValueError(f"level = {level!r} J lies below V everywhere on the plotted range")
     DD = np.broadcast_to(D[:, None], U.shape)
-    fig, ax = _axes(ax, projection="3d")
+    fig, ax = _axes3d(ax)
     vmin = float(np.nanmin(Vt)) * ENERGY_SCALE
     vmax = level * ENERGY_SCALE
     surf = ax.plot_surface(
@@ -327,7 +336,7 @@ def plot_potential_surface(
     ax.set_xticks(np.linspace(-1.0, 1.0, 5) if coordinate == "z" else np.arange(0.0, 3.5, 0.5))
     ax.yaxis.set_major_locator(MaxNLocator(5))
     # one set of V ticks for the V axis and the colour bar, so a colour reads off as a height
-    vticks = MaxNLocator(5).tick_values(vmin, vmax)
+    vticks = np.asarray(MaxNLocator(5).tick_values(vmin, vmax))
     vticks = vticks[(vticks >= vmin) & (vticks <= vmax)]
     ax.set_zticks(vticks)
     ax.set_xlabel(_COORDINATE_LABELS[coordinate])
@@ -339,7 +348,7 @@ def plot_potential_surface(
         ax.set_title(rf"$V$ against $\theta$ and $D$, {_lam_text(lam)}")
     if colorbar:
         cb = fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.1, label=f"V [{ENERGY_UNIT}]")
-        cb.set_ticks(vticks)
+        cb.set_ticks(vticks.tolist())
     return fig
 
 
@@ -579,7 +588,9 @@ def plot_potential_slices(
     lo = min(floors)
     depth = 2.0 * top.m * top.g * top.R * top.alpha * ENERGY_SCALE
     hi = max(floors) + max(depth, 0.3 * (max(floors) - lo))
-    z_in = np.concatenate([ln.get_xdata()[ln.get_ydata() <= hi] for ln in lines])
+    z_in = np.concatenate(
+        [np.asarray(ln.get_xdata())[np.asarray(ln.get_ydata()) <= hi] for ln in lines]
+    )
     pad = 0.03 * (z_in.max() - z_in.min()) + 1e-3
     ax.set_xlim(max(-1.0, z_in.min() - pad), min(1.0, z_in.max() + pad))
     ax.set_ylim(lo - 0.05 * (hi - lo), hi)
@@ -693,7 +704,7 @@ def plot_angular_velocities(
         a_psi, a_phi = np.asarray(ax, dtype=object).ravel()
         fig = a_psi.figure
     else:
-        fig, a_psi, a_phi, twin = ax.figure, ax, ax.twinx(), True
+        fig, a_psi, a_phi, twin = cast("Figure", ax.figure), ax, ax.twinx(), True
     for a_, name, color in ((a_psi, "psidot", "C0"), (a_phi, "phidot", "C1")):
         label, unit, _ = SERIES[name]
         y = np.asarray(getattr(traj, name))
@@ -841,9 +852,9 @@ def animate_deforming_potential(
     return path
 
 
-def plot_axis_trace(traj: Trajectory, *, ax: Axes | None = None) -> Figure:
+def plot_axis_trace(traj: Trajectory, *, ax: Axes3D | None = None) -> Figure:
     """Trace of the symmetry axis 3̂(t) = (sin θ sin φ, −sin θ cos φ, cos θ) on the unit sphere."""
-    fig, ax = _axes(ax, projection="3d")
+    fig, ax = _axes3d(ax)
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
     ax.plot_wireframe(
         np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v), color="0.8", lw=_lw(0.3), alpha=0.4
@@ -1036,12 +1047,12 @@ def plot_subgroups(
     if ax is None:
         fig = _figure(1.2, 1.2)
         ax = fig.add_subplot()
-    fig = ax.figure
+    fig = cast("Figure", ax.figure)
     labels = {"Ib": (0.4, 0.56), "IIa": (0.32, 1.02), "IIb": (0.5, 0.62), "III": (0.15, 1.45)}
     _draw_classes(ax, (0.0, 0.6), (0.45, 1.7), n, labels, legend=True)
     ax.axhline(0.5, color="0.45", lw=_lw(0.8), label="γ = 1/2 (I3 = 2 I1)")
-    mark = dict(ls="none", marker="o", ms=_ms(0.67), mfc="white", mec="black")
-    sample_mark = dict(ls="none", marker="^", ms=_ms(0.83), color="black")
+    mark: dict[str, Any] = dict(ls="none", marker="o", ms=_ms(0.67), mfc="white", mec="black")
+    sample_mark: dict[str, Any] = dict(ls="none", marker="^", ms=_ms(0.83), color="black")
     for i, (name, (x, y)) in enumerate((points or {}).items()):
         ax.plot(x, y, **mark, label="presets" if i == 0 else "_nolegend_")
         ax.annotate(name, (x, y), xytext=(4, 2), textcoords="offset points", fontsize="x-small")

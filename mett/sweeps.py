@@ -23,13 +23,16 @@ import warnings
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor, Future, as_completed
 from pathlib import Path
-from typing import Any
+from typing import IO, TYPE_CHECKING, Any, cast
 
 import pandas as pd
 
 from . import _validate
 from ._validate import MettWarning
 from .top import TippeTop
+
+if TYPE_CHECKING:
+    from .friction import FrictionLaw
 
 __all__ = ["GRID_NAMES", "MAX_POINTS", "CheckpointWarning", "SweepTable", "classify_end", "sweep"]
 
@@ -200,7 +203,7 @@ def _start(base: dict, point: dict) -> tuple[dict, Any]:
             omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
         )  # fmt: skip
         lam = float(jellett(top, state))
-        start = dict(
+        start: dict[str, Any] = dict(
             omega3_start=float(ic["omega3"]), lam=lam, lam_ratio=lam / top.lambda_thres,
             gamma=top.gamma,
         )  # fmt: skip
@@ -211,7 +214,7 @@ def _start(base: dict, point: dict) -> tuple[dict, Any]:
     try:
         law = _law(base, point, top)
     except (ValueError, TypeError) as exc:  # e.g. a Contensou radius with the viscous law
-        result = dict(start, status="invalid", message=str(exc), simulated="invalid")
+        result = {**start, "status": "invalid", "message": str(exc), "simulated": "invalid"}
         return _finish(row, point, result), None
     if law is not None:
         kw["friction"] = law
@@ -275,7 +278,7 @@ def _unstable_spin(top: TippeTop, model: str, kw: dict, lam: float, pole: str, e
     if viscous:  # the run's own linearisation
         mu = top.mu if law is None or law.mu is None else law.mu
     else:  # dry friction: the same thresholds decide; the viscous linearisation gives the sign
-        mu = 1.0 if law.mu > 0 else 0.0
+        mu = 1.0 if law is not None and law.mu > 0 else 0.0
     eig_top = top if mu == top.mu else dataclasses.replace(top, mu=mu)
     if not lam > 0.0:  # no spin: upright rests on the ball's bottom (stable), inverted falls
         return "" if pole == "upright" else f"θ ends near the {pole} pole without spin (unstable)"
@@ -479,6 +482,13 @@ def _checkpoint_path(value: Any) -> Path:
     return _validate.output_path("checkpoint", value)
 
 
+def _append(fh: IO[str], line: str) -> None:
+    """Write one line and make it durable before the next (a crash leaves whole lines)."""
+    fh.write(line)
+    fh.flush()
+    os.fsync(fh.fileno())
+
+
 class _Checkpoint:
     """JSON-lines file: a header with the format version, mett's version and the arguments'
     signature, then one finished point a line.
@@ -504,8 +514,7 @@ class _Checkpoint:
             # "x": a file created by someone else since the check is not overwritten
             fh = open(path, "w" if path.exists() else "x", encoding="utf-8")
             try:
-                self._guard(lambda: (fh.write(json.dumps(header) + "\n"), fh.flush(),
-                                     os.fsync(fh.fileno())))  # fmt: skip
+                self._guard(lambda: _append(fh, json.dumps(header) + "\n"))
             finally:
                 self._fh = fh
                 self.close()
@@ -620,7 +629,7 @@ class _Checkpoint:
 
     def write(self, index: int, row: dict) -> None:
         line = json.dumps({"index": index, "row": row}) + "\n"
-        self._guard(lambda: (self._fh.write(line), self._fh.flush(), os.fsync(self._fh.fileno())))
+        self._guard(lambda: _append(self._fh, line))
         self.done[index] = row
 
     def close(self) -> None:
@@ -687,7 +696,7 @@ def _friction_option(friction: Any, contensou_radius: Any, names: list[str]) -> 
             out["friction"] = friction
         else:
             law = laws.check_law(friction)
-            fields = dataclasses.asdict(law)
+            fields = dataclasses.asdict(cast(Any, law))  # every registered law is a dataclass
             if fields.get("mu") is not None and "mu" in names:
                 raise ValueError(
                     f"friction={laws.describe(law)} fixes mu, so the grid axis 'mu' would be "
@@ -800,7 +809,7 @@ def sweep(
     progress: bool | None = None,
     checkpoint: str | os.PathLike | None = None,
     chunksize: int | None = None,
-    friction: Any = None,
+    friction: str | FrictionLaw | None = None,
     contensou_radius: float | None = None,
     **simulate_kw: Any,
 ) -> pd.DataFrame:
@@ -1034,7 +1043,7 @@ class SweepTable(pd.DataFrame):
     def _constructor(self) -> type:
         return SweepTable
 
-    def to_xarray(self, dims: list[str] | None = None) -> Any:  # type: ignore[override]
+    def to_xarray(self, dims: list[str] | None = None) -> Any:
         """The table as an :class:`xarray.Dataset` (optional extra ``mett[xarray]``).
 
         Parameters

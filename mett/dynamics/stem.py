@@ -259,7 +259,7 @@ def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     def stop(_: float, z: np.ndarray) -> float:
         return z[2]
 
-    stop.terminal, stop.direction = True, 1.0
+    stop.terminal, stop.direction = True, 1.0  # type: ignore[attr-defined]
     # The impact always ends: v_t relaxes to W_tt⁻¹W_tz/μ and then v_z grows at the rate
     # 1/(W⁻¹)_zz > 0 (W positive definite). Friction can make p much larger than the
     # frictionless −v_z/W_zz, so the interval is extended until v_z reaches 0.

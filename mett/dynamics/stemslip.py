@@ -255,8 +255,8 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
     def stops(_: float, z: np.ndarray) -> float:
         return float(np.linalg.norm(z[tang])) - eta
 
-    normal.terminal, normal.direction = True, 1.0
-    stops.terminal, stops.direction = True, -1.0
+    normal.terminal, normal.direction = True, 1.0  # type: ignore[attr-defined]
+    stops.terminal, stops.direction = True, -1.0  # type: ignore[attr-defined]
     z = np.concatenate((g0, np.zeros(k)))
     stuck = False
     p0, p1 = 0.0, 10.0 * -g0[2] / Wg[2, 2]
