@@ -40,11 +40,11 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
-from . import _run, backends
+from . import _run, backends, flight
 from ._run import PreparedRun, Run
 from .gliding import viscous_force
 from .hybrid import MAX_SWITCHES, solve_hybrid
-from .registry import MODELS, Model, check_friction, lookup, validate_options
+from .registry import MODELS, Model, boolean, check_friction, lookup, validate_options
 from .trajectory import Trajectory
 
 __all__ = [
@@ -213,6 +213,7 @@ def simulate(
     backend: str = "auto",
     max_step: float = math.inf,
     friction: _friction.FrictionLaw | None = None,
+    stop_on_contact_loss: bool = False,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
@@ -365,9 +366,15 @@ def simulate(
                            max_step=max_step, friction=friction, **options)  # fmt: skip
     prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
                     events=events, method=method, backend=backend, max_step=max_step,
-                    friction=friction, **options)  # fmt: skip
+                    friction=friction, stop_on_contact_loss=stop_on_contact_loss,
+                    **options)  # fmt: skip
     # a run decided before the first step is returned as it is
-    traj = run_prepared(prep) if isinstance(prep, PreparedRun) else prep
+    if not isinstance(prep, PreparedRun):
+        traj = prep
+    elif not stop_on_contact_loss and flight.flies(prep.model):  # lift-off, flight, landing
+        traj = flight.run_with_flight(prep)
+    else:
+        traj = run_prepared(prep)
     if friction is not None:
         viscous_top, law = friction.applied(top)
         if law is None:  # the top's viscous law, given explicitly: its force series
@@ -403,12 +410,16 @@ def prepare_run(
     backend: str,
     max_step: float,
     friction: Any,
+    stop_on_contact_loss: bool = True,
     **options: Any,
 ) -> PreparedRun | Trajectory:
     """Everything :func:`simulate` does before integrating: validation, the model that runs (its
     friction law and variant), the backend, parameters and start; a run decided at t = 0 (contact
-    lost, a guard) is returned as its Trajectory; a law is applied first (never run here)."""  # fmt: skip
+    lost, a guard) is returned as its Trajectory; a law is applied first (never run here).
+    With ``stop_on_contact_loss=False`` a model that flies (:func:`.flight.flies`) is prepared
+    even from a start without contact force (its run begins with a flight)."""  # fmt: skip
     mdl = lookup(model)
+    stop_on_contact_loss = boolean("stop_on_contact_loss", stop_on_contact_loss)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
     state = _check_state(state)
@@ -484,7 +495,7 @@ def prepare_run(
     for ev in phase.events:  # a start already past a guard (e.g. a pole)
         if ev.action == "fail" and float(ev.fn(0.0, y0, params)) <= 0.0:
             return run.at_start("failed", ev.message)
-    if gn0 <= 0.0:
+    if gn0 <= 0.0 and (stop_on_contact_loss or not flight.flies(mdl)):
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
     return PreparedRun(run, table, t_end, rtol, atol_arr, t_eval_arr, max_step, method, user)
