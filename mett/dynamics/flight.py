@@ -53,6 +53,7 @@ from ._series import SERIES
 from .dense import SegmentedSolution
 from .gliding import gliding_core
 from .hybrid import solve_hybrid
+from .registry import JumpFailed
 from .stickslip import Switch
 from .taylor import TaylorDense
 from .trajectory import Trajectory
@@ -67,6 +68,7 @@ __all__ = [
     "flies",
     "land",
     "run_with_flight",
+    "warn_if_artefact",
 ]
 
 ORDER = 24
@@ -230,14 +232,18 @@ class Hop:
         h, h1, h2, h3 = self.gap(0.0)
         eps = np.finfo(float).eps
         tau = 0.0
-        if h <= 0.0 and h1 <= 0.0:  # at a lift-off: h = ḣ = 0 up to rounding
-            c2, c3 = 0.5 * h2, h3 / 6.0
-            if c2 <= 0.0 and c3 <= 0.0:
+        if h <= 0.0:  # on the table: h(s) ≥ s (ḣ + ḧ s/2 + h⃛ s²/6 − M4 s³/24)
+            if h1 > 0.0:
+                s = _first_root([-self.M4 / 24.0, h3 / 6.0, 0.5 * h2, h1])
+            elif h1 < 0.0:
                 return 0.0
-            if c3 > 0.0 and c2 < 0.0:
-                tau = -2.0 * c2 / c3
-            # the first step from the reduced bound c2 + c3 s − M4 s²/24 > 0 (h = ḣ = 0)
-            s = _first_root([-self.M4 / 24.0, c3, max(c2, 0.0)]) if tau == 0.0 else 0.0
+            else:  # a lift-off: h = ḣ = 0, h ≥ s² (c2 + c3 s − M4 s²/24)
+                c2, c3 = 0.5 * h2, h3 / 6.0
+                if c2 <= 0.0 and c3 <= 0.0:
+                    return 0.0
+                if c3 > 0.0 and c2 < 0.0:
+                    tau = -2.0 * c2 / c3
+                s = _first_root([-self.M4 / 24.0, c3, max(c2, 0.0)]) if tau == 0.0 else 0.0
             tau = tau + (s if s is not None else tau_max)
         t_res = 4.0 * eps * max(abs(self.t0), 1.0)
         for _ in range(1_000_000):
@@ -392,16 +398,21 @@ class _Piece:
     gap_rate: np.ndarray
 
 
-def _viscous_warning(run: Run, y: np.ndarray, t: float, flier: _Flier) -> None:
-    if flier.dry:
+def warn_if_artefact(traj: Trajectory) -> None:
+    """Warn (:class:`ViscousArtefactWarning`) if a viscous ``"gliding"`` run lost contact with
+    the law's coefficient μ|v_A| above :data:`VISCOUS_ARTEFACT` (at any lift-off)."""
+    if traj.model != "gliding" or traj.t_contact_lost is None:
         return
-    nu = gliding_core(np.asarray(y, dtype=float).tolist(), run.params)[12]
-    k = run.params[ix.MU] * math.hypot(nu[0], nu[1])
-    if k > VISCOUS_ARTEFACT:
+    mu = traj.params[ix.MU]
+    lifts = [(s.t, s.slip) for s in traj.records.get("switches", []) if s.reason == "lift-off"]
+    if not lifts:  # stopped at the loss of contact: its state is the last sample
+        lifts = [(traj.t_contact_lost, math.hypot(traj.nu_x[-1], traj.nu_y[-1]))]
+    t, slip = max(lifts, key=lambda ts: ts[1])
+    if mu * slip > VISCOUS_ARTEFACT:
         _validate.warn(
-            f"contact lost at t = {t:.9g} s with mu |v_A| = {k:.3g} > {VISCOUS_ARTEFACT:g}: the "
-            "viscous law then acts as a dry coefficient no real contact has, so this loss of "
-            "contact (and the flight after it) is an artefact of the law "
+            f"contact lost at t = {t:.9g} s with mu |v_A| = {mu * slip:.3g} > "
+            f"{VISCOUS_ARTEFACT:g}: the viscous law then acts as a dry friction coefficient no "
+            "real contact has, so this loss of contact is an artefact of the law "
             "(docs/theory/flight.md)",
             ViscousArtefactWarning,
         )
@@ -479,7 +490,6 @@ def run_with_flight(prep: PreparedRun | Run, **prepared: Any) -> Trajectory:
         # --- a flight from (t, y): lift-off
         if t_lost is None:
             t_lost = t
-        _viscous_warning(run, y, t, flier)
         g = flier.to_body(y, p)
         hop = Hop(g, t, body)
         nu = gliding_core(g.tolist(), (*body[:5], 0.0, body[5]))[12]
@@ -495,13 +505,19 @@ def run_with_flight(prep: PreparedRun | Run, **prepared: Any) -> Trajectory:
                        "zero length; Painlevé-type inconsistency of the contact law)")  # fmt: skip
             pieces.append(_flight_piece(hop, 0.0, flier, p, t_eval_arr, last=True))
             break
-        pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=tau is None))
-        durations.append(tau_end)
-        if tau is None:
+        g_td = hop.state(tau_end)
+        try:
+            landed = None if tau is None else land(g_td, float(hop.vz(tau)), p, flier.dry)
+        except JumpFailed as exc:  # the run ends at the touchdown, the flight kept
+            status, message = "failed", f"landing at t = {t + tau_end:.9g} s: {exc}"
+            pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True))
             break
-        t_td = t + tau
-        g_td = hop.state(tau)
-        g_after, P, Q, margin = land(g_td, float(hop.vz(tau)), p, flier.dry)
+        pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None))
+        durations.append(tau_end)
+        if landed is None:
+            break
+        t_td = float(t + tau_end)
+        g_after, P, Q, margin = landed
         y = flier.from_body(g_after, p)
         phase = _start_phase(run, table, y)
         nu = gliding_core(g_after.tolist(), (*body[:5], 0.0, body[5]))[12]

@@ -375,6 +375,7 @@ def simulate(
         traj = flight.run_with_flight(prep)
     else:
         traj = run_prepared(prep)
+    flight.warn_if_artefact(traj)
     if friction is not None:
         viscous_top, law = friction.applied(top)
         if law is None:  # the top's viscous law, given explicitly: its force series
