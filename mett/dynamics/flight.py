@@ -55,7 +55,6 @@ from .gliding import gliding_core
 from .hybrid import solve_hybrid
 from .registry import JumpFailed
 from .stickslip import Switch
-from .taylor import TaylorDense
 from .trajectory import Trajectory
 
 __all__ = [
@@ -260,10 +259,12 @@ class Hop:
             tau += s
         raise RuntimeError("touchdown search did not converge")  # pragma: no cover
 
-    def dense(self, tau_end: float, convert: Callable[[np.ndarray], np.ndarray]) -> TaylorDense:
+    def dense(self, tau_end: float, convert: Callable[[np.ndarray], np.ndarray]) -> Any:
         """The flight over [0, tau_end] as Taylor polynomials of degree :data:`ORDER` in the
         layout ``convert`` (of gliding-layout states, shape (10, k)) gives; ``convert`` must be
         affine in 3̂ with L fixed (true of the gliding and the λ layouts: λ = −L·a is constant)."""
+        from .taylor import TaylorDense  # numba's: not imported by ``import mett``
+
         n_steps = max(1, math.ceil(2.0 * self.Omega * tau_end))
         taus = np.linspace(0.0, tau_end, n_steps + 1)
         Y = convert(self.state(taus))  # breakpoint states in the model layout
