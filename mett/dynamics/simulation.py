@@ -306,6 +306,14 @@ def simulate(
         ``margin`` (N) and ``switches`` (:class:`mett.dynamics.stickslip.Switch`). Their option
         ``stopping_band`` (m/s) defaults to 10 rtol × the start's velocity scale.
         :class:`~mett.dynamics.resistance.RollingResistance` runs ``"rolling-resistance"``.
+    stop_on_contact_loss : bool, default False
+        What happens where the normal force reaches 0. False: a model that flies
+        (:func:`mett.dynamics.flight.flies`: ``"gliding"`` and the dry laws it hands over to)
+        follows the exact free flight, the touchdown and the landing impact, and goes on in
+        contact (:func:`mett.dynamics.flight.run_with_flight`, docs/theory/flight.md); its
+        Trajectory then has ``contact`` ("ball"/"none"), ``gap``, ``gap_rate`` (m, m/s) and the
+        lift-offs and touchdowns in ``switches``; a run that never loses contact is unchanged.
+        True, and every other model: the run ends there with status "contact_lost".
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -321,8 +329,9 @@ def simulate(
     Returns
     -------
     Trajectory
-        ``status`` is ``"completed"``, ``"contact_lost"`` (the normal force reached 0; the run ends
-        there and ``t_contact_lost`` holds the time) or ``"failed"`` (the integrator could not
+        ``status`` is ``"completed"``, ``"contact_lost"`` (the normal force reached 0 and the run
+        ended there, see ``stop_on_contact_loss``; ``t_contact_lost`` holds the time, also the
+        first lift-off of a run that flew) or ``"failed"`` (the integrator could not
         continue; ``message`` gives the reason). Numerical trouble never raises.
 
     Raises
