@@ -419,7 +419,7 @@ def warn_if_artefact(traj: Trajectory) -> None:
         )
 
 
-def run_with_flight(prep: PreparedRun | Run, **prepared: Any) -> Trajectory:
+def run_with_flight(prep: PreparedRun) -> Trajectory:
     """Integrate a prepared run of a ball model that flies (:func:`flies`): contact phases on
     the run's backend, exact flights between them, landing impacts at the touchdowns.
 
@@ -465,7 +465,7 @@ def run_with_flight(prep: PreparedRun | Run, **prepared: Any) -> Trajectory:
             nfev += traj.nfev
             t_events = traj.t_events
             lost = traj.status == "contact_lost"
-            t_lo = float(traj.t_contact_lost) if lost else float(traj.t[-1])
+            t_lo = float(traj.t_contact_lost or 0.0) if lost else float(traj.t[-1])
             keep = traj.t < t_lo if lost else np.ones(traj.t.size, dtype=bool)
             n = int(keep.sum())
             pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol,
@@ -528,7 +528,9 @@ def run_with_flight(prep: PreparedRun | Run, **prepared: Any) -> Trajectory:
         jumps.append((y_before, y.copy()))
         t = t_td
         in_contact = _contact_force(phase, y, t, p) > 0.0
-        acc = accumulation(durations, contact_times[1:] + ([0.0] if not in_contact else []))
+        # contact_times[k]: the contact before hop k; a landing that flies on at once may continue
+        # an accumulating sequence
+        acc = None if in_contact else accumulation(durations, contact_times)
         if acc is not None:
             ratio, rest = acc
             status = "failed"
