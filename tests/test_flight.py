@@ -203,3 +203,22 @@ def test_stop_on_contact_loss_must_be_a_bool():
     with pytest.raises(TypeError, match="stop_on_contact_loss"):
         mett.simulate(TOP, mett.State(theta=0.1, omega3=155.0), t_end=0.1,
                       stop_on_contact_loss="no")  # fmt: skip
+
+
+def test_a_terminal_user_event_in_flight_ends_the_run_in_the_air():
+    """User events are located on the flight's dense output: a terminal one stops the run at
+    the crossing the uninterrupted run's dense output has (Brent's method on both: ~1e-14 s)."""
+    state = mett.State(theta=3.0, thetadot=60.0, omega3=10.0)
+    free = mett.simulate(TOP, state, t_end=0.2)
+    t_cross = free.crossings(3.1)[0]
+    assert free.contact[np.searchsorted(free.t, t_cross)] == "none"
+
+    def event(t, s):
+        return s.theta - 3.1
+
+    event.terminal = True
+    traj = mett.simulate(TOP, state, t_end=0.2, events=[event])
+    assert traj.status == "completed" and "terminal event 0" in traj.message
+    assert traj.t_final == pytest.approx(t_cross, abs=1e-12)
+    assert traj.t_events[0][0] == pytest.approx(t_cross, abs=1e-12)
+    assert traj.contact[-1] == "none"

@@ -31,7 +31,7 @@ top flies again at once.
 
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
-:data:`ORDER` on steps of Ω h ≤ 1/2: truncation below 1e-25), so that a trajectory with flights
+:data:`ORDER` on steps of Ω h ≤ 1/8: truncation below 1e-30), so that a trajectory with flights
 saves and reloads as any other (:class:`mett.dynamics.taylor.TaylorDense`).
 """
 
@@ -70,8 +70,10 @@ __all__ = [
     "warn_if_artefact",
 ]
 
-ORDER = 24
-"""Degree of the Taylor polynomials of a flight's dense output (steps of Ω h ≤ 1/2)."""
+ORDER = 16
+"""Degree of the Taylor polynomials of a flight's dense output, on steps of Ω h ≤ 1/8 (the
+truncation (1/8)^17/17! < 1e-30); the steps are fine enough for the crossings and user events
+located on them, as on an integrator's steps."""
 
 MAX_HOPS = 10_000
 """A run stops with status "failed" after this many flights (hops)."""
@@ -265,7 +267,7 @@ class Hop:
         affine in 3̂ with L fixed (true of the gliding and the λ layouts: λ = −L·a is constant)."""
         from .taylor import TaylorDense  # numba's: not imported by ``import mett``
 
-        n_steps = max(1, math.ceil(2.0 * self.Omega * tau_end))
+        n_steps = max(1, math.ceil(8.0 * self.Omega * tau_end))
         taus = np.linspace(0.0, tau_end, n_steps + 1)
         Y = convert(self.state(taus))  # breakpoint states in the model layout
         K = ORDER + 1
@@ -513,7 +515,19 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             status, message = "failed", f"landing at t = {t + tau_end:.9g} s: {exc}"
             pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True))
             break
-        pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None))
+        piece = _flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None)
+        if events:  # the user events on the flight's dense output, as on a compiled run's
+            stop = _user_events(events, piece.sol)
+            t_events = events.result(t + tau_end if stop is None else stop[0])
+            if stop is not None and stop[0] <= t + tau_end:
+                t_term = stop[0]
+                piece = _flight_piece(hop, t_term - t, flier, p, t_eval_arr, last=True)
+                status = "completed"
+                message = f"stopped by terminal event {stop[1]} at t = {t_term:.9g} s"
+                pieces.append(piece)
+                durations.append(t_term - t)
+                break
+        pieces.append(piece)
         durations.append(tau_end)
         if landed is None:
             break
@@ -545,10 +559,21 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             break
         last = phase.name or "sliding"
     n_flights = len(durations)
-    if status == "completed":
+    if status == "completed" and "terminal event" not in message:
         message = f"{message}; {n_flights} flight{'s' if n_flights != 1 else ''}"
     return _assemble(run, pieces, switches, jumps, records, status, message, t_lost, nfev,
                      t_events)  # fmt: skip
+
+
+def _user_events(events: backends.UserEvents, sol: Any) -> tuple[float, int] | None:
+    """Advance the user events over a flight's dense output; the terminal stop, if any."""
+    ts = np.asarray(sol.ts, dtype=float)
+    Y = np.asarray(sol(ts), dtype=float).reshape(-1, ts.size)
+    try:
+        events.advance(ts, events.values(ts, Y), sol)
+    except backends.UserEventError as err:
+        raise err.exc from None  # a user event's exception, unchanged (as on every backend)
+    return events.stop
 
 
 def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any,
