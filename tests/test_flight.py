@@ -185,6 +185,39 @@ def test_dry_laws_fly_and_land():
     _check_energy(traj)
 
 
+@pytest.mark.parametrize(
+    "law", [mett.friction.Coulomb(0.3), mett.friction.RegularisedCoulomb(0.3, 1e-3)]
+)
+def test_every_dry_law_lands(law):
+    """Coulomb and regularised Coulomb from a start in flight: touchdowns, E never rising."""
+    state = mett.State(theta=3.0, thetadot=60.0, omega3=10.0)
+    traj = mett.simulate(TOP, state, t_end=0.2, friction=law)
+    assert traj.status == "completed", traj.message
+    assert sum(s.reason == "touchdown" for s in traj.switches) >= 2
+    _check_energy(traj)
+
+
+def test_regularised_landing_impulse():
+    """The regularised impact ends compression (v_z = 0), dissipates (ΔT = v0·P + ½ P·W P < 0,
+    W the contact's inverse effective mass), is the frictionless −v_z/W_zz ẑ at μ = 0 and the
+    viscous impulse of coefficient μ/ε where |v_t| ≪ ε (law error (v_t/ε)² ~ 1e-11, Radau at
+    rtol 1e-10: agreement 1e-8)."""
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(3, 3))
+    W = A @ A.T + 3 * np.eye(3)
+    v0 = np.array([0.04, -0.03, -0.12])
+    P = flight.regularised_impulse(v0, W, 0.3, 1e-3)
+    v1 = v0 + W @ P
+    assert abs(v1[2]) <= 1e-9 * abs(v0[2])
+    assert float(v0 @ P + 0.5 * P @ (W @ P)) < 0.0
+    P0 = flight.regularised_impulse(v0, W, 0.0, 1e-3)
+    assert np.allclose(P0, [0.0, 0.0, -v0[2] / W[2, 2]], rtol=0, atol=1e-12 * abs(P0[2]))
+    eps = 1e4
+    Pv = mett.dynamics.stem.darboux_keller(v0, W, 0.3 / eps)
+    Pr = flight.regularised_impulse(v0, W, 0.3, eps)
+    assert np.allclose(Pr, Pv, rtol=0, atol=1e-8 * abs(Pv[2]))
+
+
 def test_viscous_loss_of_contact_at_high_slip_warns():
     """μ|v_A| > 1 at the loss of contact: ViscousArtefactWarning (both ways of ending)."""
     top = TOP.replace(mu=5.0)

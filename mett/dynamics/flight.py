@@ -25,9 +25,9 @@ simple) and stops when its step falls below the time resolution.
 The landing is the impact of the stem page (docs/theory/stem.md): perfectly inelastic in the
 normal direction, the friction law in impulse form: the viscous law's
 :func:`mett.dynamics.stem.darboux_keller`, Coulomb's and Coulomb–Contensou's
-:func:`mett.dynamics.stemslip.dry_impulse` (regularised Coulomb lands with Coulomb's impulse,
-its ε → 0 limit). After it the contact model resumes; if the force it needs is again ≤ 0 the
-top flies again at once.
+:func:`mett.dynamics.stemslip.dry_impulse`, the regularised law's :func:`regularised_impulse`
+(the same Darboux–Keller integration with its force). After it the contact model resumes; if
+the force it needs is again ≤ 0 the top flies again at once.
 
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
@@ -66,6 +66,7 @@ __all__ = [
     "accumulation",
     "flies",
     "land",
+    "regularised_impulse",
     "run_with_flight",
     "warn_if_artefact",
 ]
@@ -341,8 +342,10 @@ def land(
     f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + np.cross(w, a))
     P, Q, margin = np.zeros(3), 0.0, math.nan
     if f.v[2] < 0.0:
-        if dry:
-            r_star = 0.0 if p[ix.LAW] == contact.LAW_REGULARISED else p[ix.RSTAR]
+        if dry and p[ix.LAW] == contact.LAW_REGULARISED:
+            P = regularised_impulse(f.v, f.W, mu, p[ix.EPS])
+        elif dry:
+            r_star = p[ix.RSTAR]
             P, Q, _ = stemslip.dry_impulse(f, m, mu, r_star)
             Pt = math.hypot(P[0], P[1], Q / r_star) if r_star > 0.0 else math.hypot(P[0], P[1])
             if mu * P[2] > 0.0:
@@ -352,6 +355,37 @@ def land(
     # Δ(m ṙ) = P, ΔL = a × P + Q ẑ (stem.apply_impulse, on the ten components of this state)
     after = stem.apply_impulse(np.append(y, 0.0), f, m, P, "ball", Q)[:10]
     return after, P, float(Q), margin
+
+
+def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) -> np.ndarray:
+    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact under the
+    regularised Coulomb law, dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp, dv = W dP, from the contact
+    velocity ``v0`` (v0_z < 0) until v_z = 0: :func:`mett.dynamics.stem.darboux_keller` with
+    this law's tangential force per unit normal impulse (stiff where |v_t| ≲ ε: Radau).
+
+    Energy: dE = v·dP = (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp ≤ 0 during compression.
+    """
+    from scipy.integrate import solve_ivp
+
+    def rate(_: float, z: np.ndarray) -> np.ndarray:
+        k = -mu / math.sqrt(z[0] * z[0] + z[1] * z[1] + eps * eps)
+        dP = np.array([k * z[0], k * z[1], 1.0])
+        return np.concatenate((W @ dP, dP))
+
+    def stop(_: float, z: np.ndarray) -> float:
+        return z[2]
+
+    stop.terminal, stop.direction = True, 1.0  # type: ignore[attr-defined]
+    z, p0, p1 = np.concatenate((v0, np.zeros(3))), 0.0, 10.0 * -v0[2] / W[2, 2]
+    for _ in range(12):  # friction can make p larger than the frictionless −v_z/W_zz
+        sol = solve_ivp(rate, (p0, p1), z, method="Radau", events=stop, rtol=1e-10,
+                        atol=1e-14 * (1.0 + abs(v0[2])))  # fmt: skip
+        if sol.status != 0:
+            break
+        z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
+    if sol.status != 1:
+        raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
+    return np.asarray(sol.y_events[0][0][3:], dtype=float)
 
 
 # --- the driver ----------------------------------------------------------------------------
