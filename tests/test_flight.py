@@ -255,3 +255,16 @@ def test_a_terminal_user_event_in_flight_ends_the_run_in_the_air():
     assert traj.t_final == pytest.approx(t_cross, abs=1e-12)
     assert traj.t_events[0][0] == pytest.approx(t_cross, abs=1e-12)
     assert traj.contact[-1] == "none"
+
+
+def test_a_painleve_inconsistent_start_ends_failed_with_a_clear_message():
+    """μ = 5 s/m and a fast slip: the viscous force makes the normal force's denominator
+    negative, the contact would need g_n < 0 while the free motion enters the table (ḧ(0) < 0):
+    no hop, no contact. The run ends "failed" at t = 0 saying so, the start kept; the law's
+    artefact is flagged."""
+    top = TOP.replace(mu=5.0)
+    state = mett.State(theta=1.2, omega3=50.0, nu_x=1.0)
+    with pytest.warns(flight.ViscousArtefactWarning):
+        traj = mett.simulate(top, state, t_end=0.3)
+    assert traj.status == "failed" and "Painlevé" in traj.message
+    assert traj.t.size >= 1 and traj.t_final == 0.0 and traj.t_contact_lost == 0.0
