@@ -712,7 +712,10 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
             flat_sols.append(s)
             flat_phases.append(name)
     sol = SegmentedSolution(flat_sols, flat_phases)
-    switches = sorted(switches, key=lambda s: s[0])
+    order = sorted(range(len(switches)), key=lambda i: float(switches[i][0]))  # stable
+    switches = [switches[i] for i in order]
+    if len(jumps) == len(order):  # each jump stays with its switch
+        jumps = [jumps[i] for i in order]
     records = {**records, "switches": switches, "jumps": jumps}
     return Trajectory(
         t=t[keep], states=states[:, keep], model=mdl, top=run.top, params=p, solution=sol,
