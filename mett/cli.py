@@ -404,7 +404,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     run_top: Any = top
     if name == STEMMED.name:  # as mett.simulate(top.with_stem(r, d), ...): contact, touchdowns
         run_top = top.with_stem(kw.pop("stem_radius"), kw.pop("stem_distance"))
-    traj = simulate(run_top, state, args.t_end, rtol=args.rtol, backend=args.backend, **kw)
+    traj = simulate(run_top, state, args.t_end, rtol=args.rtol, backend=args.backend,
+                    stop_on_contact_loss=args.stop_on_contact_loss, **kw)  # fmt: skip
     written = []
     if out is not None:  # the partial run too (exit 1)
         from .dynamics import _export
@@ -855,6 +856,12 @@ def _build_parser() -> argparse.ArgumentParser:
         "settings) or .nc (NetCDF with units and settings; needs mett[xarray])",
     )
     p.add_argument("--plot", default=None, help="write θ(t) as an image (e.g. theta.png)")
+    p.add_argument(
+        "--stop-on-contact-loss",
+        action="store_true",
+        help="end the run where the normal force reaches 0 (status contact_lost) instead of "
+        "following the ball top's flight and landing",
+    )
     p.add_argument("--json", action="store_true", help=json_help)
 
     p = add("period", "turning points, nutation period and precession (rolling)", _cmd_period)

@@ -457,9 +457,10 @@ def test_a_run_that_does_not_complete_exits_1_with_its_results(tmp_path, capsys)
 
     # started with θ̇ = 100 rad/s at θ = 1.5 the ball leaves the table at once
     argv = ["simulate", *THESIS, "--theta0", "1.5", "--omega3", "0", "--thetadot", "100",
-            "--t-end", "1"]  # fmt: skip
+            "--t-end", "1", "--stop-on-contact-loss"]  # fmt: skip
     ref = mett.simulate(mett.presets.get("rutstam2013"),
-                        mett.State(theta=1.5, omega3=0.0, thetadot=100.0), 1.0)  # fmt: skip
+                        mett.State(theta=1.5, omega3=0.0, thetadot=100.0), 1.0,
+                        stop_on_contact_loss=True)  # fmt: skip
     assert ref.status == "contact_lost"
     code, out, err = call([*argv, "--out", tmp_path / "t.csv"], capsys)
     assert code == 1, err

@@ -261,7 +261,8 @@ def test_vertical_spins_are_handled_without_nan(top):
 
 def test_contact_lost_at_the_start(top):
     # θ > π/2 with a large θ̇: the CM would have to accelerate downwards faster than g.
-    tr = simulate(top, mett.State(theta=2.0, thetadot=100.0, omega3=10.0), 1.0)
+    tr = simulate(top, mett.State(theta=2.0, thetadot=100.0, omega3=10.0), 1.0,
+                  stop_on_contact_loss=True)  # fmt: skip
     assert tr.status == "contact_lost"
     assert tr.t_contact_lost == 0.0 and len(tr) == 1
     assert "t = 0" in tr.message and tr.gn[0] < 0

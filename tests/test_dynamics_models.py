@@ -57,7 +57,7 @@ def test_vector_and_euler_forms_agree_from_random_gliding_states(top):
             nu_x=rng.normal(0, 0.1),
             nu_y=rng.normal(0, 0.1),
         )
-        vec = simulate(top, s, 0.05, rtol=1e-12)
+        vec = simulate(top, s, 0.05, rtol=1e-12, stop_on_contact_loss=True)
         eul = simulate(top, s, 0.05, model="gliding-euler", rtol=1e-12)
         if vec.status != "completed":  # a random state may lift off; both forms must agree on it
             assert eul.status == vec.status == "contact_lost"
@@ -448,7 +448,7 @@ def test_thrown_top_loses_contact_mid_run(top):
     # A violent flip (θ̇ = 80 rad/s at θ = 0.5) lifts the sphere off after ~0.02 s: g_n reaches 0
     # mid-run, the run ends there, and both forms locate the same instant.
     s = mett.State(theta=0.5, thetadot=80.0)
-    vec = simulate(top, s, 1.0)
+    vec = simulate(top, s, 1.0, stop_on_contact_loss=True)
     eul = simulate(top, s, 1.0, model="gliding-euler")
     assert vec.status == eul.status == "contact_lost"
     assert vec.gn[0] > 0.0 and abs(vec.gn[-1]) < 1e-9 * top.m * top.g
@@ -465,7 +465,7 @@ def test_maple_tippe_top_with_alpha_0p5724_loses_contact():
     with pytest.warns(mett.PhysicalityWarning, match="exceeds m R"):
         top = mett.presets.get("maple-tippe-top", alpha=0.5724)
     s = mett.State(theta=0.1, omega3=_spin_for(top, 2.0 * top.lambda_thres))
-    tr = simulate(top, s, 40.0)
+    tr = simulate(top, s, 40.0, stop_on_contact_loss=True)
     assert tr.status == "contact_lost", tr.message
     assert 20.0 < tr.t_contact_lost < 30.0
     assert tr.t[-1] == tr.t_contact_lost

@@ -157,7 +157,8 @@ def test_netcdf_round_trip_keeps_the_samples_bit_for_bit(which, request, tmp_pat
 
 
 def test_a_partial_run_keeps_its_status_in_netcdf(tmp_path):
-    traj = mett.simulate(TOP, mett.State(theta=1.5, omega3=0.0, thetadot=100.0), 1.0)
+    traj = mett.simulate(TOP, mett.State(theta=1.5, omega3=0.0, thetadot=100.0), 1.0,
+                        stop_on_contact_loss=True)  # fmt: skip
     assert traj.status == "contact_lost"
     back = mett.load(traj.to_netcdf(tmp_path / "t.nc"))
     assert back.status == "contact_lost" and back.t_contact_lost == traj.t_contact_lost

@@ -128,7 +128,8 @@ def test_contact_lost_and_failed_runs_round_trip(top, tmp_path):
     assert_same_run(failed, loaded)
     assert loaded.at(0.0) == failed.at(0.0)
     # contact lost at t = 0 (a top dropped with a large downward θ̇ at θ = π/2)
-    lost = mett.simulate(top, State(theta=1.5, thetadot=-400.0, omega3=0.0), 1.0)
+    lost = mett.simulate(top, State(theta=1.5, thetadot=-400.0, omega3=0.0), 1.0,
+                        stop_on_contact_loss=True)  # fmt: skip
     assert lost.status == "contact_lost"
     loaded = Trajectory.load(lost.save(tmp_path / "c.npz"))
     assert_same_run(lost, loaded)

@@ -94,7 +94,8 @@ def test_rtol_atol_and_the_requested_end_are_kept_and_saved(top, tmp_path):
     loaded = Trajectory.load(traj.save(tmp_path / "tol.npz"))
     assert (loaded.rtol, loaded.t_end) == (1e-9, 0.05) and np.array_equal(loaded.atol, traj.atol)
     # a run that ends early keeps the end it was asked for
-    lost = mett.simulate(top, State(theta=0.5, thetadot=-200.0, omega3=155.0), 1.0)
+    lost = mett.simulate(top, State(theta=0.5, thetadot=-200.0, omega3=155.0), 1.0,
+                        stop_on_contact_loss=True)  # fmt: skip
     assert lost.status == "contact_lost" and lost.t_end == 1.0 > lost.t_final
 
 
@@ -154,7 +155,8 @@ def test_status_is_one_str_enumeration_and_success_counts_completed_only(top, tm
     done = mett.simulate(top, START, 0.02)
     assert done.status is Status.COMPLETED and done.status == "completed" and done.success
     assert repr(done.status) == "'completed'" and f"{done.status}" == "completed"
-    lost = mett.simulate(top, State(theta=0.5, thetadot=-200.0, omega3=155.0), 1.0)
+    lost = mett.simulate(top, State(theta=0.5, thetadot=-200.0, omega3=155.0), 1.0,
+                        stop_on_contact_loss=True)  # fmt: skip
     assert lost.status is Status.CONTACT_LOST and not lost.success
     failed = mett.simulate(top, State(theta=0.0, omega3=10.0), 1.0, model="gliding-euler")
     assert failed.status == Status.FAILED and not failed.success

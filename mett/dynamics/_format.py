@@ -260,7 +260,8 @@ def _from_saved(cls: type, meta: dict, archive: _Archive, all_series: tuple[str,
             raise _Refused(f"initial_state does not fit model {model.name!r}: {exc}") from None
 
     # the entries: exactly those this metadata implies (others are refused unread)
-    phase_names = tuple(ph.name for ph in model.phase_table())
+    # and "flight": the free flights of a run that lost contact (mett.dynamics.flight)
+    phase_names = (*(ph.name for ph in model.phase_table()), "flight")
     dense_meta = meta.get("dense")
     dense_entries = _dense_entries(dense_meta, phase_names, _MAX_RECORDS)
     required = {"t", "states", *series, *(f"t_events_{k}" for k in range(n_events))}

@@ -51,6 +51,8 @@ SERIES_UNITS: dict[str, tuple[str, str]] = {
     "M_n": ("N m", "friction torque about the vertical"),
     "margin": ("1", "stick margin of the contact (dry friction)"),
     "phase": ("", "contact phase of the sample"),
-    "contact": ("", "which sphere touches the plane (ball or stem)"),
+    "contact": ("", "which sphere touches the plane (ball, stem, or none in flight)"),
+    "gap": ("m", "height of the lowest point of the sphere above the plane (0 in contact)"),
+    "gap_rate": ("m/s", "rate of the gap of the lowest point of the sphere"),
 }
 """Unit and long name of every series a :class:`mett.Trajectory` may carry (SI units)."""

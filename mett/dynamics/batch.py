@@ -116,7 +116,8 @@ def run_ends(
     samples of θ are returned, with E at the first and last of them (for judging whether it
     settled).
     """
-    kw = {**SIMULATE_DEFAULTS, **simulate_kw}
+    # sweeps stop where contact is lost (status "contact_lost"): flight is simulate's alone
+    kw = {**SIMULATE_DEFAULTS, **simulate_kw, "stop_on_contact_loss": True}
     out: list[Any] = [None] * len(jobs)
     fast: dict[Any, list[tuple[int, PreparedRun]]] = {}
     for j, (top, state, *own) in enumerate(jobs):

@@ -40,11 +40,11 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
-from . import _run, backends
+from . import _run, backends, flight
 from ._run import PreparedRun, Run
 from .gliding import viscous_force
 from .hybrid import MAX_SWITCHES, solve_hybrid
-from .registry import MODELS, Model, check_friction, lookup, validate_options
+from .registry import MODELS, Model, boolean, check_friction, lookup, validate_options
 from .trajectory import Trajectory
 
 __all__ = [
@@ -213,6 +213,7 @@ def simulate(
     backend: str = "auto",
     max_step: float = math.inf,
     friction: _friction.FrictionLaw | None = None,
+    stop_on_contact_loss: bool = False,
     **options: Any,
 ) -> Trajectory:
     """Integrate the motion of a tippe top from ``state`` over ``[0, t_end]``.
@@ -305,6 +306,14 @@ def simulate(
         ``margin`` (N) and ``switches`` (:class:`mett.dynamics.stickslip.Switch`). Their option
         ``stopping_band`` (m/s) defaults to 10 rtol × the start's velocity scale.
         :class:`~mett.dynamics.resistance.RollingResistance` runs ``"rolling-resistance"``.
+    stop_on_contact_loss : bool, default False
+        What happens where the normal force reaches 0. False: a model that flies
+        (:func:`mett.dynamics.flight.flies`: ``"gliding"`` and the dry laws it hands over to)
+        follows the exact free flight, the touchdown and the landing impact, and goes on in
+        contact (:func:`mett.dynamics.flight.run_with_flight`, docs/theory/flight.md); its
+        Trajectory then has ``contact`` ("ball"/"none"), ``gap``, ``gap_rate`` (m, m/s) and the
+        lift-offs and touchdowns in ``switches``; a run that never loses contact is unchanged.
+        True, and every other model: the run ends there with status "contact_lost".
     **options
         The options of the model (``Model.options``), validated by the model's validators; None
         means the default. Built in:
@@ -320,8 +329,9 @@ def simulate(
     Returns
     -------
     Trajectory
-        ``status`` is ``"completed"``, ``"contact_lost"`` (the normal force reached 0; the run ends
-        there and ``t_contact_lost`` holds the time) or ``"failed"`` (the integrator could not
+        ``status`` is ``"completed"``, ``"contact_lost"`` (the normal force reached 0 and the run
+        ended there, see ``stop_on_contact_loss``; ``t_contact_lost`` holds the time, also the
+        first lift-off of a run that flew) or ``"failed"`` (the integrator could not
         continue; ``message`` gives the reason). Numerical trouble never raises.
 
     Raises
@@ -365,9 +375,16 @@ def simulate(
                            max_step=max_step, friction=friction, **options)  # fmt: skip
     prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
                     events=events, method=method, backend=backend, max_step=max_step,
-                    friction=friction, **options)  # fmt: skip
+                    friction=friction, stop_on_contact_loss=stop_on_contact_loss,
+                    **options)  # fmt: skip
     # a run decided before the first step is returned as it is
-    traj = run_prepared(prep) if isinstance(prep, PreparedRun) else prep
+    if not isinstance(prep, PreparedRun):
+        traj = prep
+    elif not stop_on_contact_loss and flight.flies(prep.model):  # lift-off, flight, landing
+        traj = flight.run_with_flight(prep)
+    else:
+        traj = run_prepared(prep)
+    flight.warn_if_artefact(traj)
     if friction is not None:
         viscous_top, law = friction.applied(top)
         if law is None:  # the top's viscous law, given explicitly: its force series
@@ -403,12 +420,16 @@ def prepare_run(
     backend: str,
     max_step: float,
     friction: Any,
+    stop_on_contact_loss: bool = True,
     **options: Any,
 ) -> PreparedRun | Trajectory:
     """Everything :func:`simulate` does before integrating: validation, the model that runs (its
     friction law and variant), the backend, parameters and start; a run decided at t = 0 (contact
-    lost, a guard) is returned as its Trajectory; a law is applied first (never run here)."""  # fmt: skip
+    lost, a guard) is returned as its Trajectory; a law is applied first (never run here).
+    With ``stop_on_contact_loss=False`` a model that flies (:func:`.flight.flies`) is prepared
+    even from a start without contact force (its run begins with a flight)."""  # fmt: skip
     mdl = lookup(model)
+    stop_on_contact_loss = boolean("stop_on_contact_loss", stop_on_contact_loss)
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
     state = _check_state(state)
@@ -484,7 +505,7 @@ def prepare_run(
     for ev in phase.events:  # a start already past a guard (e.g. a pole)
         if ev.action == "fail" and float(ev.fn(0.0, y0, params)) <= 0.0:
             return run.at_start("failed", ev.message)
-    if gn0 <= 0.0:
+    if gn0 <= 0.0 and (stop_on_contact_loss or not flight.flies(mdl)):
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
     return PreparedRun(run, table, t_end, rtol, atol_arr, t_eval_arr, max_step, method, user)

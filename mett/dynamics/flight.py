@@ -1,0 +1,726 @@
+"""Flight and landing of the ball top: a run that loses contact goes on (docs/theory/flight.md).
+
+When the normal force g_n of a ball-top run reaches 0 the top leaves the table. It then moves
+as a free rigid body, exactly in closed form (Goldstein, *Classical Mechanics*, §5.6, the
+torque-free symmetric top):
+
+    centre of mass:  r_G(τ) = r_G0 + V0 τ − ½ g τ² ẑ,
+    angular momentum about G:  L(τ) = L0,
+    axis:  3̂(τ) = 3̂∥ + u cos Ωτ + (L̂ × u) sin Ωτ,   Ω = |L|/I1,  3̂∥ = (L̂·3̂0) L̂,  u = 3̂0 − 3̂∥,
+
+(3̂ precesses about L at the rate |L|/I1; ω3 = L·3̂/I3 stays constant). The gap of the lowest
+point of the sphere above the table, h = z_G + l 3̂_z − R, is written without cancellation as
+
+    h(τ) = h0 + ḣ0 τ − ½ g τ² + l [u_z (cos Ωτ − 1) + v_z (sin Ωτ − Ωτ)],   v = L̂ × u,
+
+(h0 = ḣ0 = 0 at a lift-off: the contact constraint held up to it). Touchdown is the first root
+τ > 0 of h. It is located by a march that cannot step over a root: from τ with h(τ) > 0 the
+next point is the first positive zero of the Taylor lower bound
+
+    p(s) = h + ḣ s + ḧ s²/2 + h⃛ s³/6 − M4 s⁴/24,   M4 = l Ω⁴ √(u_z² + v_z²) ≥ |h⁗|,
+
+so h > 0 between the points; the march converges to the first root (quadratically where it is
+simple) and stops when its step falls below the time resolution.
+
+The landing is the impact of the stem page (docs/theory/stem.md): perfectly inelastic in the
+normal direction, the friction law in impulse form: the viscous law's
+:func:`mett.dynamics.stem.darboux_keller`, Coulomb's and Coulomb–Contensou's
+:func:`mett.dynamics.stemslip.dry_impulse`, the regularised law's :func:`regularised_impulse`
+(the same Darboux–Keller integration with its force). After it the contact model resumes; if
+the force it needs is again ≤ 0 the top flies again at once.
+
+A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
+shape) with a dense output made of exact Taylor polynomials of the closed form (degree
+:data:`ORDER` on steps of Ω h ≤ 1/8: truncation below 1e-30), so that a trajectory with flights
+saves and reloads as any other (:class:`mett.dynamics.taylor.TaylorDense`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .. import _validate
+from . import _params as ix
+from . import backends, contact, stem, stemslip
+from ._run import PreparedRun, Run, completed_message
+from ._series import SERIES
+from .dense import SegmentedSolution
+from .gliding import gliding_core
+from .hybrid import solve_hybrid
+from .registry import JumpFailed
+from .stickslip import Switch
+from .trajectory import Trajectory
+
+__all__ = [
+    "MAX_HOPS",
+    "ORDER",
+    "VISCOUS_ARTEFACT",
+    "Hop",
+    "ViscousArtefactWarning",
+    "accumulation",
+    "flies",
+    "land",
+    "regularised_impulse",
+    "run_with_flight",
+    "warn_if_artefact",
+]
+
+ORDER = 16
+"""Degree of the Taylor polynomials of a flight's dense output, on steps of Ω h ≤ 1/8 (the
+truncation (1/8)^17/17! < 1e-30); the steps are fine enough for the crossings and user events
+located on them, as on an integrator's steps."""
+
+MAX_HOPS = 10_000
+"""A run stops with status "failed" after this many flights (hops)."""
+
+VISCOUS_ARTEFACT = 1.0
+"""μ |v_A| above which a viscous run's loss of contact is an artefact of the law (see
+:class:`ViscousArtefactWarning`)."""
+
+_ACCUMULATION_HOPS = 8
+"""Consecutive hops, each landing followed at once by the next lift-off, with durations in a
+geometric sequence, that count as an accumulation (a Zeno sequence)."""
+
+
+class ViscousArtefactWarning(_validate.MettWarning):
+    """A viscous-law run lost contact where the law's friction coefficient μ|v_A| exceeds
+    :data:`VISCOUS_ARTEFACT` = 1.
+
+    The viscous law F_t = −μ g_n v_A acts as a dry law of coefficient μ|v_A| (μ in s/m). No dry
+    contact of the materials of a top on a table has a coefficient above about 1, so a loss of
+    contact at μ|v_A| > 1 is driven by a friction force that no real contact transmits: an
+    artefact of the law, not physics (docs/theory/flight.md#when-a-loss-of-contact-is-an-artefact).
+    """
+
+
+# --- the models that fly: their state in the gliding layout and their landing law ----------
+
+
+@dataclass(frozen=True)
+class _Flier:
+    """How a contact model flies: its state ↔ the gliding layout, its landing impulse."""
+
+    to_body: Callable[[np.ndarray, tuple], np.ndarray]
+    from_body: Callable[[np.ndarray, tuple], np.ndarray]
+    dry: bool
+
+
+def _same(y: np.ndarray, p: tuple) -> np.ndarray:
+    return np.array(y, dtype=float)
+
+
+def _dry_from_body(y: np.ndarray, p: tuple) -> np.ndarray:
+    return contact.settle(contact.from_gliding(y, p), p)
+
+
+_FLIERS = {
+    "gliding": _Flier(_same, _same, False),
+    "coulomb": _Flier(contact.to_gliding, _dry_from_body, True),
+    "coulomb-contensou": _Flier(contact.to_gliding, _dry_from_body, True),
+    "coulomb-regularised": _Flier(contact.to_gliding, _dry_from_body, True),
+}
+
+
+def flies(model: Any) -> bool:
+    """True if runs of ``model`` (a registered :class:`~mett.dynamics.registry.Model`) continue
+    through a loss of contact by flight and landing; the others stop with "contact_lost"."""
+    return getattr(model, "name", None) in _FLIERS
+
+
+# --- the free flight -----------------------------------------------------------------------
+
+
+def _sin_minus(x: float) -> float:
+    """sin x − x without cancellation for small |x|."""
+    if abs(x) > 0.1:
+        return math.sin(x) - x
+    x2 = x * x
+    return (
+        -x
+        * x2
+        / 6.0
+        * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0))))
+    )
+
+
+class Hop:
+    """The exact free flight of the eccentric sphere from a state (module docstring).
+
+    Parameters
+    ----------
+    y : ndarray, shape (10,)
+        State in the gliding layout ``[x, y, ẋ, ẏ, L_x, L_y, L_z, 3̂_x, 3̂_y, 3̂_z]`` at ``t0``.
+    t0 : float
+        Start time (s).
+    body : tuple
+        ``(m, R, l, I1, I3, g)`` (kg, m, m, kg m², kg m², m/s²).
+    gap, gap_rate : float
+        Gap h of the lowest point of the sphere (m) and its rate ḣ (m/s) at ``t0``; 0 at a
+        lift-off.
+    """
+
+    def __init__(
+        self, y: np.ndarray, t0: float, body: tuple, gap: float = 0.0, gap_rate: float = 0.0
+    ) -> None:
+        self.m, self.R, self.l, self.I1, self.I3, self.g = body
+        y = np.asarray(y, dtype=float)
+        self.t0, self.h0, self.hd0 = float(t0), float(gap), float(gap_rate)
+        self.r0, self.V = y[0:2].copy(), y[2:4].copy()
+        self.L = y[4:7].copy()
+        e = y[7:10] / np.linalg.norm(y[7:10])
+        Lm = float(np.linalg.norm(self.L))
+        self.Omega = Lm / self.I1
+        Lh = self.L / Lm if Lm > 0.0 else np.array([0.0, 0.0, 1.0])
+        self.e_par = float(Lh @ e) * Lh
+        self.u = e - self.e_par
+        self.v = np.cross(Lh, self.u)
+        # vertical CM velocity: the contact value −l 3̂̇_z plus the gap rate (3̂̇ = Ω v at τ = 0)
+        self.vz0 = -self.l * self.Omega * self.v[2] + self.hd0
+        self.M4 = self.l * self.Omega**4 * math.hypot(self.u[2], self.v[2])
+
+    def axis(self, tau: Any) -> np.ndarray:
+        """3̂ at ``tau`` (s after t0), shape (3,) or (3, k)."""
+        w = self.Omega * np.asarray(tau, dtype=float)
+        return (np.multiply.outer(self.e_par, np.ones_like(w)) + np.multiply.outer(self.u, np.cos(w))
+                + np.multiply.outer(self.v, np.sin(w)))  # fmt: skip
+
+    def state(self, tau: Any) -> np.ndarray:
+        """Gliding-layout state(s) at ``tau``, shape (10,) or (10, k)."""
+        tau = np.asarray(tau, dtype=float)
+        out = np.empty((10, *tau.shape))
+        out[0] = self.r0[0] + self.V[0] * tau
+        out[1] = self.r0[1] + self.V[1] * tau
+        out[2], out[3] = self.V[0], self.V[1]
+        for i in range(3):
+            out[4 + i] = self.L[i]
+        out[7:10] = self.axis(tau)
+        return out
+
+    def gap(self, tau: float) -> tuple[float, float, float, float]:
+        """(h, ḣ, ḧ, h⃛) at ``tau``: the gap of the lowest point of the sphere (m) and its rates."""
+        W, l, uz, vz = self.Omega, self.l, self.u[2], self.v[2]
+        w = W * tau
+        c, s = math.cos(w), math.sin(w)
+        h = (self.h0 + self.hd0 * tau - 0.5 * self.g * tau * tau
+             + l * (-2.0 * uz * math.sin(0.5 * w) ** 2 + vz * _sin_minus(w)))  # fmt: skip
+        h1 = self.hd0 - self.g * tau + l * W * (-uz * s - 2.0 * vz * math.sin(0.5 * w) ** 2)
+        h2 = -self.g - l * W * W * (uz * c + vz * s)
+        h3 = l * W**3 * (uz * s - vz * c)
+        return h, h1, h2, h3
+
+    def gaps(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h, ḣ) at the times ``tau`` (arrays)."""
+        out = np.array([self.gap(float(x))[:2] for x in np.ravel(tau)]).reshape(-1, 2)
+        return out[:, 0], out[:, 1]
+
+    def vz(self, tau: Any) -> Any:
+        """Vertical velocity of the centre of mass (m/s) at ``tau``."""
+        return self.vz0 - self.g * np.asarray(tau, dtype=float)
+
+    def touchdown(self, tau_max: float) -> float | None:
+        """The first root τ ∈ (0, tau_max] of the gap h (s after t0), None if there is none.
+
+        0.0 if the gap cannot open (ḧ ≤ 0 and h⃛ ≤ 0 at a lift-off: a hop of zero length). At a
+        lift-off located slightly early (ḧ(0) = −g_n/m < 0 by the event tolerance) the gap dips
+        below 0 until τ = −2ḧ(0)/h⃛(0), a time of the order of the event's location error; the
+        march starts there.
+        """
+        h, h1, h2, h3 = self.gap(0.0)
+        eps = np.finfo(float).eps
+        tau = 0.0
+        if h <= 0.0:  # on the table: h(s) ≥ s (ḣ + ḧ s/2 + h⃛ s²/6 − M4 s³/24)
+            if h1 > 0.0:
+                s = _first_root([-self.M4 / 24.0, h3 / 6.0, 0.5 * h2, h1])
+            elif h1 < 0.0:
+                return 0.0
+            else:  # a lift-off: h = ḣ = 0, h ≥ s² (c2 + c3 s − M4 s²/24)
+                c2, c3 = 0.5 * h2, h3 / 6.0
+                if c2 <= 0.0 and c3 <= 0.0:
+                    return 0.0
+                if c3 > 0.0 and c2 < 0.0:
+                    tau = -2.0 * c2 / c3
+                s = _first_root([-self.M4 / 24.0, c3, max(c2, 0.0)]) if tau == 0.0 else 0.0
+            tau = tau + (s if s is not None else tau_max)
+        t_res = 4.0 * eps * max(abs(self.t0), 1.0)
+        for _ in range(1_000_000):
+            if tau >= tau_max:
+                return None
+            h, h1, h2, h3 = self.gap(tau)
+            if h <= 0.0:
+                return tau
+            s = _first_root([-self.M4 / 24.0, h3 / 6.0, 0.5 * h2, h1, h])
+            if s is None:  # h > 0 for ever (no gravity and no wobble: never happens with g > 0)
+                return None
+            if s <= t_res:
+                return tau + s
+            tau += s
+        raise RuntimeError("touchdown search did not converge")  # pragma: no cover
+
+    def dense(self, tau_end: float, convert: Callable[[np.ndarray], np.ndarray]) -> Any:
+        """The flight over [0, tau_end] as Taylor polynomials of degree :data:`ORDER` in the
+        layout ``convert`` (of gliding-layout states, shape (10, k)) gives; ``convert`` must be
+        affine in 3̂ with L fixed (true of the gliding and the λ layouts: λ = −L·a is constant)."""
+        from .taylor import TaylorDense  # numba's: not imported by ``import mett``
+
+        n_steps = max(1, math.ceil(8.0 * self.Omega * tau_end))
+        taus = np.linspace(0.0, tau_end, n_steps + 1)
+        Y = convert(self.state(taus))  # breakpoint states in the model layout
+        K = ORDER + 1
+        k = np.arange(K)
+        fact = np.array([math.factorial(j) for j in k], dtype=float)
+        pw = self.Omega**k / fact
+        cos_c = np.where(k % 2 == 0, pw * (-1.0) ** (k // 2), 0.0)
+        sin_c = np.where(k % 2 == 1, pw * (-1.0) ** ((k - 1) // 2), 0.0)
+        n = Y.shape[0]
+        C = np.zeros((n_steps, n, K))
+        C[:, :, 0] = Y[:, :-1].T
+        C[:, 0, 1], C[:, 1, 1] = self.V[0], self.V[1]
+        for i in range(n_steps):
+            w = self.Omega * taus[i]
+            ui = self.u * math.cos(w) + self.v * math.sin(w)  # 3̂⊥ at the step's start
+            vi = -self.u * math.sin(w) + self.v * math.cos(w)
+            for c in range(3):
+                C[i, 7 + c, 1:] = ui[c] * cos_c[1:] + vi[c] * sin_c[1:]
+        return TaylorDense(self.t0 + taus, Y.T, C)
+
+
+def _first_root(coeffs: list[float]) -> float | None:
+    """The smallest positive real root of the polynomial (highest degree first) whose constant
+    term is > 0, polished by Newton's method from below; None if it has none."""
+    c = np.trim_zeros(np.asarray(coeffs, dtype=float), "f")
+    if c.size <= 1:
+        return None
+    roots = np.roots(c)
+    real = roots[np.abs(roots.imag) <= 1e-9 * np.abs(roots)].real
+    pos = real[real > 0.0]
+    if pos.size == 0:
+        return None
+    s = float(pos.min())
+    dc = np.polyder(c)
+    for _ in range(3):
+        d = float(np.polyval(dc, s))
+        if d == 0.0:
+            break
+        s_new = s - float(np.polyval(c, s)) / d
+        if not 0.0 < s_new < 2.0 * s:
+            break
+        s = s_new
+    # from below: the bound must stay positive on [0, s)
+    return s * (1.0 - 64.0 * np.finfo(float).eps)
+
+
+# --- the landing ---------------------------------------------------------------------------
+
+
+def land(
+    y: np.ndarray, vz: float, p: tuple, dry: bool
+) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The landing impact of the sphere: state after it (gliding layout), P (N s), Q (N m s)
+    and the cone margin of the impulse ((μP_n − |Π_t|)/(μP_n), NaN for the viscous law).
+
+    ``y`` is the gliding-layout state at touchdown and ``vz`` the vertical velocity of the
+    centre of mass (m/s); ``p`` the contact model's parameters (m, R, l, I1, I3, mu, g, ...).
+    Perfectly inelastic Darboux–Keller impact (docs/theory/stem.md): viscous law
+    (:func:`mett.dynamics.stem.darboux_keller`) or Coulomb (–Contensou)
+    (:func:`mett.dynamics.stemslip.dry_impulse`) in impulse form.
+    """
+    m, R, l, I1, I3, mu = p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU]
+    e = y[7:10] / np.linalg.norm(y[7:10])
+    L = np.asarray(y[4:7], dtype=float)
+    w = L / I1 + (1.0 / I3 - 1.0 / I1) * float(L @ e) * e
+    a = l * e - np.array([0.0, 0.0, R])
+    V = np.array([y[2], y[3], vz])
+    Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
+    A = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    W = np.eye(3) / m - A @ Iinv @ A
+    f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + np.cross(w, a))
+    P, Q, margin = np.zeros(3), 0.0, math.nan
+    if f.v[2] < 0.0:
+        if dry and p[ix.LAW] == contact.LAW_REGULARISED:
+            P = regularised_impulse(f.v, f.W, mu, p[ix.EPS])
+        elif dry:
+            r_star = p[ix.RSTAR]
+            P, Q, _ = stemslip.dry_impulse(f, m, mu, r_star)
+            Pt = math.hypot(P[0], P[1], Q / r_star) if r_star > 0.0 else math.hypot(P[0], P[1])
+            if mu * P[2] > 0.0:
+                margin = (mu * P[2] - Pt) / (mu * P[2])
+        else:
+            P = stem.darboux_keller(f.v, f.W, mu)
+    # Δ(m ṙ) = P, ΔL = a × P + Q ẑ (stem.apply_impulse, on the ten components of this state)
+    after = stem.apply_impulse(np.append(y, 0.0), f, m, P, "ball", Q)[:10]
+    return after, P, float(Q), margin
+
+
+def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) -> np.ndarray:
+    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact under the
+    regularised Coulomb law, dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp, dv = W dP, from the contact
+    velocity ``v0`` (v0_z < 0) until v_z = 0: :func:`mett.dynamics.stem.darboux_keller` with
+    this law's tangential force per unit normal impulse (stiff where |v_t| ≲ ε: Radau).
+
+    Energy: dE = v·dP = (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp ≤ 0 during compression.
+    """
+    from scipy.integrate import solve_ivp
+
+    def rate(_: float, z: np.ndarray) -> np.ndarray:
+        k = -mu / math.sqrt(z[0] * z[0] + z[1] * z[1] + eps * eps)
+        dP = np.array([k * z[0], k * z[1], 1.0])
+        return np.concatenate((W @ dP, dP))
+
+    def stop(_: float, z: np.ndarray) -> float:
+        return z[2]
+
+    stop.terminal, stop.direction = True, 1.0  # type: ignore[attr-defined]
+    z, p0, p1 = np.concatenate((v0, np.zeros(3))), 0.0, 10.0 * -v0[2] / W[2, 2]
+    for _ in range(12):  # friction can make p larger than the frictionless −v_z/W_zz
+        sol = solve_ivp(rate, (p0, p1), z, method="Radau", events=stop, rtol=1e-10,
+                        atol=1e-14 * (1.0 + abs(v0[2])))  # fmt: skip
+        if sol.status != 0:
+            break
+        z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
+    if sol.status != 1:
+        raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
+    return np.asarray(sol.y_events[0][0][3:], dtype=float)
+
+
+# --- the driver ----------------------------------------------------------------------------
+
+
+def accumulation(durations: list[float], gaps: list[float]) -> tuple[float, float] | None:
+    """(ratio r, remaining time Σ) if the last hops accumulate: their durations d_k in a
+    geometric sequence of ratio r < 1 (each ratio within 5 % of the mean) and no contact time
+    between them (``gaps``: the contact phase before each hop, s). The sequence's limit lies
+    d_last r/(1 − r) after the last one ends. None otherwise."""
+    n = _ACCUMULATION_HOPS
+    if len(durations) < n:
+        return None
+    d = np.asarray(durations[-n:], dtype=float)
+    if np.any(d <= 0.0) or np.any(np.asarray(gaps[-n + 1 :]) > 0.0):
+        return None
+    r = d[1:] / d[:-1]
+    rm = float(np.mean(r))
+    if not 0.0 < rm < 1.0 or np.any(np.abs(r - rm) > 0.05 * rm):
+        return None
+    return rm, float(d[-1] * rm / (1.0 - rm))
+
+
+def _contact_force(phase: Any, y: np.ndarray, t: float, p: tuple) -> float:
+    """g_n/(m g) of ``y`` in ``phase`` (its "contact_lost" event function)."""
+    ev = next(ev for ev in phase.events if ev.action == "contact_lost")
+    return float(ev.fn(t, y, p))
+
+
+def _start_phase(run: Run, table: dict, y: np.ndarray) -> Any:
+    mdl = run.mdl
+    if mdl.start_phase is None:
+        return mdl.phase_table()[0]
+    return table[mdl.start_phase(y, run.params)]
+
+
+@dataclass
+class _Piece:
+    t: np.ndarray
+    states: np.ndarray
+    sol: Any
+    phase_name: str
+    series: dict
+    extras: dict
+    flight: bool
+    gap: np.ndarray
+    gap_rate: np.ndarray
+
+
+def warn_if_artefact(traj: Trajectory) -> None:
+    """Warn (:class:`ViscousArtefactWarning`) if a viscous ``"gliding"`` run lost contact with
+    the law's coefficient μ|v_A| above :data:`VISCOUS_ARTEFACT` (at any lift-off)."""
+    if traj.model != "gliding" or traj.t_contact_lost is None:
+        return
+    mu = traj.params[ix.MU]
+    lifts = [(s.t, s.slip) for s in traj.records.get("switches", []) if s.reason == "lift-off"]
+    if not lifts:  # stopped at the loss of contact: its state is the last sample
+        lifts = [(traj.t_contact_lost, math.hypot(traj.nu_x[-1], traj.nu_y[-1]))]
+    t, slip = max(lifts, key=lambda ts: ts[1])
+    if mu * slip > VISCOUS_ARTEFACT:
+        _validate.warn(
+            f"contact lost at t = {t:.9g} s with mu |v_A| = {mu * slip:.3g} > "
+            f"{VISCOUS_ARTEFACT:g}: the viscous law then acts as a dry friction coefficient no "
+            "real contact has, so this loss of contact is an artefact of the law "
+            "(docs/theory/flight.md)",
+            ViscousArtefactWarning,
+        )
+
+
+def run_with_flight(prep: PreparedRun) -> Trajectory:
+    """Integrate a prepared run of a ball model that flies (:func:`flies`): contact phases on
+    the run's backend, exact flights between them, landing impacts at the touchdowns.
+
+    A run that never loses contact is the contact model's Trajectory unchanged (bit for bit).
+    Otherwise the Trajectory has, per sample, ``contact`` ("ball" or "none"), ``gap`` (m: the
+    height of the lowest point of the sphere above the table) and ``gap_rate`` (m/s), ``phase``
+    "flight" in flight; g_n = 0 and the energy E (Ẽ) with the CM's true height and vertical
+    velocity there; ``switches`` (:class:`~mett.dynamics.stickslip.Switch` records, reason
+    "lift-off" or "touchdown" for the flights, the model's own for its switches) and ``jumps``;
+    ``t_contact_lost`` is the first lift-off. It ends "completed" at t_end, "failed" if hops
+    accumulate (a geometric sequence of hops with no contact between them, whose limit is
+    reported), if a hop has zero length (no contact force and no flight satisfies the law:
+    a Painlevé-type inconsistency), or after :data:`MAX_HOPS` hops; the partial run is kept.
+    """
+    run, table, t_end, rtol, atol_arr, t_eval_arr, max_step, method, user = prep
+    solve = functools.partial(backends.REGISTRY[run.backend].solve, t_end=t_end, rtol=rtol,
+                              atol=atol_arr, max_step=max_step, t_eval=t_eval_arr,
+                              method=method)  # fmt: skip
+    events = backends.UserEvents(user, run) if user else None
+    mdl, p = run.mdl, run.params
+    flier = _FLIERS[mdl.name]
+    body = (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.G])
+    pieces: list[_Piece] = []
+    switches: list[Any] = []
+    jumps: list[tuple[np.ndarray, np.ndarray]] = []
+    records: dict[str, Any] = {}
+    durations: list[float] = []
+    contact_times: list[float] = []
+    nfev, t_lost, t_events = 0, None, None
+    status, message = "completed", completed_message(t_end)
+    y, t, phase = np.asarray(run.y0, dtype=float), run.t0, run.phase
+    in_contact = _contact_force(phase, y, t, p) > 0.0
+    last = None
+    while True:
+        if in_contact:
+            r = Run(mdl, run.top, p, y, run.backend, phase, t0=t, state=run.state,
+                    options=run.options)  # fmt: skip
+            r.tolerances = run.tolerances
+            traj = (solve_hybrid(r, solve, table, events) if mdl.hybrid
+                    else r.trajectory(solve(r, events=events)))  # fmt: skip
+            if not pieces and traj.status != "contact_lost":
+                return traj  # never lost contact: the contact model's run, unchanged
+            nfev += traj.nfev
+            t_events = traj.t_events
+            lost = traj.status == "contact_lost"
+            t_lo = float(traj.t_contact_lost or 0.0) if lost else float(traj.t[-1])
+            keep = traj.t < t_lo if lost else np.ones(traj.t.size, dtype=bool)
+            n = int(keep.sum())
+            pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol,
+                                 mdl.phase,
+                                 {k: getattr(traj, k)[keep] for k in SERIES},
+                                 {k: v[keep] for k, v in traj.extras.items()}, False,
+                                 np.zeros(n), np.zeros(n)))  # fmt: skip
+            for name, value in traj.records.items():
+                if name in ("switches", "jumps"):
+                    (switches if name == "switches" else jumps).extend(value)
+                else:
+                    records.setdefault(name, value)
+            contact_times.append(t_lo - t)
+            if not lost:
+                status, message = traj.status, traj.message
+                break
+            y_lo = np.asarray(traj._sol(t_lo), dtype=float)
+            last = str(traj.phase[-1]) if len(traj.t) else ""
+            t, y = t_lo, y_lo
+        else:
+            contact_times.append(0.0)
+            last = last if last is not None else str(phase.name or "sliding")
+        # --- a flight from (t, y): lift-off
+        if t_lost is None:
+            t_lost = t
+        g = flier.to_body(y, p)
+        hop = Hop(g, t, body)
+        nu = gliding_core(g.tolist(), (*body[:5], 0.0, body[5]))[12]
+        switches.append(Switch(t, last or "sliding", "flight", "lift-off", math.nan,
+                               math.hypot(nu[0], nu[1]), t))  # fmt: skip
+        jumps.append((y.copy(), y.copy()))
+        tau = hop.touchdown(t_end - t)
+        tau_end = t_end - t if tau is None else tau
+        if tau == 0.0:
+            status = "failed"
+            message = (f"contact cannot be continued at t = {t:.9g} s: the normal force the "
+                       "contact needs is negative and the free motion enters the table (a hop of "
+                       "zero length; Painlevé-type inconsistency of the contact law)")  # fmt: skip
+            pieces.append(_flight_piece(hop, 0.0, flier, p, t_eval_arr, last=True))
+            break
+        g_td = hop.state(tau_end)
+        try:
+            landed = None if tau is None else land(g_td, float(hop.vz(tau)), p, flier.dry)
+        except JumpFailed as exc:  # the run ends at the touchdown, the flight kept
+            status, message = "failed", f"landing at t = {t + tau_end:.9g} s: {exc}"
+            pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True))
+            break
+        piece = _flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None)
+        if events:  # the user events on the flight's dense output, as on a compiled run's
+            stop = _user_events(events, piece.sol)
+            t_events = events.result(t + tau_end if stop is None else stop[0])
+            if stop is not None and stop[0] <= t + tau_end:
+                t_term = stop[0]
+                piece = _flight_piece(hop, t_term - t, flier, p, t_eval_arr, last=True)
+                status = "completed"
+                message = f"stopped by terminal event {stop[1]} at t = {t_term:.9g} s"
+                pieces.append(piece)
+                durations.append(t_term - t)
+                break
+        pieces.append(piece)
+        durations.append(tau_end)
+        if landed is None:
+            break
+        t_td = float(t + tau_end)
+        g_after, P, Q, margin = landed
+        y = flier.from_body(g_after, p)
+        phase = _start_phase(run, table, y)
+        nu = gliding_core(g_after.tolist(), (*body[:5], 0.0, body[5]))[12]
+        y_before = flier.from_body(g_td, p) if not flier.dry else contact.from_gliding(g_td, p)
+        switches.append(Switch(t_td, "flight", phase.name or "sliding", "touchdown", margin,
+                               math.hypot(nu[0], nu[1]), t_td))  # fmt: skip
+        jumps.append((y_before, y.copy()))
+        t = t_td
+        in_contact = _contact_force(phase, y, t, p) > 0.0
+        # contact_times[k]: the contact before hop k; a landing that flies on at once may continue
+        # an accumulating sequence
+        acc = None if in_contact else accumulation(durations, contact_times)
+        if acc is not None:
+            ratio, rest = acc
+            status = "failed"
+            message = (f"hops accumulate at t = {t:.9g} s: their durations fall geometrically "
+                       f"(ratio {ratio:.4g}) with no contact between them, towards t = "
+                       f"{t + rest:.9g} s (a Zeno sequence); the run stops there")  # fmt: skip
+            pieces.append(_contact_end(y, t, phase, p, mdl))
+            break
+        if len(durations) >= MAX_HOPS:
+            status, message = "failed", f"more than {MAX_HOPS} flights (t = {t:.9g} s)"
+            pieces.append(_contact_end(y, t, phase, p, mdl))
+            break
+        last = phase.name or "sliding"
+    n_flights = len(durations)
+    if status == "completed" and "terminal event" not in message:
+        message = f"{message}; {n_flights} flight{'s' if n_flights != 1 else ''}"
+    return _assemble(run, pieces, switches, jumps, records, status, message, t_lost, nfev,
+                     t_events)  # fmt: skip
+
+
+def _user_events(events: backends.UserEvents, sol: Any) -> tuple[float, int] | None:
+    """Advance the user events over a flight's dense output; the terminal stop, if any."""
+    ts = np.asarray(sol.ts, dtype=float)
+    Y = np.asarray(sol(ts), dtype=float).reshape(-1, ts.size)
+    try:
+        events.advance(ts, events.values(ts, Y), sol)
+    except backends.UserEventError as err:
+        raise err.exc from None  # a user event's exception, unchanged (as on every backend)
+    return events.stop
+
+
+def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any,
+                  last: bool) -> _Piece:  # fmt: skip
+    """The samples and dense output of a flight over [0, tau_end] (its end kept if ``last``)."""
+    if tau_end == 0.0:  # a hop of zero length: its one state
+        from .dense import ConstantSolution
+
+        y0 = _layout(flier, hop.state(0.0).reshape(10, 1), p)[:, 0]
+        return _Piece(np.array([hop.t0]), y0.reshape(-1, 1), ConstantSolution(hop.t0, y0),
+                      "flight", {}, {}, True, np.zeros(1), np.zeros(1))  # fmt: skip
+    sol = hop.dense(tau_end, lambda G: _layout(flier, G, p))
+    if t_eval is None:
+        t = sol.t if last else sol.t[:-1]
+    else:
+        inside = t_eval[(t_eval > hop.t0) & (t_eval < hop.t0 + tau_end)]
+        t = np.concatenate(([hop.t0], inside, [hop.t0 + tau_end] if last else []))
+    if t.size == 0:
+        t = np.array([hop.t0])
+    states = np.asarray(sol(t), dtype=float).reshape(-1, t.size)
+    gap, rate = hop.gaps(t - hop.t0)
+    return _Piece(t, states, sol, "flight", {}, {}, True, gap, rate)
+
+
+def _layout(flier: _Flier, G: np.ndarray, p: tuple) -> np.ndarray:
+    """Gliding-layout states ``G`` (10, k) in the model's layout (no settling in flight)."""
+    return G if not flier.dry else contact.from_gliding(G, p)
+
+
+def _contact_end(y: np.ndarray, t: float, phase: Any, p: tuple, mdl: Any) -> _Piece:
+    """A one-sample contact piece: the state a stopped run ends in."""
+    from .dense import ConstantSolution
+
+    series = mdl.derive(y.reshape(-1, 1), p)
+    return _Piece(np.array([t]), y.reshape(-1, 1), ConstantSolution(t, y),
+                  phase.name, {k: np.atleast_1d(series[k]) for k in SERIES},
+                  {}, False, np.zeros(1), np.zeros(1))  # fmt: skip
+
+
+def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, records: dict,
+              status: str, message: str, t_lost: Any, nfev: int, t_events: Any) -> Trajectory:  # fmt: skip
+    """One Trajectory of the contact and flight pieces."""
+    mdl, p = run.mdl, run.params
+    m, g = p[ix.M], p[ix.G]
+    t = np.concatenate([pc.t for pc in pieces])
+    states = np.hstack([pc.states for pc in pieces])
+    flight = np.concatenate([np.full(pc.t.size, pc.flight) for pc in pieces])
+    series: dict[str, np.ndarray] = {}
+    for k in SERIES:
+        parts = []
+        for pc in pieces:
+            if pc.flight:
+                parts.append(np.full(pc.t.size, np.nan))
+            else:
+                parts.append(np.asarray(pc.series[k], dtype=float))
+        series[k] = np.concatenate(parts)
+    if flight.any():  # flight samples: derived from the states, g_n = 0, E with the true height
+        Yf = states[:, flight]
+        d = mdl.derive(Yf, p)
+        G = Yf if mdl.name == "gliding" else contact.to_gliding(Yf, p)
+        e = G[7:10] / np.linalg.norm(G[7:10], axis=0)
+        L = G[4:7]
+        vz_c = -p[ix.L] * np.cross(L, e, axis=0)[2] / p[ix.I1]  # the contact value −l 3̂̇_z
+        gap = np.concatenate([pc.gap for pc in pieces])[flight]
+        rate = np.concatenate([pc.gap_rate for pc in pieces])[flight]
+        vz = vz_c + rate
+        dE = 0.5 * m * (vz * vz - vz_c * vz_c) + m * g * gap
+        for k in SERIES:
+            series[k][flight] = np.asarray(d[k], dtype=float)
+        series["gn"][flight] = 0.0
+        series["E"][flight] += dE
+        series["E_mod"][flight] += dE
+    names: dict[str, Any] = {}
+    for pc in pieces:
+        for k, v in pc.extras.items():
+            names.setdefault(k, np.asarray(v).dtype)
+    extras: dict[str, np.ndarray] = {}
+    for k, dt in names.items():
+        parts = []
+        for pc in pieces:
+            if k in pc.extras:
+                parts.append(np.asarray(pc.extras[k]))
+            elif dt.kind == "U":
+                parts.append(np.full(pc.t.size, "flight" if k == "phase" else ""))
+            else:
+                parts.append(np.zeros(pc.t.size))
+        extras[k] = np.concatenate(parts)
+    extras["phase"] = np.where(flight, "flight", extras.get("phase", np.full(t.size, "sliding")))
+    extras["contact"] = np.where(flight, "none", "ball")
+    extras["gap"] = np.concatenate([pc.gap for pc in pieces])
+    extras["gap_rate"] = np.concatenate([pc.gap_rate for pc in pieces])
+    # pieces that end where the next begins: drop repeated times (the later state holds)
+    keep = np.append(np.diff(t) > 0.0, True)
+    sols = [pc.sol for pc in pieces]
+    phases = [pc.phase_name if not pc.flight else "flight" for pc in pieces]
+    flat_sols, flat_phases = [], []
+    for s, name in zip(sols, phases, strict=True):
+        if isinstance(s, SegmentedSolution):
+            flat_sols.extend(s.sols)
+            flat_phases.extend(s.phases)
+        else:
+            flat_sols.append(s)
+            flat_phases.append(name)
+    sol = SegmentedSolution(flat_sols, flat_phases)
+    order = sorted(range(len(switches)), key=lambda i: float(switches[i][0]))  # stable
+    switches = [switches[i] for i in order]
+    if len(jumps) == len(order):  # each jump stays with its switch
+        jumps = [jumps[i] for i in order]
+    records = {**records, "switches": switches, "jumps": jumps}
+    return Trajectory(
+        t=t[keep], states=states[:, keep], model=mdl, top=run.top, params=p, solution=sol,
+        status=status, message=message, t_contact_lost=t_lost, t_events=t_events, nfev=nfev,
+        backend=run.backend, initial_state=run.state, options=run.options,
+        extras={k: v[keep] for k, v in extras.items()}, records=records,
+        series={k: v[keep] for k, v in series.items()}, finish=False, **run.tolerances,
+    )  # fmt: skip
