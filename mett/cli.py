@@ -822,7 +822,8 @@ def _build_parser() -> argparse.ArgumentParser:
     from .dynamics.simulation import BACKENDS
 
     backend_help = (
-        "integrator: auto (the compiled DOP853), compiled, scipy, or taylor (Taylor series; "
+        "integrator: auto (the fastest exact one: taylor where the law is analytic, the "
+        "compiled DOP853 for Coulomb friction), compiled, scipy, or taylor (Taylor series; "
         "sweeps run four points at a time on it, the fastest way through a grid)"
     )
 
