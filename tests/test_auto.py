@@ -12,6 +12,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
 from typing import ClassVar
 
 import pytest
@@ -144,3 +149,102 @@ def test_the_default_run_is_converged_and_agrees_with_dop853():
     assert abs(t_def - t_dop) < bound, (t_def - t_dop, bound)
     # the tighter Taylor run is nearer the DOP853 one than the bound of the default run
     assert abs(t_tight - t_dop) < bound
+
+
+# --- first use: the kernels are built once, safely, with a notice; `mett warmup` --------------
+
+
+def test_warmup_builds_what_the_first_runs_use_and_reports_each_task():
+    from mett.dynamics.warmup import WARMUP_MODELS, warmup
+
+    lines: list[str] = []
+    done = warmup(("gliding",), progress=lines.append)
+    assert [(label, backend) for label, backend, _ in done] == [
+        ("gliding top, simulate", "taylor"),
+        ("gliding top, sweep lanes", "taylor (SIMD lanes)"),
+    ]
+    assert all(seconds >= 0.0 for *_, seconds in done)
+    assert lines[0] == "[1/2] gliding top, simulate ..." and lines[-1].startswith("[2/2] gliding")
+    with pytest.raises(ValueError, match="models must be names of"):
+        warmup(("nope",))
+    assert "coulomb" in WARMUP_MODELS
+
+
+def test_mett_warmup_prints_its_progress(capsys):
+    from mett.cli import main
+
+    assert main(["warmup", "--model", "gliding"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("mett warmup: building gliding at rtol 1e-10")
+    assert out[-1].startswith("mett warmup: done, 2 tasks in")
+
+
+_FIRST_RUN = """
+import sys, time
+from pathlib import Path
+import mett
+from mett.dynamics.taylor import _llvm
+go = Path(sys.argv[1])
+while not go.exists():  # both processes start compiling together
+    time.sleep(0.001)
+traj = mett.simulate(mett.presets.get("rutstam2013"), mett.State(theta=0.1, omega3=155.0), 0.5,
+                     rtol=1e-9)
+print(traj.backend, repr(float(traj.theta[-1])), sorted(set(_llvm._SOURCES.values())))
+"""
+
+
+def _env(cache: Path) -> dict:
+    return {**os.environ, "METT_CACHE_DIR": str(cache), "PYTHONPATH": os.pathsep.join(sys.path)}
+
+
+def test_two_processes_building_the_same_kernel_at_once_neither_corrupt_nor_half_read(tmp_path):
+    # a fresh kernel cache: both processes compile the same Taylor jet and write it at once
+    # (atomic write + rename, the object before its record; a reader checks the sha256); a third
+    # process then loads it. All three must get the same run, bit for bit.
+    cache, go = tmp_path / "cache", tmp_path / "go"
+    cmd = [sys.executable, "-c", _FIRST_RUN, str(go)]
+    pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
+    procs = [subprocess.Popen(cmd, env=_env(cache), **pipes) for _ in range(2)]
+    time.sleep(0.5)
+    go.touch()
+    outs = [p.communicate(timeout=600) for p in procs]
+    for p, (_, err) in zip(procs, outs, strict=True):
+        assert p.returncode == 0, err
+        assert "mett: compiling" not in err  # stderr is a pipe: no notice
+    runs = [out.split(" ", 2)[:2] for out, _ in outs]
+    assert runs[0] == runs[1] and runs[0][0] == "taylor"
+    assert all("'loaded'" in out or "'written'" in out for out, _ in outs)
+    third = subprocess.run([sys.executable, "-c", _FIRST_RUN, str(go)], env=_env(cache),
+                           capture_output=True, text=True, timeout=600, check=True)  # fmt: skip
+    assert third.stdout.split(" ", 2)[:2] == runs[0]
+    assert "['loaded']" in third.stdout  # read back whole and verified, not rebuilt
+    files = sorted(f.name for f in (cache / "taylor").iterdir())
+    assert not [f for f in files if f.endswith(".tmp")]  # no temporary left behind
+    assert len(files) == 2 and files[1] == files[0] + ".json"
+
+
+@pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs a pseudo-terminal")
+def test_a_terminal_hears_one_line_while_a_kernel_compiles(tmp_path):
+    # (a pipe hears nothing: the racing processes above)
+    master, slave = os.openpty()
+    go = tmp_path / "go"
+    go.touch()
+    try:
+        run = subprocess.run([sys.executable, "-c", _FIRST_RUN, str(go)],
+                             env=_env(tmp_path / "a"), stdout=subprocess.PIPE, stderr=slave,
+                             text=True, timeout=600, check=True)  # fmt: skip
+        os.close(slave)
+        heard = b""
+        while True:
+            try:
+                chunk = os.read(master, 4096)
+            except OSError:  # the terminal's other end is closed: all read
+                break
+            if not chunk:
+                break
+            heard += chunk
+    finally:
+        os.close(master)
+    assert "'written'" in run.stdout
+    notice = [ln for ln in heard.decode().splitlines() if ln.startswith("mett: compiling")]
+    assert len(notice) == 1 and "the Taylor kernel" in notice[0] and "mett warmup" in notice[0]
