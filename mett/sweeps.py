@@ -47,7 +47,7 @@ _CHECKPOINT_VERSION = 3
 # Version 1 (mett before the checkpoint recorded its version) hashed the list of every point;
 # version 2 hashes the axes; version 3 also the backend that runs the points ("auto" resolved).
 # All are read: versions 1 and 2 were written by backend="auto" when it meant the compiled DOP853
-# (scipy for the other methods), and resume on that backend (_LEGACY_AUTO).
+# (scipy for the other methods), and resume on that backend (_legacy_auto).
 _CHECKPOINT_VERSIONS = (1, 2, 3)
 
 MAX_POINTS = 1_000_000
@@ -1039,7 +1039,7 @@ def sweep(
         if executor is None:
             # the Taylor backend runs a few points at a time, side by side in SIMD lanes; the
             # others one at a time (each checkpointed as soon as it is done)
-            batched = backend == "taylor"
+            batched = backend == "taylor" or ":taylor" in backend  # (per law on a friction axis)
             size = chunksize or (_SERIAL_CHUNK if batched else 1)
             for chunk in iter(lambda: list(itertools.islice(todo, size)), []):
                 finish(_run_chunk(base, chunk))
