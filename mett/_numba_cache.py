@@ -1,4 +1,5 @@
-"""numba's on-disk cache of mett's own compiled functions: a damaged file is a cache miss.
+"""numba's on-disk cache of mett's own compiled functions: a damaged file is a cache miss; and
+the one line mett prints on a terminal while it compiles machine code for its first use.
 
 numba keeps the machine code of ``cache=True`` functions in pickles (an index ``*.nbi`` and data
 files ``*.nbc``, in ``__pycache__`` beside the source or under ``NUMBA_CACHE_DIR``). It checks
@@ -18,10 +19,14 @@ importing numba and before decorating them.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import os
 import pickle
+import sys
+import threading
+from collections.abc import Iterator
 from functools import cache
 
 _MAGIC = b"mett-nbc-sha256\n"
@@ -135,3 +140,57 @@ def install() -> None:
         return
     # replaces numba's class on purpose (its subclass with the checks)
     caching.IndexDataCacheFile = _checked_class(base)  # type: ignore[misc, assignment]
+
+
+# --- first use: a line on a terminal while machine code is built ------------------------------
+
+_NOTICE_DELAY = 1.0
+"""Seconds a first call may take before :func:`first_use` says it is compiling: loading cached
+machine code takes well under that (about 0.3 s for the Taylor loop), compiling it far more."""
+
+_NOTICED: list[bool] = [False]  # one line per process
+_WARM: set[str] = set()  # what has run once in this process (no timer needed any more)
+
+
+def _stderr_is_terminal() -> bool:
+    try:
+        return sys.stderr is not None and sys.stderr.isatty()
+    except (AttributeError, ValueError):  # replaced or closed
+        return False
+
+
+def notice(what: str) -> None:
+    """One line on stderr, if it is a terminal and none was printed in this process yet: mett is
+    compiling ``what`` (once per installation; ``mett warmup`` does it ahead of time)."""
+    if _NOTICED[0] or not _stderr_is_terminal():
+        return
+    _NOTICED[0] = True
+    try:
+        print(
+            f"mett: compiling {what} for its first use (once per installation; "
+            "`mett warmup` builds the default kernels ahead of time)...",
+            file=sys.stderr,
+            flush=True,
+        )
+    except (OSError, ValueError):  # stderr went away: the notice is not worth an error
+        pass
+
+
+@contextlib.contextmanager
+def first_use(key: str, what: str) -> Iterator[None]:
+    """Around the first call of ``key`` in a process (e.g. a backend's first run of a model):
+    if it takes longer than :data:`_NOTICE_DELAY`, it is compiling machine code (numba cannot
+    say beforehand whether its cache will load): :func:`notice` then, from a timer thread.
+    Later calls of ``key`` cost a set lookup."""
+    if key in _WARM or _NOTICED[0] or not _stderr_is_terminal():
+        yield
+        _WARM.add(key)
+        return
+    timer = threading.Timer(_NOTICE_DELAY, notice, args=(what,))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+    _WARM.add(key)

@@ -777,6 +777,19 @@ def _cmd_predict(args: argparse.Namespace) -> int:
 
 
 # --- the parser ----------------------------------------------------------------------------------
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    """Build the default models' machine code ahead of the first run, one line per task."""
+    from .dynamics.taylor import cache_dir
+    from .dynamics.warmup import WARMUP_DEFAULT, WARMUP_MODELS, warmup
+
+    models = WARMUP_MODELS if args.all else tuple(args.model or WARMUP_DEFAULT)
+    print(f"mett warmup: building {', '.join(models)} at rtol {args.rtol:g} "
+          f"(Taylor kernels cached in {cache_dir()})", flush=True)  # fmt: skip
+    done = warmup(models, rtol=args.rtol, progress=lambda line: print(line, flush=True))
+    print(f"mett warmup: done, {len(done)} tasks in {sum(s for *_, s in done):.1f} s")
+    return 0
+
+
 def _build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="mett",
@@ -823,7 +836,8 @@ def _build_parser() -> argparse.ArgumentParser:
     from .dynamics.simulation import BACKENDS
 
     backend_help = (
-        "integrator: auto (the compiled DOP853), compiled, scipy, or taylor (Taylor series; "
+        "integrator: auto (the fastest exact one: taylor where the law is analytic, the "
+        "compiled DOP853 for Coulomb friction), compiled, scipy, or taylor (Taylor series; "
         "sweeps run four points at a time on it, the fastest way through a grid)"
     )
 
@@ -925,6 +939,18 @@ def _build_parser() -> argparse.ArgumentParser:
         "--progress", action=argparse.BooleanOptionalAction, default=None, help=progress_help
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar (as --no-progress)")
+    # mett warmup: the machine code of the default models, built ahead of the first run
+    from .dynamics.warmup import WARMUP_DEFAULT, WARMUP_MODELS
+
+    p = add("warmup", "compile the default models' machine code ahead of their first run",
+            _cmd_warmup)  # fmt: skip
+    p.add_argument(
+        "--model", action="append", choices=WARMUP_MODELS, default=None,
+        help=f"a model to build (repeat for more; default: {', '.join(WARMUP_DEFAULT)})",
+    )  # fmt: skip
+    p.add_argument("--all", action="store_true", help="build every model of --model's list")
+    p.add_argument("--rtol", type=_rtol, default=1e-10,
+                   help="the tolerance whose Taylor order is built (kernels are per order)")  # fmt: skip
     # mett predict: the inversion-time prediction (mett.predict_inversion)
     p = add("predict", "predict whether and when a top inverts, without simulating", _cmd_predict)
     _add_top_arguments(p)

@@ -107,6 +107,9 @@ class FrictionLaw(Protocol):
     and the law the model receives (a viscous μ goes onto the top and no law is left);
     ``model_for(base)`` names the registered model that runs the law when model ``base`` is asked
     (``base`` itself when the law runs there as it is); ``describe()`` is a short label.
+    An optional class attribute ``analytic`` (bool) declares whether the law's force is an
+    analytic function of the state in every phase that runs it; ``backend="auto"`` runs the
+    Taylor backend only for a law that declares ``analytic = True``.
     """
 
     params: ClassVar[tuple[Param, ...]]
@@ -161,6 +164,9 @@ class Viscous:
     mu: float | None = None
 
     params: ClassVar[tuple[Param, ...]] = (Param("mu", "s/m", doc="viscous coefficient"),)
+    analytic: ClassVar[bool] = True
+    """The force is an analytic function of the state (linear in v_A): its Taylor series
+    represent it, so ``backend="auto"`` runs it on the Taylor backend."""
 
     def __post_init__(self) -> None:
         check_params(self)
@@ -220,6 +226,10 @@ class Coulomb:
         Param("mu", "1", doc="friction coefficient"),
         Param("contensou_radius", "m", doc="radius of the contact disc"),
     )
+    analytic: ClassVar[bool] = False
+    """The slip direction v_A/|v_A| is not analytic at v_A = 0, where the stick–slip phases
+    switch (the Taylor radius of convergence shrinks with |v_A|): ``backend="auto"`` runs the
+    law on compiled DOP853."""
 
     def __post_init__(self) -> None:
         check_params(self)
@@ -279,6 +289,8 @@ class RegularisedCoulomb:
         Param("mu", "1", doc="friction coefficient"),
         Param("eps", "m/s", positive=True, doc="regularisation velocity"),
     )
+    analytic: ClassVar[bool] = True
+    """Smooth in v_A (|v_A|² + ε² > 0): ``backend="auto"`` runs it on the Taylor backend."""
 
     def __post_init__(self) -> None:
         check_params(self)

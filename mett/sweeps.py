@@ -46,10 +46,12 @@ GRID_NAMES = (*_TOP_FIELDS, *_STATE_FIELDS, *_DERIVED, *_FRICTION)
 friction law: ``friction`` (names of :data:`mett.friction.LAW_NAMES`; its coefficient is ``mu``)
 and ``contensou_radius`` (m, Coulomb only)."""
 
-_CHECKPOINT_VERSION = 2
+_CHECKPOINT_VERSION = 3
 # Version 1 (mett before the checkpoint recorded its version) hashed the list of every point;
-# version 2 hashes the axes. Both are read.
-_CHECKPOINT_VERSIONS = (1, 2)
+# version 2 hashes the axes; version 3 also the backend that runs the points ("auto" resolved).
+# All are read: versions 1 and 2 were written by backend="auto" when it meant the compiled DOP853
+# (scipy for the other methods), and resume on that backend (_legacy_auto).
+_CHECKPOINT_VERSIONS = (1, 2, 3)
 
 MAX_POINTS = 1_000_000
 """Most points a grid may have (the product of its axes' lengths), checked before any point is
@@ -58,7 +60,8 @@ built: the table holds a row per point in memory (about 1 kB each)."""
 
 class CheckpointWarning(MettWarning):
     """A checkpoint is resumed whose rows mett cannot vouch for (written before it recorded its
-    version)."""
+    version), or on the backend that wrote it rather than the one asked for (written before it
+    recorded its backend)."""
 
 
 # θ within this of a pole counts as that pole when classifying a simulated end state
@@ -452,14 +455,26 @@ def _grid(grid: Mapping[str, Any]) -> _Grid:
     return _Grid(names, axes)
 
 
-def _signature(base: dict, grid: _Grid, version: int = _CHECKPOINT_VERSION) -> str:
-    """The hash of a sweep's arguments: of the axes (version 2), or of the list of every point
-    (version 1, for checkpoints written before; as large as the grid)."""
+def _signature(
+    base: dict, grid: _Grid, version: int = _CHECKPOINT_VERSION, backend: str | None = None
+) -> str:
+    """The hash of a sweep's arguments: of the axes and the backend that runs the points
+    (version 3), of the axes (version 2), or of the list of every point (version 1, as large as
+    the grid); versions 1 and 2 for checkpoints written before."""
     if version == 1:
         doc: dict[str, Any] = {"base": base, "names": grid.names, "points": list(grid)}
     else:
         doc = {"base": base, "names": grid.names, "axes": grid.axes, "version": version}
+        if version >= 3:  # the backend that runs, whether asked for by name or by "auto"
+            kw = {k: v for k, v in base["simulate_kw"].items() if k != "backend"}
+            doc.update(base={**base, "simulate_kw": kw}, backend=backend)
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
+
+
+def _legacy_auto(simulate_kw: dict) -> str:
+    """The backend ``backend="auto"`` ran before checkpoints recorded it (formats 1 and 2): the
+    compiled DOP853, or scipy for the other methods of solve_ivp."""
+    return "compiled" if simulate_kw.get("method", "DOP853") == "DOP853" else "scipy"
 
 
 def _checkpoint_path(value: Any) -> Path:
@@ -498,18 +513,20 @@ class _Checkpoint:
     modified, and a record that is not what this sweep would have written is never resumed.
     """
 
-    def __init__(self, path: Path, base: dict, grid: _Grid, summary: dict) -> None:
+    def __init__(self, path: Path, base: dict, grid: _Grid, summary: dict, backend: str) -> None:
         from . import __version__
 
         self.path = path
         self.done: dict[int, dict] = {}
         self._failed = False
+        self.backend: str | None = None  # the backend an older checkpoint makes the sweep use
         if path.exists() and path.stat().st_size > 0:
-            self._load(base, grid, __version__)
+            self._load(base, grid, __version__, backend)
         else:
             header = {
                 "mett_sweep": _CHECKPOINT_VERSION, "mett": __version__,
-                "signature": _signature(base, grid), "args": summary,
+                "signature": _signature(base, grid, backend=backend), "backend": backend,
+                "args": summary,
             }  # fmt: skip
             # "x": a file created by someone else since the check is not overwritten
             fh = open(path, "w" if path.exists() else "x", encoding="utf-8")
@@ -526,7 +543,7 @@ class _Checkpoint:
             "delete that line (the point will be rerun) or the file"
         )
 
-    def _load(self, base: dict, grid: _Grid, version: str) -> None:
+    def _load(self, base: dict, grid: _Grid, version: str, backend: str) -> None:
         raw = self.path.read_bytes()
         lines = raw.split(b"\n")
         complete, tail = lines[:-1], lines[-1]
@@ -554,11 +571,7 @@ class _Checkpoint:
                 f"{version}: its rows may differ from what this version computes; resume with "
                 "that version, or use another path (or delete it) to run the sweep afresh"
             )
-        if header.get("signature") != _signature(base, grid, fmt):
-            raise ValueError(
-                f"checkpoint {self.path} was written for different sweep arguments "
-                f"({header.get('args')}); use another path or delete it"
-            )
+        self._check_signature(header, base, grid, fmt, backend)
         if fmt == 1:
             _validate.warn(
                 f"checkpoint {self.path} was written by a mett that did not record its version; "
@@ -591,6 +604,54 @@ class _Checkpoint:
             with open(self.path, "r+b") as fh:
                 fh.truncate(len(raw) - len(tail))
         self.done = done
+
+    def _check_signature(
+        self, header: dict, base: dict, grid: _Grid, fmt: int, backend: str
+    ) -> None:
+        """The header's signature against this sweep's: the same arguments, and the same
+        backend, or a clear refusal; never a silent mix of backends in one table. A checkpoint
+        of format 1 or 2 recorded no backend: with ``backend="auto"`` (or none) it was written
+        by :func:`_legacy_auto`'s backend, which then runs the rest (``self.backend``)."""
+        signature = header.get("signature")
+        other = (
+            f"checkpoint {self.path} was written for different sweep arguments "
+            f"({header.get('args')}); use another path or delete it"
+        )
+        kw = base["simulate_kw"]
+        if fmt >= 3:
+            if signature == _signature(base, grid, fmt, backend):
+                return
+            written = header.get("backend")
+            if isinstance(written, str) and signature == _signature(base, grid, fmt, written):
+                raise ValueError(
+                    f"checkpoint {self.path} was written by backend {written!r}, and this sweep "
+                    f"would run backend {backend!r}: resume it with backend={written!r} (the "
+                    "option of mett.sweep, --backend of the CLI), or use another path"
+                )
+            raise ValueError(other)
+        asked = kw.get("backend", "auto")
+        if signature == _signature(base, grid, fmt):
+            if asked == "auto":  # written by what "auto" meant then: go on with that
+                self.backend = _legacy_auto(kw)
+                _validate.warn(
+                    f"checkpoint {self.path} was written before mett recorded the backend, by "
+                    f"backend={self.backend!r} (what backend='auto' ran then); its remaining "
+                    f"points run on that backend too (a new path runs the sweep with 'auto')",
+                    CheckpointWarning,
+                )
+            return  # an explicit backend: the one that wrote it
+        bare = {**base, "simulate_kw": {k: v for k, v in kw.items() if k != "backend"}}
+        if signature == _signature(bare, grid, fmt):  # written with backend="auto" (or none)
+            legacy = _legacy_auto(kw)
+            if asked == legacy:
+                return
+            raise ValueError(
+                f"checkpoint {self.path} was written by backend {legacy!r} (backend='auto' "
+                f"before mett recorded the backend), and this sweep asks backend={asked!r}: "
+                f"resume it with backend={legacy!r} or without the backend option, or use "
+                "another path"
+            )
+        raise ValueError(other)
 
     def _check_record(self, rec: Any, grid: _Grid, lineno: int, line: bytes) -> tuple[int, dict]:
         """(index, row) of a record, if it is exactly what this sweep writes for that point."""
@@ -736,8 +797,10 @@ def _friction_option(friction: Any, contensou_radius: Any, names: list[str]) -> 
     return out
 
 
-def _probe_options(base: dict, grid: _Grid) -> None:
-    """Let :func:`mett.simulate` check the options (model, rtol, atol, backend, …) before any run.
+def _probe_options(base: dict, grid: _Grid) -> str:
+    """Let :func:`mett.simulate` check the options (model, rtol, atol, backend, …) before any run,
+    and return the backend that runs the points (``"auto"`` resolved; for a ``friction`` axis,
+    ``"law:backend"`` per law, joined by ``+``, when they differ).
 
     Makes simulate's own checks, without integrating (:func:`mett.dynamics.simulation.check_run`),
     at the first grid point whose values simulate accepts, so ``rtol=2.0`` or ``model="nope"``
@@ -763,7 +826,9 @@ def _probe_options(base: dict, grid: _Grid) -> None:
             )
         if np.any(np.diff(te) <= 0):
             raise ValueError("t_eval must be strictly increasing")
-    for point in grid:
+    asked = str(kw.get("backend", "auto"))
+
+    def setup(point: dict) -> tuple[Any, Any, dict] | None:
         try:
             top, ic = _point_setup(base, point)
             state = State(
@@ -772,12 +837,18 @@ def _probe_options(base: dict, grid: _Grid) -> None:
             )  # fmt: skip
             law = _law(base, point, top)
         except (ValueError, TypeError, ArithmeticError):
-            continue  # an invalid point: it becomes an "invalid" row; probe the next one
-        own = {} if law is None else {"friction": law}
+            return None  # an invalid point: it becomes an "invalid" row
+        return top, state, ({} if law is None else {"friction": law})
+
+    for point in grid:
+        got = setup(point)
+        if got is None:
+            continue  # probe the next one
+        top, state, own = got
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # each run reports its own warnings
             try:  # what simulate checks before its first step, without integrating
-                check_run(top, state, base["t_end"], **kw, **own)
+                backend = check_run(top, state, base["t_end"], **kw, **own)
             except (ValueError, TypeError) as exc:
                 try:  # the point's own values, or the options?
                     check_run(top, state, base["t_end"])
@@ -787,8 +858,25 @@ def _probe_options(base: dict, grid: _Grid) -> None:
                     pass
                 raise type(exc)(f"invalid simulate option for the sweep: {exc}") from None
             except Exception:  # a run-time failure is the rows' business
-                pass
-        return
+                return asked
+            if "friction" not in grid.names:
+                return backend
+            # "auto" may choose per law: record each law's backend
+            chosen = {}
+            for name in grid.axes[grid.names.index("friction")]:
+                other = setup({**point, "friction": name})
+                try:
+                    chosen[name] = (
+                        asked
+                        if other is None
+                        else check_run(other[0], other[1], base["t_end"], **kw, **other[2])
+                    )
+                except Exception:  # that law's points report it in their rows
+                    chosen[name] = asked
+        if len(set(chosen.values())) == 1:
+            return next(iter(chosen.values()))
+        return "+".join(f"{name}:{b}" for name, b in sorted(chosen.items()))
+    return asked
 
 
 _STATE_DEFAULTS = dict(theta0=0.1, thetadot=0.0, phidot=0.0, omega3=155.0, nu_x=0.0, nu_y=0.0)
@@ -840,12 +928,18 @@ def sweep(
     checkpoint : path, optional
         JSON-lines file of finished points (a regular file); rerunning with the same arguments
         and the same mett version resumes. An existing file that is not this sweep's checkpoint
-        is refused and left untouched; so is one written by another mett version.
+        is refused and left untouched; so is one written by another mett version. Its header
+        records the backend that ran the points: a resume runs the rest on the same one, or is
+        refused naming the ``backend`` option to give (a checkpoint from before the backend was
+        recorded was written by the compiled DOP853, and resumes on it with a
+        :class:`CheckpointWarning`).
     chunksize : int, optional
         Points per task sent to ``executor`` (default: about 1/32 of the grid), >= 1; without an
-        executor, points run (and are checkpointed) this many at a time (default 1, and 64 with
-        ``backend="taylor"``). On the Taylor backend the points of a task run side by side, four
-        per SIMD batch (:func:`mett.dynamics.batch.run_ends`): the fastest way through a grid.
+        executor, points run (and are checkpointed) this many at a time (default 1, and 64
+        when the points run on the Taylor backend). On the Taylor backend (what the default
+        ``backend="auto"`` runs wherever the model allows, :func:`mett.simulate`) the points of
+        a task run side by side, four per SIMD batch (:func:`mett.dynamics.batch.run_ends`):
+        the fastest way through a grid.
     friction : str or friction law, optional
         One friction law for the whole sweep: a name of :data:`mett.friction.LAW_NAMES`, whose
         coefficient is each point's ``mu`` (so ``mu`` may be a grid axis), or a law such as
@@ -921,7 +1015,7 @@ def sweep(
             **_friction_option(friction, contensou_radius, names),
         },
     }
-    _probe_options(base, grid_)
+    backend = _probe_options(base, grid_)
     try:
         json.dumps(base["simulate_kw"])
     except (TypeError, ValueError):
@@ -934,7 +1028,9 @@ def sweep(
     n = len(grid_)
     if ckpt_path is not None:
         summary = {"names": names, "n_points": n, "t_end": t_end}
-        ckpt = _Checkpoint(ckpt_path, base, grid_, summary)
+        ckpt = _Checkpoint(ckpt_path, base, grid_, summary, backend)
+        if ckpt.backend is not None:  # an older checkpoint: its backend runs the rest
+            base["simulate_kw"]["backend"] = backend = ckpt.backend
     done = dict(ckpt.done) if ckpt else {}
     todo = ((i, p) for i, p in enumerate(grid_) if i not in done)
     bar = _progress_bar(n, len(done)) if show_progress else None
@@ -952,7 +1048,7 @@ def sweep(
         if executor is None:
             # the Taylor backend runs a few points at a time, side by side in SIMD lanes; the
             # others one at a time (each checkpointed as soon as it is done)
-            batched = simulate_kw.get("backend") == "taylor"
+            batched = backend == "taylor" or ":taylor" in backend  # (per law on a friction axis)
             size = chunksize or (_SERIAL_CHUNK if batched else 1)
             for chunk in iter(lambda: list(itertools.islice(todo, size)), []):
                 finish(_run_chunk(base, chunk))
@@ -998,7 +1094,7 @@ def sweep(
     rest = list(dict.fromkeys(c for row in records for c in row if c not in first))
     table = SweepTable(records, columns=first + rest)
     table.attrs["top"] = dataclasses.asdict(top)  # the base top (its α for plot_phase_diagram)
-    table.attrs["mett_sweep"] = _provenance(base, names, friction)
+    table.attrs["mett_sweep"] = _provenance(base, names, friction, backend)
     return table
 
 
@@ -1015,7 +1111,7 @@ def _check_mu_axis(names: list[str], model: Any) -> None:
             )
 
 
-def _provenance(base: dict, names: list[str], friction: Any) -> dict:
+def _provenance(base: dict, names: list[str], friction: Any, backend: str) -> dict:
     """What a sweep ran, for its table's exports (``table.attrs["mett_sweep"]``)."""
     from . import __version__
     from .friction import describe
@@ -1027,7 +1123,7 @@ def _provenance(base: dict, names: list[str], friction: Any) -> dict:
     return {
         "mett_version": __version__, "grid": list(names), "t_end": base["t_end"],
         "model": kw.get("model", "gliding"), "friction": law or "viscous (the top's mu)",
-        "backend": kw.get("backend", "auto"), "rtol": kw.get("rtol", 1e-10), "atol": kw.get("atol"),
+        "backend": backend, "rtol": kw.get("rtol", 1e-10), "atol": kw.get("atol"),
         "top": {k: float(v) for k, v in base["top"].items()},
         "initial_state": {k: float(base[k]) for k in _STATE_FIELDS},
     }  # fmt: skip

@@ -43,8 +43,9 @@ def test_accepts_and_the_refusals_name_the_reason():
     for b in (compiled, tay):
         assert "no compiled right-hand side" in b.refusal(python_only, "DOP853")
     assert scipy_.accepts(python_only, "DOP853")
-    # "auto": compiled where it accepts, else scipy
-    assert mett.simulate(TOP, THESIS, 0.01).backend == "compiled"
+    # "auto": Taylor for an analytic run, compiled DOP853 where Taylor is not exact, else scipy
+    # (the choice in full: tests/test_auto.py)
+    assert mett.simulate(TOP, THESIS, 0.01).backend == "taylor"
     assert mett.simulate(TOP, THESIS, 0.01, method="RK45").backend == "scipy"
     with pytest.raises(ValueError, match="implements method 'DOP853' only"):
         mett.simulate(TOP, THESIS, 0.01, backend="compiled", method="RK45")

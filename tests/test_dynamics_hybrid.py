@@ -118,7 +118,7 @@ def test_energy_is_conserved_only_while_frictionless_and_lambda_throughout(runs)
 
 
 def test_backends_agree_on_the_hybrid_run():
-    comp = simulate(TOP, START, 1.0, model=SWITCHED)
+    comp = simulate(TOP, START, 1.0, model=SWITCHED, backend="compiled")
     ref = simulate(TOP, START, 1.0, model=SWITCHED, backend="scipy")
     assert comp.backend == "compiled" and ref.backend == "scipy"
     # Tolerances from the error analysis: the backends run the same DOP853 on the same functions
@@ -126,7 +126,7 @@ def test_backends_agree_on_the_hybrid_run():
     # rounding of the limit on some machine, they would differ by up to the sum of their errors,
     # each estimated by the run at rtol/100 (the default rtol is 1e-10), plus rtol × the
     # quantity's scale (π for θ, E for E) lest that estimate fall on a zero of the error.
-    fine = simulate(TOP, START, 1.0, model=SWITCHED, rtol=1e-12)
+    fine = simulate(TOP, START, 1.0, model=SWITCHED, rtol=1e-12, backend="compiled")
     theta_tol = 2.0 * (abs(comp.theta_at(1.0) - fine.theta_at(1.0)) + 1e-10 * np.pi)
     assert comp.theta_at(1.0) == pytest.approx(ref.theta_at(1.0), abs=theta_tol)
     e_tol = 2.0 * (abs(comp.E[-1] - fine.E[-1]) + 1e-10 * abs(comp.E[-1]))

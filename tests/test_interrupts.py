@@ -198,7 +198,9 @@ def test_cli_simulate_interrupted_exits_130():
 # 16 points of a few tenths of a second each: the signal, sent when the first row is in the
 # checkpoint, comes long before the last point is done.
 _GRID = {"lam_ratio": [float(x) for x in np.linspace(0.5, 2.5, 16)]}
-_SWEEP_KW = dict(t_end=60.0, rtol=1e-12, progress=False)
+# one point at a time on the compiled DOP853 (the default, backend="auto", runs a chunk of 64
+# points side by side on Taylor lanes: checkpointed only when the chunk ends; the taylor mode)
+_SWEEP_KW = dict(t_end=60.0, rtol=1e-12, progress=False, backend="compiled")
 # the Taylor backend is faster: longer runs, two points per SIMD batch (one call of the loop)
 _TAYLOR = dict(backend="taylor", chunksize=2, t_end=240.0)
 
@@ -326,7 +328,8 @@ def test_cli_sweep_interrupted_exits_130_and_writes_no_table(tmp_path):
     start_hook()
     try:
         status = main(["sweep", "--preset", "rutstam2013", "--grid", {grid!r}, "--t-end", "60",
-                       "--rtol", "1e-12", "--checkpoint", {str(ck)!r}, "--out", {str(out_csv)!r}])
+                       "--rtol", "1e-12", "--checkpoint", {str(ck)!r}, "--out", {str(out_csv)!r},
+                       "--backend", "compiled"])
     finally:
         stop_hook()
     sys.exit(status)

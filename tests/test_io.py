@@ -31,7 +31,9 @@ def thesis(top):
     def horizontal(t, s):
         return s.theta - math.pi / 2
 
-    return mett.simulate(top, State(theta=0.1, omega3=155.0), 7.0, events=[horizontal])
+    return mett.simulate(
+        top, State(theta=0.1, omega3=155.0), 7.0, events=[horizontal], backend="compiled"
+    )
 
 
 def _array_attrs(traj: Trajectory) -> dict[str, np.ndarray]:

@@ -9,6 +9,7 @@ import subprocess
 import sys
 import textwrap
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
@@ -70,7 +71,7 @@ def test_checkpoint_resume_skips_finished_points(tmp_path):
     path = tmp_path / "ckpt.jsonl"
     first = _cheap(checkpoint=path)
     lines = path.read_text().splitlines()
-    assert len(lines) == 5 and json.loads(lines[0])["mett_sweep"] == 2
+    assert len(lines) == 5 and json.loads(lines[0])["mett_sweep"] == 3
     mtime = path.stat().st_mtime_ns
     again = _cheap(checkpoint=path)  # nothing left to run: read back, file untouched
     pd.testing.assert_frame_equal(first, again)
@@ -408,9 +409,9 @@ def test_grid_points_come_in_product_order_without_being_listed():
 GRID2 = {"mu": [0.2, 0.3]}
 
 
-def _checkpoint(tmp_path):
+def _checkpoint(tmp_path, **kw):
     path = tmp_path / "c.jsonl"
-    sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+    sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path, **kw)
     return path, path.read_text().splitlines()
 
 
@@ -512,13 +513,87 @@ def test_a_version_1_checkpoint_still_resumes_with_a_warning(tmp_path):
     doc = json.dumps({"base": base, "names": ["mu"], "points": points}, sort_keys=True)
     header = {"mett_sweep": 1, "signature": hashlib.sha256(doc.encode()).hexdigest(),
               "args": {"names": ["mu"], "n_points": 2, "t_end": 0.05}}  # fmt: skip
-    _, lines = _checkpoint(tmp_path)
+    # its rows were computed by backend="auto" of then, the compiled DOP853
+    _, lines = _checkpoint(tmp_path, backend="compiled")
     path = tmp_path / "v1.jsonl"
     path.write_text("\n".join([json.dumps(header), lines[1]]) + "\n")  # point 0 done
     with pytest.warns(mett.sweeps.CheckpointWarning, match="did not record its version"):
         resumed = sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
-    pd.testing.assert_frame_equal(resumed, sweep(TOP, GRID2, t_end=0.05, progress=False))
+    expected = sweep(TOP, GRID2, t_end=0.05, progress=False, backend="compiled")
+    pd.testing.assert_frame_equal(resumed, expected, check_exact=True, check_like=True)
     assert len(path.read_text().splitlines()) == 3  # point 1 appended
+
+
+# --- the backend of a sweep and of its checkpoint -------------------------------------------------
+
+
+def test_the_default_sweep_runs_side_by_side_on_taylor_lanes(tmp_path):
+    path = tmp_path / "c.jsonl"
+    default = sweep(TOP, GRID2, t_end=0.5, progress=False, checkpoint=path)
+    assert default.attrs["mett_sweep"]["backend"] == "taylor"
+    assert json.loads(path.read_text().splitlines()[0])["backend"] == "taylor"
+    taylor = sweep(TOP, GRID2, t_end=0.5, progress=False, backend="taylor")
+    pd.testing.assert_frame_equal(default, taylor, check_exact=True)
+    # a dry-friction sweep is not analytic: one by one on the compiled DOP853
+    dry = sweep(TOP, {"mu": [0.2]}, t_end=0.05, progress=False, friction="coulomb")
+    assert dry.attrs["mett_sweep"]["backend"] == "compiled"
+    mixed = sweep(TOP, {"friction": ["viscous", "coulomb"]}, t_end=0.05, progress=False)
+    assert mixed.attrs["mett_sweep"]["backend"] == "coulomb:compiled+viscous:taylor"
+
+
+def _version_2_checkpoint(tmp_path, simulate_kw):
+    """A checkpoint written as mett wrote format 2 (before it recorded the backend; its
+    backend="auto" ran the compiled DOP853): the signature hashes the arguments and the axes,
+    spelled out here as that code did, and point 0 is done, with the compiled DOP853's row."""
+    import dataclasses
+    import hashlib
+
+    base = {"top": dataclasses.asdict(TOP), "t_end": 0.05, "theta0": 0.1, "thetadot": 0.0,
+            "phidot": 0.0, "omega3": 155.0, "nu_x": 0.0, "nu_y": 0.0,
+            "simulate_kw": simulate_kw}  # fmt: skip
+    doc = {"base": base, "names": ["mu"], "axes": [[0.2, 0.3]], "version": 2}
+    header = {"mett_sweep": 2, "mett": mett.__version__,
+              "signature": hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest(),
+              "args": {"names": ["mu"], "n_points": 2, "t_end": 0.05}}  # fmt: skip
+    _, lines = _checkpoint(tmp_path, backend="compiled")
+    path = tmp_path / "v2.jsonl"
+    path.write_text("\n".join([json.dumps(header), lines[1]]) + "\n")
+    return path
+
+
+def test_a_checkpoint_written_before_the_backend_was_recorded_resumes_on_dop853(tmp_path):
+    compiled = sweep(TOP, GRID2, t_end=0.05, progress=False, backend="compiled")
+    taylor = sweep(TOP, GRID2, t_end=0.05, progress=False, backend="taylor")
+    assert not compiled.equals(taylor)  # the rows tell the backends apart: a mix would show
+    path = _version_2_checkpoint(tmp_path, {})
+    with pytest.warns(mett.sweeps.CheckpointWarning, match="backend='compiled'"):
+        resumed = sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
+    pd.testing.assert_frame_equal(resumed, compiled, check_exact=True, check_like=True)
+    assert resumed.attrs["mett_sweep"]["backend"] == "compiled"
+    assert len(path.read_text().splitlines()) == 3  # point 1 appended, by the same backend
+    # asked for explicitly, the backend that wrote it resumes it too; another one is refused
+    path = _version_2_checkpoint(tmp_path, {})
+    again = sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path, backend="compiled")
+    pd.testing.assert_frame_equal(again, compiled, check_exact=True, check_like=True)
+    path = _version_2_checkpoint(tmp_path, {})
+    before = path.read_bytes()
+    with pytest.raises(ValueError, match=r"written by backend 'compiled'.*backend='compiled'"):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path, backend="taylor")
+    assert path.read_bytes() == before
+    # a format-2 checkpoint of an explicit backend resumes on it, without a warning
+    path = _version_2_checkpoint(tmp_path, {"backend": "compiled"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mett.sweeps.CheckpointWarning)
+        again = sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path, backend="compiled")
+    pd.testing.assert_frame_equal(again, compiled, check_exact=True, check_like=True)
+
+
+def test_resuming_with_another_backend_is_refused_naming_the_option(tmp_path):
+    path, _ = _checkpoint(tmp_path)  # the default: Taylor lanes
+    before = path.read_bytes()
+    with pytest.raises(ValueError, match=r"written by backend 'taylor'.*backend='taylor'"):
+        sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path, backend="compiled")
+    assert path.read_bytes() == before
 
 
 # --- checkpoint paths and a full disk ------------------------------------------------------------

@@ -254,6 +254,26 @@ def test_save_and_load_keep_the_taylor_dense_output(tmp_path):
     assert back.backend == "taylor"
 
 
+def test_each_step_polynomial_ends_on_the_stored_state_at_the_stored_time(tmp_path):
+    # The dense output evaluates step i's polynomial at t − T[i]; the loop must take the step to
+    # the very T[i+1] it stores, not to the unrounded t + h (a jump of ~|ẏ| ε t per step, 230 ulps
+    # of the axis late in the thesis run, which the file format rightly refused as a dense
+    # output that does not join). Reference: Horner in numpy at diff(T); the rounding of a
+    # polynomial evaluation is a few ulps of its terms (≤ the component's scale here).
+    traj = simulate(TOP, THESIS, 7.0, backend="taylor")
+    dense = traj._sol
+    C = dense.C[:, : dense.n]
+    h = np.diff(dense.t)[:, None]
+    end = C[:, :, -1]
+    for k in range(C.shape[2] - 2, -1, -1):
+        end = end * h + C[:, :, k]
+    scale = np.abs(dense.y).max(axis=0)
+    eps = np.finfo(float).eps
+    assert np.all(np.abs(end - dense.y[1:]) <= 8 * eps * scale)
+    path = traj.save(tmp_path / "thesis.npz")  # the format's own check
+    assert np.array_equal(mett.load(path).states_at(traj.t), traj.states_at(traj.t))
+
+
 def test_stemmed_top_touches_down_as_on_dop853():
     # a hybrid model (ball and stem phases, impacts as jumps): a Leine–Glocker-like body just
     # before touchdown (the stem tests' start)

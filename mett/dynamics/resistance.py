@@ -71,6 +71,8 @@ class RollingResistance:
         Param("mu", "s/m", doc="viscous sliding coefficient"),
         Param("omega_eps", "rad/s", positive=True, doc="regularisation rate"),
     )
+    analytic: ClassVar[bool] = True
+    """Smooth in ω_h (|ω_h|² + ω_ε² > 0): ``backend="auto"`` runs it on the Taylor backend."""
 
     def __post_init__(self) -> None:
         friction.check_params(self)

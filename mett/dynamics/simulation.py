@@ -5,7 +5,11 @@ chooses the model and the backend, :func:`run_prepared` hands it to the backend
 (:mod:`.backends`), or phase by phase to the hybrid driver (:mod:`.hybrid`); the run record is
 :mod:`._run`. The backends run the same models (docs/theory/simulation.md#numerics):
 
-* ``backend="compiled"`` (default): the compiled DOP853 of :mod:`.dop853` with the model's compiled
+* ``backend="auto"`` (default): the fastest backend that is exact for the run
+  (:func:`.backends.choose`): Taylor for an analytic run, the compiled DOP853 where the Taylor
+  polynomials cannot represent the law (Coulomb's slip direction at a switch, a grazing event),
+  scipy for the other methods of solve_ivp.
+* ``backend="compiled"``: the compiled DOP853 of :mod:`.dop853` with the model's compiled
   right-hand side (:mod:`._kernels`, compiled from the same source as ``Model.rhs``). The contact
   event g_n = 0 and the model's guards are located inside the compiled loop. User ``events``
   (Python callables of a :class:`~mett.State`) cannot run there: they are evaluated after the run
@@ -280,8 +284,16 @@ def simulate(
         call in a process loads it from numba's cache, about 0.5 s, or compiles it, a few seconds
         once per installation); DOP853 only. ``"scipy"``: :func:`scipy.integrate.solve_ivp` with
         the Python right-hand side, the reference; 30-50× slower. With DOP853 both take the same
-        steps and agree to rounding. ``"auto"``: compiled for DOP853 (every model has a compiled
-        twin), scipy for other methods. ``Trajectory.backend`` says which ran. Every backend
+        steps and agree to rounding. ``"auto"``: the fastest backend that is exact for the run,
+        decided by what the model and its friction law declare (never by their names): Taylor
+        when the law is analytic (``analytic = True`` of :mod:`mett.friction`: viscous,
+        regularised, rolling resistance, no law) and no event is ``grazing``, which covers the
+        viscous gliding and rolling tops, the gliding HST, the cylinder, the Euler and
+        Routhian forms and the viscous stemmed top between its impacts; the compiled DOP853 for
+        dry Coulomb friction (its slip direction is not analytic where its phases switch) and
+        for a right-hand side the Taylor tracer cannot represent; scipy for the methods other
+        than DOP853 (:func:`mett.dynamics.backends.choose`). ``Trajectory.backend`` says which
+        ran. Every backend
         keeps every step in memory and stops with status "failed" after :data:`MAX_STEPS`
         steps. ``"taylor"``: the adaptive Taylor-series integrator
         (:mod:`mett.dynamics.taylor`; order p = ⌈−½ ln rtol⌉ + 1, the step of Jorba & Zou 2005),
@@ -400,10 +412,12 @@ SIMULATE_DEFAULTS = {
 """The keyword arguments of :func:`simulate` and their defaults."""
 
 
-def check_run(top: TippeTop, state: Any, t_end: float, **simulate_kw: Any) -> None:
+def check_run(top: TippeTop, state: Any, t_end: float, **simulate_kw: Any) -> str:
     """Every check ``simulate(top, state, t_end, **simulate_kw)`` makes before its first step,
-    without integrating: bad input raises the ``ValueError``/``TypeError`` simulate would."""
-    prepare_run(top, state, t_end, **{**SIMULATE_DEFAULTS, **simulate_kw})
+    without integrating: bad input raises the ``ValueError``/``TypeError`` simulate would.
+    Returns the backend that would run (``"auto"`` resolved)."""
+    prep = prepare_run(top, state, t_end, **{**SIMULATE_DEFAULTS, **simulate_kw})
+    return prep.run.backend if isinstance(prep, PreparedRun) else prep.backend
 
 
 def prepare_run(
@@ -471,9 +485,7 @@ def prepare_run(
 
         model_options["stopping_band"] = stopping_band(top, state, rtol)
     phases = mdl.phase_table()
-    if backend == "auto":
-        backend = next(b for b in backends.AUTO if backends.REGISTRY[b].accepts(mdl, method))
-    else:
+    if backend != "auto":
         refused = backends.REGISTRY[backend].refusal(mdl, method)
         if refused is not None:
             raise ValueError(refused)
@@ -486,6 +498,8 @@ def prepare_run(
     params = mdl.params(top, model_options)
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
     scales = np.asarray(mdl.scales(y0, params), dtype=float)
+    if backend == "auto":  # the fastest exact backend for this model, law and method
+        backend = backends.choose(mdl, method, params, model_options, y0.size)
     atol_arr = _check_atol(atol, y0.size, scales)
     if atol_arr is None:
         atol_arr = rtol * scales

@@ -14,6 +14,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from ..._numba_cache import notice
 from ..._validate import MettWarning, warn
 
 # --- machine code -----------------------------------------------------------------------------
@@ -254,6 +255,7 @@ def _native(ir: str, name: str) -> tuple[int, int]:
                 usable = False
         source = "loaded"
         if obj is None:
+            notice(f"the Taylor kernel {name}")  # a terminal hears why the first call waits
             obj = _compile(ir, tm)
             source = "memory"
             if usable:  # a damaged or stale entry is replaced; a failed write costs nothing

@@ -197,6 +197,11 @@ def _integrate(
                 info[lane, 2] = STEP_TOO_SMALL
                 active[lane] = False
                 continue
+            else:
+                # the step the stored times hold: t + h is rounded, and the dense output is
+                # evaluated at diff(T); taking the polynomial to anything else left a jump of
+                # ~|ẏ| ε t at every step (hundreds of ulps of the axis late in the thesis run)
+                hl = (t[lane] + hl) - t[lane]
             h[lane] = hl
         # events that cannot have a zero in [0, h]: |c_0| > Σ_{k≥1} |c_k| h^k, most steps of most
         # events; screened for all lanes at once (the loop over lanes vectorises)
@@ -251,7 +256,7 @@ def _integrate(
                                 hit = e
                             break
             if hit >= 0:
-                hl = x_hit
+                hl = (t[lane] + x_hit) - t[lane]  # as stored (above)
                 last = False
             h[lane] = hl
             hit_of[lane] = hit
