@@ -1005,7 +1005,7 @@ def sweep(
             )
     _check_mu_axis(names, simulate_kw.get("model"))
     start = {k: _STATE_DEFAULTS[k] if v is None else v for k, v in given.items()}
-    base = {
+    base: dict[str, Any] = {
         "top": dataclasses.asdict(top),
         "t_end": t_end,
         "theta0": float(_validate.theta(start["theta0"], "theta0")),
