@@ -1,0 +1,247 @@
+"""The double contact of the stemmed top: ball and stem on the plane at once (mett.dynamics.stem,
+docs/theory/stem.md#double-contact).
+
+Checked against references that share no code with the model: the two normal forces from a
+Lagrange-multiplier (KKT) solve of the Newton–Euler equations with the two contact constraints
+at random states, the closed-form forces of the frictionless steady precession, and runs in
+which the forces stay non-negative, the gaps zero, the energy non-increasing and each lift-off
+drops the force of the contact that opens.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import mett
+from mett.dynamics import stem
+
+FRIEDL = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=0.3)
+FRIEDL_STEM = FRIEDL.with_stem(radius=0.005, distance=0.013)
+THESIS_STEM = mett.presets.get("rutstam2013").with_stem(radius=0.004, distance=0.026)
+
+
+def _params(top, mu=None):
+    ball = top.ball if mu is None else top.ball.replace(mu=mu)
+    return stem.MODEL.parameters(ball, stem_radius=top.radius, stem_distance=top.distance)
+
+
+def _random_state(top, rng, spin=150.0):
+    """A state on the double-contact manifold: θ = θ_t, θ̇ = 0, random azimuth, precession,
+    spin and horizontal CM velocity; and its (3̂, ω, V)."""
+    th = top.touchdown_angle
+    phi = rng.uniform(0.0, 2.0 * math.pi)
+    e = np.array([math.sin(th) * math.sin(phi), -math.sin(th) * math.cos(phi), math.cos(th)])
+    w = rng.uniform(-30.0, 30.0) * np.array([0.0, 0.0, 1.0]) + rng.uniform(-spin, spin) * e
+    b = top.ball
+    L = b.I1 * w + (b.I3 - b.I1) * np.dot(w, e) * e
+    V = np.array([*rng.uniform(-0.3, 0.3, 2), 0.0])
+    y = np.concatenate(([0.0, 0.0], V[:2], L, e, [2.0]))
+    return y, e, w, V
+
+
+def _kkt(top, mu, e, w, V):
+    """λ_1, λ_2 and (V̇, ω̇) from the Newton–Euler equations with the two contact constraints
+    z_G + a_i·ẑ = 0 differentiated twice, solved as one linear (KKT) system:
+
+        m V̇ = Σ λ_i f_i − m g ẑ,  I ω̇ = Σ λ_i a_i × f_i − ω × I ω,  f_i = ẑ − μ v_i,t,
+        V̇_z + l_i [(ω̇ × 3̂)_z + (ω × (ω × 3̂))_z] = 0  (i = 1 ball, 2 stem).
+    """
+    b = top.ball
+    m, g = b.m, b.g
+    z = np.array([0.0, 0.0, 1.0])
+    I = b.I1 * np.eye(3) + (b.I3 - b.I1) * np.outer(e, e)
+    arms = [(b.R * b.alpha, b.R), (b.R * b.alpha + top.distance, top.radius)]
+    A = np.zeros((8, 8))
+    rhs = np.zeros(8)
+    A[0:3, 0:3] = m * np.eye(3)
+    A[3:6, 3:6] = I
+    rhs[0:3] = -m * g * z
+    rhs[3:6] = -np.cross(w, I @ w)
+    for i, (l_i, R_i) in enumerate(arms):
+        a = l_i * e - R_i * z
+        v = V + np.cross(w, a)
+        f = z - mu * np.array([v[0], v[1], 0.0])
+        A[0:3, 6 + i] = -f
+        A[3:6, 6 + i] = -np.cross(a, f)
+        # constraint row: V̇_z + l_i (ω̇ × 3̂)_z = −l_i (ω × (ω × 3̂))_z
+        A[6 + i, 2] = 1.0
+        A[6 + i, 3:6] = l_i * np.cross(e, z)  # (ω̇ × 3̂)·ẑ = ω̇·(3̂ × ẑ)
+        rhs[6 + i] = -l_i * np.cross(w, np.cross(w, e))[2]
+    x = np.linalg.solve(A, rhs)
+    return x[6], x[7], x[0:3], x[3:6]
+
+
+@pytest.mark.parametrize("top", [FRIEDL_STEM, THESIS_STEM], ids=["friedl", "thesis"])
+@pytest.mark.parametrize("mu", [0.0, 0.3, 3.0])
+def test_double_contact_forces_match_lagrange_multipliers(top, mu):
+    rng = np.random.default_rng(7)
+    p = _params(top, mu)
+    b = top.ball
+    for _ in range(20):
+        y, e, w, V = _random_state(top, rng)
+        lam1, lam2, Vdot, wdot = _kkt(top, mu, e, w, V)
+        rates, l1, l2 = stem.both_rhs(0.0, y, p), *stem.both_core(y, p)[1:3]
+        scale = b.m * b.g + abs(lam1) + abs(lam2)
+        # the model's normal forces are the multipliers: rounding of an 8x8 solve
+        assert abs(l1 - lam1) < 1e-11 * scale and abs(l2 - lam2) < 1e-11 * scale
+        # CM acceleration and the torque I ω̇ + ω × I ω
+        np.testing.assert_allclose(rates[2:4], Vdot[:2], atol=1e-11 * (scale / b.m))
+        I = b.I1 * np.eye(3) + (b.I3 - b.I1) * np.outer(e, e)
+        Ldot = I @ wdot + np.cross(w, I @ w)
+        tq = np.max(np.abs(Ldot)) + 1e-300
+        np.testing.assert_allclose(rates[4:7], Ldot, atol=1e-10 * tq)
+        # the axis turns about the vertical only: 3̂̇ = ω × 3̂ with 3̂̇_z = 0
+        np.testing.assert_allclose(rates[7:10], np.cross(w, e), atol=1e-12 * np.linalg.norm(w))
+        assert rates[9] == 0.0
+
+
+def test_state_is_read_on_the_manifold():
+    # a drifted state (|3̂| ≠ 1, 3̂_z off, a nodal part of L) is read as its projection: the
+    # same azimuth, θ = θ_t, L without the nodal component; the projection is idempotent
+    rng = np.random.default_rng(3)
+    p = _params(FRIEDL_STEM)
+    y, e, w, V = _random_state(FRIEDL_STEM, rng)
+    n = np.cross([0.0, 0.0, 1.0], e) / np.linalg.norm(np.cross([0.0, 0.0, 1.0], e))
+    drifted = y.copy()
+    drifted[7:10] = 1.01 * (e + np.array([0.0, 0.0, 1e-3]))
+    drifted[4:7] += 1e-4 * n
+    back = stem.on_both(drifted, p)
+    np.testing.assert_allclose(back[7:10], e, atol=4e-16)
+    np.testing.assert_allclose(back[4:7], y[4:7], atol=1e-18)
+    again = stem.on_both(back, p)
+    np.testing.assert_allclose(again, back, rtol=4 * np.finfo(float).eps, atol=0.0)
+
+
+def _steady(top, Omega, omega3):
+    """State of the frictionless steady precession at θ_t: ω = Ω ẑ + ψ̇ 3̂ with ω·3̂ = ω3."""
+    th = top.touchdown_angle
+    e = np.array([math.sin(th), 0.0, math.cos(th)])
+    psidot = omega3 - Omega * math.cos(th)
+    w = Omega * np.array([0.0, 0.0, 1.0]) + psidot * e
+    b = top.ball
+    L = b.I1 * w + (b.I3 - b.I1) * omega3 * e
+    return np.concatenate(([0.0, 0.0, 0.01, -0.02], L, e, [2.0]))
+
+
+def test_frictionless_double_contact_is_the_steady_precession():
+    # μ = 0: the forces are vertical at points on the axis' vertical plane, so L_z, I3 ω3 = L·3̂,
+    # the horizontal momentum and E are conserved; with θ fixed the precession Ω is steady and
+    # the torque balance Ω ẑ × L = Σ λ_i a_i × ẑ gives (docs/theory/stem.md)
+    #   λ_2 = −[Ω (I3 ω3 − I1 Ω cos θ_t) + m g l]/l_s,   λ_1 = m g − λ_2.
+    top = FRIEDL_STEM
+    b = top.ball
+    p = _params(top, 0.0)
+    Omega, omega3 = 5.0, -100.0
+    y0 = _steady(top, Omega, omega3)
+    c = math.cos(top.touchdown_angle)
+    lam2 = -(Omega * (b.I3 * omega3 - b.I1 * Omega * c) + b.m * b.g * b.R * b.alpha)
+    lam2 /= top.distance
+    l1, l2 = stem.both_core(y0, p)[1:3]
+    assert lam2 > 0.0 and b.m * b.g - lam2 > 0.0  # a double contact both contacts carry
+    assert l2 == pytest.approx(lam2, rel=1e-13)
+    assert l1 == pytest.approx(b.m * b.g - lam2, rel=1e-13)
+    sol = solve_ivp(stem.both_rhs, (0.0, 0.5), y0, args=(p,), method="DOP853", rtol=1e-12,
+                    atol=1e-16, dense_output=True)  # fmt: skip
+    Y = sol.y
+    l1s, l2s = stem.both_core(Y, p)[1:3]
+    np.testing.assert_allclose(l2s, lam2, rtol=1e-9)
+    np.testing.assert_allclose(l1s, b.m * b.g - lam2, rtol=1e-9)
+    e = Y[7:10] / np.linalg.norm(Y[7:10], axis=0)
+    np.testing.assert_allclose(Y[6], y0[6], rtol=1e-10)  # L_z
+    np.testing.assert_allclose(np.sum(Y[4:7] * e, axis=0), b.I3 * omega3, rtol=1e-10)  # I3 ω3
+    np.testing.assert_allclose(Y[2:4], Y[2:4, :1] * np.ones_like(Y[2:4]), rtol=0, atol=1e-15)
+    azimuth = np.unwrap(np.arctan2(Y[8], Y[7]))
+    np.testing.assert_allclose(azimuth, azimuth[0] + Omega * sol.t, atol=1e-9)
+    assert np.all(Y[9] == y0[9])  # 3̂_z never moves: its rate is exactly 0
+
+
+@pytest.fixture(scope="module")
+def thesis_run():
+    """The thesis body with a stem (r_s = 4 mm, l_s = 26 mm), θ0 = 0.1, ω3 = 155: impacts
+    accumulate at 6.29 s, double contact until the stem lifts off."""
+    return mett.simulate(THESIS_STEM, mett.State(theta=0.1, omega3=155.0), t_end=8.0)
+
+
+def test_thesis_run_completes_through_a_double_contact(thesis_run):
+    tr = thesis_run
+    assert tr.status == "completed", tr.message
+    reasons = [sw.reason for sw in tr.switches]
+    assert "accumulation" in reasons
+    assert "both" in set(tr.contact)
+    assert len(tr.switches) < 100  # never thousands of impacts
+    acc = [sw for sw in tr.switches if sw.reason == "accumulation"]
+    for sw in acc:  # the accumulation point lies after the impact that detected it
+        assert sw.t < sw.t_event < sw.t + 0.01
+
+
+def _gaps(tr, idx):
+    """Clearances (m) of the ball and the stem of samples ``idx`` from θ and the CM height
+    implied by each contact: both zero exactly where both touch."""
+    top = THESIS_STEM
+    b = top.ball
+    c = np.cos(tr.theta[idx])
+    z_ball = b.R - b.R * b.alpha * c  # CM height with the ball on the plane
+    z_stem = top.radius - (b.R * b.alpha + top.distance) * c
+    return z_ball - z_stem
+
+
+def test_double_contact_samples_have_nonnegative_forces_and_zero_gaps(thesis_run):
+    tr = thesis_run
+    both = np.flatnonzero(tr.contact == "both")
+    assert both.size > 10
+    assert np.all(tr.gn_ball[both] >= 0.0) and np.all(tr.gn_stem[both] >= 0.0)
+    mg = THESIS_STEM.ball.m * THESIS_STEM.ball.g
+    np.testing.assert_allclose(tr.gn_ball[both] + tr.gn_stem[both], mg, rtol=1e-12)
+    # the two contacts give the same CM height: the gap of one with the other on the plane
+    assert np.max(np.abs(_gaps(tr, both))) <= 8 * np.finfo(float).eps * THESIS_STEM.distance
+    # the stored 3̂_z is set at the entry and its rate is exactly 0
+    cz = (THESIS_STEM.radius - THESIS_STEM.ball.R) / THESIS_STEM.distance
+    assert np.all(tr.states[9, both] == pytest.approx(cz, abs=4e-16))
+    assert np.all(np.abs(tr.thetadot[both]) < 1e-9)
+
+
+def test_lift_off_drops_the_force_of_the_contact_that_opens(thesis_run):
+    tr = thesis_run
+    p = tr.params
+    mg = THESIS_STEM.ball.m * THESIS_STEM.ball.g
+    n = 0
+    for sw, (y_ev, _) in zip(tr.switches, tr.jumps, strict=True):
+        if sw.before != "both":
+            continue
+        n += 1
+        f_ball, f_stem = (float(x) for x in stem.normal_forces(on_both_flag(y_ev), p))
+        opened, kept = (f_stem, f_ball) if sw.after == "ball" else (f_ball, f_stem)
+        assert sw.reason == ("stem lifts off" if sw.after == "ball" else "ball lifts off")
+        assert abs(opened) < 1e-8 * mg and kept == pytest.approx(mg, rel=1e-8)
+        # and that contact opens: its clearance grows after the switch
+        t1 = min(sw.t + 1e-3, tr.t[-1])
+        th = tr.at(t1).theta
+        clear = (
+            THESIS_STEM.stem_clearance(th)
+            if sw.after == "ball"
+            else -THESIS_STEM.stem_clearance(th)
+        )
+        assert clear > 0.0
+    assert n >= 1
+
+
+def on_both_flag(y):
+    out = np.array(y, dtype=float)
+    out[10] = 2.0
+    return out
+
+
+def test_energy_never_increases_over_the_run_and_at_each_switch(thesis_run):
+    tr = thesis_run
+    E = tr.E
+    # the integration error of a dissipative run at rtol = 1e-10 stays below 1e-12 E
+    assert np.all(np.diff(E) <= 1e-12 * E[0])
+    p = tr.params
+    for sw, (y_ev, y_sw) in zip(tr.switches, tr.jumps, strict=True):
+        e_before = float(tr._model.derive(y_ev[:, None], p)["E"][0])
+        e_after = float(tr._model.derive(y_sw[:, None], p)["E"][0])
+        assert e_after <= e_before + 1e-13 * E[0], sw
