@@ -245,3 +245,132 @@ def test_energy_never_increases_over_the_run_and_at_each_switch(thesis_run):
         e_before = float(tr._model.derive(y_ev[:, None], p)["E"][0])
         e_after = float(tr._model.derive(y_sw[:, None], p)["E"][0])
         assert e_after <= e_before + 1e-13 * E[0], sw
+
+
+# --- accumulation ------------------------------------------------------------------------------
+
+
+def test_accumulation_point_of_an_exact_geometric_sequence():
+    # two alternating geometric sequences of ratio q (stem and ball intervals): the limit is
+    # t_k + q (Δ_{k−1} + Δ_k)/(1 − q), the sum of the remaining intervals
+    q, d_stem, d_ball = 0.6, 3e-3, 7e-3
+    d = [d_stem * q**k if i == 0 else d_ball * q**k for k in range(4) for i in (0, 1)]
+    t = np.concatenate(([1.0], 1.0 + np.cumsum(d)))
+    acc = stem.accumulation(t)
+    assert acc is not None and acc.ratio == pytest.approx(q, rel=1e-13)
+    limit = 1.0 + (d_stem + d_ball) / (1.0 - q)
+    assert acc.t_limit == pytest.approx(limit, rel=1e-14)
+    # not geometric, or not shrinking: no accumulation
+    assert stem.accumulation(1.0 + np.cumsum(np.full(8, 1e-3))) is None
+    assert stem.accumulation(1.0 + np.cumsum([1e-3 * 1.1**k for k in range(8)])) is None
+    assert stem.accumulation(t[:5]) is None
+
+
+def _single_contact_theta_acc(top, e, w, which):
+    """θ̈ (rad/s²) at θ̇ = 0 on one contact: Newton–Euler with that contact's constraint (KKT)."""
+    b = top.ball
+    m, g = b.m, b.g
+    z = np.array([0.0, 0.0, 1.0])
+    l_i, R_i = (
+        (b.R * b.alpha, b.R) if which == "ball" else (b.R * b.alpha + top.distance, top.radius)
+    )
+    a = l_i * e - R_i * z
+    I = b.I1 * np.eye(3) + (b.I3 - b.I1) * np.outer(e, e)
+    A = np.zeros((7, 7))
+    rhs = np.zeros(7)
+    A[0:3, 0:3], A[3:6, 3:6] = m * np.eye(3), I
+    rhs[0:3], rhs[3:6] = -m * g * z, -np.cross(w, I @ w)
+    A[0:3, 6], A[3:6, 6] = -z, -np.cross(a, z)
+    A[6, 2], A[6, 3:6] = 1.0, l_i * np.cross(e, z)
+    rhs[6] = -l_i * np.cross(w, np.cross(w, e))[2]
+    wdot = np.linalg.solve(A, rhs)[3:6]
+    e_dd = np.cross(wdot, e) + np.cross(w, np.cross(w, e))
+    return -e_dd[2] / np.sin(top.touchdown_angle)  # 3̂_z = cos θ, θ̇ = 0
+
+
+def _rocking_ratio(top, e, w, frm, to):
+    """θ̇⁺/θ̇⁻ of a frictionless plastic impact of contact ``to`` while rocking on ``frm``
+    (Delassus: P = −v_n/W_nn at the new contact, vertical)."""
+    b = top.ball
+    z = np.array([0.0, 0.0, 1.0])
+    n = np.cross(z, e) / np.linalg.norm(np.cross(z, e))  # θ̇ = ω·n̂
+    arm = {"ball": (b.R * b.alpha, b.R), "stem": (b.R * b.alpha + top.distance, top.radius)}
+    a_f = arm[frm][0] * e - arm[frm][1] * z
+    a_t = arm[to][0] * e - arm[to][1] * z
+    Iinv = np.linalg.inv(b.I1 * np.eye(3) + (b.I3 - b.I1) * np.outer(e, e))
+    w0 = w + (1.0 if to == "stem" else -1.0) * n  # rocking towards the new contact
+    v_n = -np.cross(w0, a_f)[2] + np.cross(w0, a_t)[2]  # V_z from the old contact
+    t_ = np.cross(a_t, z)
+    P = -v_n / (1.0 / b.m + t_ @ Iinv @ t_)
+    return float((w0 + Iinv @ t_ * P) @ n / (w0 @ n))
+
+
+def test_accumulation_point_of_a_bouncing_sequence_matches_the_rocking_limit():
+    # μ = 0, near the steady double-contact precession (Ω = 5 rad/s, ω3 = −100 rad/s, both
+    # forces > 0): started ε below θ_t on the ball, the top rocks into the stem with θ̇ = v1 and
+    # bounces between the contacts. For small rocking each flight has a constant θ̈ (A_s on the
+    # stem, A_b on the ball, from KKT solves) and each impact multiplies θ̇ by ρ (Delassus), so
+    # the intervals are T1 = 2ρ_s v1/A_s, T2 = ρ_b T1 A_s/A_b, ... with ratio q = ρ_s ρ_b and
+    #   t_∞ = t_1 + (T1 + T2)/(1 − q).
+    top = FRIEDL.replace(mu=0.0).with_stem(radius=0.005, distance=0.013)
+    b = top.ball
+    th = top.touchdown_angle
+    Omega, omega3 = 5.0, -100.0
+    tr = mett.simulate(top, mett.State(theta=th - 1e-6, phidot=Omega, omega3=omega3), 0.01)
+    assert tr.status == "completed", tr.message
+    reasons = [sw.reason for sw in tr.switches]
+    assert reasons[:2] == ["touchdown", "landing"] and "accumulation" in reasons
+    assert tr.contact[-1] == "both"
+    z = np.array([0.0, 0.0, 1.0])
+    e = np.array([np.sin(th), 0.0, np.cos(th)])
+    w = Omega * z + (omega3 - Omega * np.cos(th)) * e
+    A_s = -_single_contact_theta_acc(top, e, w, "stem")
+    A_b = _single_contact_theta_acc(top, e, w, "ball")
+    assert A_s > 0.0 and A_b > 0.0  # a V-shaped well at θ_t: the bounces return
+    rho_s, rho_b = (
+        _rocking_ratio(top, e, w, "ball", "stem"),
+        _rocking_ratio(top, e, w, "stem", "ball"),
+    )
+    q = rho_s * rho_b
+    t1 = tr.switches[0].t
+    v1 = float(tr._model.derive(tr.jumps[0][0][:, None], tr.params)["thetadot"][0])
+    T1 = 2.0 * rho_s * v1 / A_s
+    T2 = 2.0 * rho_b * rho_s * v1 / A_b
+    limit = t1 + (T1 + T2) / (1.0 - q)
+    # neglected: the change of θ̈ within a flight through the gyroscopic coupling of θ̇ to the
+    # precession, at most the nutation frequency I3|ω3|/I1 times the flight's duration
+    tol = b.I3 * abs(omega3) / b.I1 * max(T1, T2)
+    d = np.diff([sw.t for sw in tr.switches])
+    assert d[0] == pytest.approx(T1, rel=tol) and d[1] == pytest.approx(T2, rel=tol)
+    assert d[2] / d[0] == pytest.approx(q, rel=tol)
+    t_limit = next(sw.t_event for sw in tr.switches if sw.reason == "accumulation")
+    assert t_limit - t1 == pytest.approx(limit - t1, rel=tol)
+    # and the energy of the rocking is gone: the double contact starts with θ̇ = 0
+    both = tr.contact == "both"
+    assert np.all(np.abs(tr.thetadot[both]) < 1e-9)
+
+
+# --- the full life cycle -----------------------------------------------------------------------
+
+
+def test_friedl_top_completes_8_s_under_the_viscous_law():
+    top = mett.presets.stemmed("friedl1997")
+    s = mett.State.with_cm_at_rest(top.ball, theta=0.1, omega3=180.0)
+    tr = mett.simulate(top, s, 8.0)
+    assert tr.status == "completed", tr.message
+    assert tr.touchdowns.size >= 1 and len(tr.switches) < 100
+    assert np.all(np.diff(tr.E) <= 1e-12 * tr.E[0])
+
+
+@pytest.mark.slow
+def test_friedl_top_under_coulomb_contensou_ends_clearly_at_the_double_contact():
+    # the dry model has no double contact: the accumulating impacts end the run with status
+    # "failed" and that reason, the trajectory kept, never "completed" over chattering impacts
+    from mett.friction import Coulomb
+
+    top = mett.presets.stemmed("friedl1997")
+    s = mett.State.with_cm_at_rest(top.ball, theta=0.1, omega3=180.0)
+    tr = mett.simulate(top, s, 8.0, friction=Coulomb(0.3, contensou_radius=5e-4))
+    assert tr.status == "failed" and "impacts accumulate" in tr.message
+    assert tr.touchdowns.size >= 2 and len(tr.switches) < 100
+    assert tr.t[-1] < 8.0 and "stem" in set(tr.contact)
