@@ -7,14 +7,22 @@ The body is one rigid body whichever sphere touches the plane; only the contact 
     stem:  a_s = (l + l_s) 3̂ − r_s ẑ       (stem centre at G + (l + l_s) 3̂).
 
 So each phase is the gliding vector form (:mod:`mett.dynamics.gliding`) with (R, l) or
-(r_s, l + l_s). The state is the gliding state plus a phase flag ``y[10]`` (0: ball, 1: stem; its
-rate is 0), so that every sample says which constraint fixes the CM height and vertical velocity
-(the two agree in position at the switch, not in velocity).
+(r_s, l + l_s). The state is the gliding state plus a phase flag ``y[10]`` (0: ball, 1: stem,
+2: both; its rate is 0), so that every sample says which constraint fixes the CM height and
+vertical velocity (the two agree in position at the switch, not in velocity).
+
+Phase "both" (:func:`both_core`, docs/theory/stem.md#double-contact): both spheres on the plane,
+θ held at the touchdown angle, two normal forces λ_1 (ball), λ_2 (stem) from the two
+constraints. It starts when impacts accumulate (:func:`accumulation`: a geometric sequence of
+impact times, jumped to its limit by :func:`close_both`) or when an impact would leave the old
+contact closing, if both forces are positive (:func:`transition`); it ends when either force
+reaches 0 (the lift-off of that contact, located as an event).
 
 Switches (hybrid model, :mod:`mett.dynamics.registry`):
 
-* touchdown, ball → stem: the stem clearance R + l_s 3̂_z − r_s falls through 0;
-* landing, stem → ball: the ball clearance r_s − l_s 3̂_z − R falls through 0.
+* touchdown, ball → stem (or both): the stem clearance R + l_s 3̂_z − r_s falls through 0;
+* landing, stem → ball (or both): the ball clearance r_s − l_s 3̂_z − R falls through 0;
+* lift-off, both → stem or ball: λ_1 or λ_2 falls through 0.
 
 The new contact arrives with a downward normal velocity, so the switch is an impact. Impact law
 (Darboux–Keller, perfectly inelastic): the normal impulse p grows from 0 and the tangential
@@ -52,15 +60,27 @@ from .registry import (
 )
 
 __all__ = [
+    "ACCUMULATION_RATIOS",
+    "ACCUMULATION_SPREAD",
+    "BOTH_FORCE_MIN",
     "MODEL",
+    "PHASE_NAMES",
+    "Accumulation",
     "ImpactFrame",
+    "accumulation",
     "apply_impulse",
     "ball_clearance",
+    "both_core",
+    "both_rhs",
+    "close_both",
     "darboux_keller",
     "impact",
     "impact_frame",
+    "normal_forces",
+    "on_both",
     "stem_clearance",
     "stem_params",
+    "transition",
 ]
 
 N_STATE = 11
