@@ -357,13 +357,14 @@ def test_leine_glocker_start_touches_down_under_coulomb_contensou():
 @pytest.mark.ci
 def test_leine_glocker_start_inverts_under_weak_coulomb_friction():
     # μ = 0.01: it slides until it inverts; the stem touches down at θ_touch, then the impacts
-    # accumulate towards a two-point contact (not modelled)
+    # accumulate towards a double contact, which the dry model does not continue: the run ends
+    # there with status "failed" and that reason (before: "completed" over 592 touchdowns)
     tr = simulate(TOP, UPRIGHT, 35.84, friction=Coulomb(0.01))
-    assert tr.status == "completed", tr.message
+    assert tr.status == "failed" and "impacts accumulate" in tr.message, tr.message
     assert tr.touchdowns[0] == pytest.approx(35.8169, abs=1e-3)  # measured 35.81692
     for t in tr.touchdowns[:20]:
         assert abs(tr.at(t).theta - TOP.touchdown_angle) < 1e-9
-    assert tr.touchdowns.size > 100  # measured 592
+    assert 3 <= tr.touchdowns.size < 100
     gaps = np.diff(tr.touchdowns[:10])
     assert np.all(gaps[1:] < gaps[:-1])  # shrinking: an accumulation
     for i, j in _stem_stretches(tr)[:50]:
