@@ -385,3 +385,32 @@ def test_scipy_and_compiled_backends_agree_through_the_double_contact(thesis_run
     assert [(sw.before, sw.after, sw.reason) for sw in ref.switches] == got
     for a, b in zip(ref.switches, thesis_run.switches, strict=True):
         assert abs(a.t - b.t) < 1e-9 and abs(a.t_event - b.t_event) < 1e-9
+
+
+def test_closing_both_contacts_loses_the_kinetic_energy_of_the_normal_velocities():
+    # the limit of an accumulation: both normal velocities stopped by vertical impulses at the
+    # two contacts, P = −W_nn⁻¹ v_n, losing exactly ½ v_nᵀ W_nn⁻¹ v_n (Delassus matrix built here)
+    top = THESIS_STEM
+    b = top.ball
+    p = _params(top)
+    rng = np.random.default_rng(11)
+    z = np.array([0.0, 0.0, 1.0])
+    for _ in range(10):
+        y, e, w, V = _random_state(top, rng)
+        n = np.cross(z, e) / np.linalg.norm(np.cross(z, e))
+        w = w + rng.uniform(-3.0, 3.0) * n  # rocking on the ball: θ̇ ≠ 0
+        L = b.I1 * w + (b.I3 - b.I1) * np.dot(w, e) * e
+        y = np.concatenate((y[:4], L, e, [0.0]))
+        a = [b.R * b.alpha * e - b.R * z, (b.R * b.alpha + top.distance) * e - top.radius * z]
+        Vz = -np.cross(w, a[0])[2]  # the ball's constraint
+        v_n = np.array([Vz + np.cross(w, a_i)[2] for a_i in a])
+        Iinv = np.linalg.inv(b.I1 * np.eye(3) + (b.I3 - b.I1) * np.outer(e, e))
+        t_ = [np.cross(a_i, z) for a_i in a]
+        Wnn = np.array([[1.0 / b.m + t_[i] @ Iinv @ t_[j] for j in range(2)] for i in range(2)])
+        loss = 0.5 * v_n @ np.linalg.solve(Wnn, v_n)
+        closed, P = stem.close_both(y, p, "ball")
+        np.testing.assert_allclose(P, -np.linalg.solve(Wnn, v_n), rtol=1e-12)
+        E0 = float(stem.MODEL.derive(y[:, None], p)["E"][0])
+        E1 = float(stem.MODEL.derive(closed[:, None], p)["E"][0])
+        assert E0 - E1 == pytest.approx(loss, rel=1e-9, abs=1e-15 * E0)
+        assert abs(float(stem.MODEL.derive(closed[:, None], p)["thetadot"][0])) < 1e-12
