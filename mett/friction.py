@@ -52,6 +52,7 @@ import numpy as np
 from . import _validate
 
 __all__ = [
+    "CONTENSOU_HERTZ",
     "CONTENSOU_UNIFORM",
     "LAWS",
     "LAW_NAMES",
@@ -74,7 +75,11 @@ __all__ = [
 
 CONTENSOU_UNIFORM = 2.0 / 3.0
 """r*/r of a uniform-pressure contact disc: pure spin gives |M| = (2/3) μ g_n r (Leine & Glocker
-2003)."""
+2003). The default of :attr:`Coulomb.contensou_ratio`."""
+
+CONTENSOU_HERTZ = 3.0 * np.pi / 16.0
+"""r*/r of a Hertzian contact disc, pressure p ∝ √(1 − ρ²/r²): pure spin gives
+|M| = μ ∫ρ p dA = (3π/16) μ g_n r, against (2/3) μ g_n r for uniform pressure."""
 
 
 class Param(NamedTuple):
@@ -216,15 +221,27 @@ class Coulomb:
         Friction coefficient (dimensionless), ≥ 0.
     contensou_radius : float, default 0.0
         Radius r of the contact disc (m), ≥ 0. With r > 0 the Coulomb–Contensou law with the
-        effective radius r* = (2/3) r of a uniform-pressure disc (module docstring).
+        effective radius r* = ``contensou_ratio`` · r (module docstring).
+    contensou_ratio : float, default 2/3
+        r*/r, the pressure distribution over the disc that sets the drilling torque of pure spin,
+        |M| = μ g_n r*, > 0: :data:`CONTENSOU_UNIFORM` = 2/3 (uniform pressure; the default,
+        the convention of Leine & Glocker 2003) or :data:`CONTENSOU_HERTZ` = 3π/16 ≈ 0.589
+        (Hertzian pressure). The same r gives a 12 % smaller drilling torque with Hertz.
     """
 
     mu: float
     contensou_radius: float = 0.0
+    contensou_ratio: float = CONTENSOU_UNIFORM
 
     params: ClassVar[tuple[Param, ...]] = (
         Param("mu", "1", doc="friction coefficient"),
         Param("contensou_radius", "m", doc="radius of the contact disc"),
+        Param(
+            "contensou_ratio",
+            "1",
+            positive=True,
+            doc="r*/r of the contact disc: 2/3 uniform pressure, 3π/16 Hertz",
+        ),
     )
     analytic: ClassVar[bool] = False
     """The slip direction v_A/|v_A| is not analytic at v_A = 0, where the stick–slip phases
@@ -236,8 +253,8 @@ class Coulomb:
 
     @property
     def r_star(self) -> float:
-        """Effective Contensou radius r* = (2/3) r (m)."""
-        return CONTENSOU_UNIFORM * self.contensou_radius
+        """Effective Contensou radius r* = ``contensou_ratio`` · r (m); (2/3) r by default."""
+        return self.contensou_ratio * self.contensou_radius
 
     def force(self, v_A: Any, gn: Any, omega_n: Any = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Sliding force (N, shape (2, ...)) and torque about ẑ (N m) for γ = (v_A, r* ω_n) ≠ 0.

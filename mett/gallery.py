@@ -210,6 +210,53 @@ def _families(ctx: _Context):
     return plot_tumbling_families()
 
 
+def _stem_life(ctx: _Context):
+    """Two stemmed tops under the viscous law: friedl1997 with its stem (CM at rest, θ0 = 0.1,
+    ω3 = 180 rad/s), θ(t) with the contact of each stretch and its normal forces at the
+    touchdown; and the thesis body with a stem (r_s = 4 mm, l_s = 26 mm; θ0 = 0.1, ω3 = 155),
+    whose impacts accumulate into a double contact."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import mett
+
+    friedl = mett.presets.stemmed("friedl1997")
+    s = mett.State.with_cm_at_rest(friedl.ball, theta=0.1, omega3=180.0)
+    run_f = mett.simulate(friedl, s, t_end=8.0)
+    thesis = mett.presets.get("rutstam2013").with_stem(radius=0.004, distance=0.026)
+    run_t = mett.simulate(thesis, mett.State(theta=0.1, omega3=155.0), t_end=8.0)
+    colours = {"ball": "tab:blue", "stem": "tab:orange", "both": "tab:red"}
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(6.4, 7.2))
+
+    def bands(ax, traj, lo, hi):
+        for name, c in colours.items():  # one band per stretch on one contact
+            on = traj.contact == name
+            ax.fill_between(traj.t, lo, hi, where=on, color=c, alpha=0.15, lw=0, label=name)
+
+    a1.plot(run_f.t, run_f.theta, color="k", label="θ")
+    a1.axhline(friedl.touchdown_angle, color="0.6", ls=":", lw=0.8)
+    bands(a1, run_f, 0.0, np.pi)
+    a1.set(ylabel="θ (rad)", ylim=(0, np.pi), xlim=(0, 8.0), xlabel="t (s)")
+    a1.legend(loc="upper left", fontsize="small", ncol=4)
+    a1.set_title("friedl1997 with its stem (viscous law): θ(t) and the contact", fontsize="medium")
+    for ax, traj, title in (
+        (a2, run_f, "friedl1997: impacts, then the stem"),
+        (a3, run_t, "thesis body with a stem: impacts accumulate, double contact, lift-off"),
+    ):
+        t0 = traj.touchdowns[0]
+        w = (traj.t > t0 - 0.03) & (traj.t < t0 + 0.8)
+        ax.plot(traj.t[w], 1e3 * traj.gn_ball[w], color=colours["ball"], label="g_n ball")
+        ax.plot(traj.t[w], 1e3 * traj.gn_stem[w], color=colours["stem"], label="g_n stem")
+        top_ = 1e3 * max(traj.gn_ball[w].max(), traj.gn_stem[w].max()) * 1.1
+        bands(ax, traj, 0.0, top_)
+        ax.set(ylabel="normal force (mN)", xlabel="t (s)", ylim=(0, top_))
+        ax.set_xlim(traj.t[w][0], traj.t[w][-1])
+        ax.set_title(title, fontsize="medium")
+    a2.legend(loc="upper right", fontsize="small", ncol=2)
+    fig.tight_layout()
+    return fig
+
+
 FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "thesis_fig4a_theta": ("θ(t) of the thesis run (thesis fig. 4a)", _thesis("plot_theta")),
     "thesis_fig4bc_psidot_phidot": (
@@ -242,6 +289,10 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
         "steady states of each class in the (θ, λ) plane, stable and unstable",
         _families,
     ),
+    "stem_double_contact": (
+        "the real top with its stem: θ(t), the contact and the normal forces",
+        _stem_life,
+    ),
 }
 """Name → (description, maker). Each maker returns a matplotlib Figure."""
 
@@ -270,14 +321,20 @@ def skipped(top: TippeTop | None = None) -> dict[str, str]:
     Only tops of group II (1 − α < γ < 1 + α) invert; for the others the run's figures are left
     out. The thesis preset (``top=None``) skips nothing.
     """
-    if top is None or top.group == "II":
+    if top is None:
         return {}
+    stem = {
+        "stem_double_contact": "the figure shows the friedl1997 preset with its stem, "
+        "not the given top"
+    }
+    if top.group == "II":
+        return stem
     reason = (
         f"the top is in group {top.group} (γ = {top.gamma:.4g}, α = {top.alpha:.4g}): it cannot "
         "invert (inversion needs 1 − α < γ < 1 + α), so the inversion run is not drawn"
     )
     names = [*sorted(RUN_FIGURES), "deforming_potential.gif"]
-    return dict.fromkeys(names, reason)
+    return {**dict.fromkeys(names, reason), **stem}
 
 
 def _progress(items: list, enabled: bool) -> Iterable:

@@ -6,20 +6,26 @@ fix them instead). Any preset accepts ``a`` (the CM offset αR, in metres) in pl
 
 >>> from mett import presets
 >>> presets.names()
-('cohen1977', 'maple-tippe-top', 'rutstam2012', 'rutstam2013', 'ueda2005')
+('cohen1977', 'friedl1997', 'maple-tippe-top', 'rutstam2012', 'rutstam2013', 'ueda2005')
 >>> top = presets.get("rutstam2013", mu=0.1)
+>>> real = presets.stemmed("friedl1997")   # the ball with its stem (a StemmedTop)
+>>> round(real.distance, 3), round(real.touchdown_angle, 4)
+(0.013, 2.4484)
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import _validate
 from .top import FIELD_RANGE, TippeTop
 
-__all__ = ["Preset", "describe", "get", "names"]
+if TYPE_CHECKING:
+    from .stem import StemmedTop
+
+__all__ = ["Preset", "describe", "get", "names", "stemmed"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +38,9 @@ class Preset:
     defaults: dict[str, float | None]
     inertia: Callable[[float, float], tuple[float, float]] | None = None
     """(m, R) -> (I1, I3) when the source gives inertias as fractions of m R²."""
+    stem: tuple[float, float] | None = None
+    """(radius r_s, distance l_s) (m) of the stem sphere for :func:`stemmed`: its radius and
+    the distance from the ball's centre to its centre along the axis; None without a stem."""
 
 
 def _fractions(f1: float, f3: float) -> Callable[[float, float], tuple[float, float]]:
@@ -75,6 +84,20 @@ _PRESETS: dict[str, Preset] = {
             "μ = 0.3 s/m and g = 9.82 m/s² are ours (USW05 use a modified Coulomb law).",
             {"m": 0.015, "R": 0.015, "alpha": 0.1, "mu": 0.3, "g": 9.82},
             _fractions(2 / 5, 2 / 5),
+        ),
+        Preset(
+            "friedl1997",
+            "the dataset of C. Friedl (1997, thesis, Augsburg) as used by R. I. Leine and C. Glocker, A set-valued force law for spatial Coulomb-Contensou "
+            "friction, Eur. J. Mech. A/Solids 22 (2003) 193-216: m = 6 g, I1 = 8e-7 kg m², "
+            "I3 = 7e-7 kg m², ball radius r1 = 1.5 cm at a1 = 0.3 cm from the centre of mass, stem "
+            "sphere r2 = 0.5 cm at a2 = 1.6 cm from the centre of mass, on the same side; Coulomb "
+            "μ = 0.3, Contensou contact radius 5e-4 m; start θ0 = 0.1 rad, ψ̇0 = 180 rad/s.",
+            "a1, a2 are distances from the centre of mass (their convention): α = a1/r1 = 0.2 and "
+            "the ball-to-stem centre distance is a2 − a1 = 1.3 cm (stemmed(): with_stem(radius="
+            "0.005, distance=0.013)), not 1.6 cm. μ = 0.3 here is the viscous law's (s/m), ours; "
+            "their dry law is friction=Coulomb(0.3, contensou_radius=5e-4). g = 9.81 m/s².",
+            {"m": 0.006, "R": 0.015, "alpha": 0.2, "I1": 8e-7, "I3": 7e-7, "mu": 0.3, "g": 9.81},
+            stem=(0.005, 0.013),
         ),
         Preset(
             "maple-tippe-top",
@@ -169,3 +192,24 @@ def get(name: str, **overrides: Any) -> TippeTop:
         params.setdefault("I1", I1)
         params.setdefault("I3", I3)
     return TippeTop(**params)
+
+
+def stemmed(name: str, **overrides: Any) -> StemmedTop:
+    """The :class:`~mett.stem.StemmedTop` of a preset with a stem: :func:`get` (with
+    ``overrides``) and the stem sphere the source gives.
+
+    Raises
+    ------
+    ValueError
+        Unknown preset, a preset without a stem (the error lists those with one), or what
+        :func:`get` raises.
+    """
+    p = _lookup(name)
+    if p.stem is None:
+        with_stem = [n for n in names() if _PRESETS[n].stem is not None]
+        raise ValueError(
+            f"preset {name!r} has no stem; presets with a stem: {', '.join(with_stem)} "
+            "(or give one: get(name).with_stem(radius, distance))"
+        )
+    radius, distance = p.stem
+    return get(name, **overrides).with_stem(radius=radius, distance=distance)

@@ -432,6 +432,15 @@ API: dict[str, tuple[Callable, st.SearchStrategy]] = {
     ),
     "presets.describe": (presets.describe, _call(mixed(st.sampled_from(presets.names())))),
     "presets.names": (presets.names, _call()),
+    "presets.stemmed": (
+        lambda name, kw: presets.stemmed(name, **kw),
+        _call(
+            mixed(st.sampled_from(presets.names())),
+            st.dictionaries(
+                st.sampled_from(["m", "mu", "colour"]), mixed(st.floats(0, 1)), max_size=2
+            ),
+        ),
+    ),
     # simulation and its results
     "simulate": (
         mett.simulate,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 import mett
@@ -11,6 +13,7 @@ from mett import presets
 def test_names_are_the_documented_presets():
     assert presets.names() == (
         "cohen1977",
+        "friedl1997",
         "maple-tippe-top",
         "rutstam2012",
         "rutstam2013",
@@ -76,7 +79,7 @@ def test_maple_tippe_top_rational_eccentricity():
 def test_unknown_preset_lists_known_names():
     with pytest.raises(
         ValueError,
-        match="unknown preset 'nope'; known presets: cohen1977, maple-tippe-top, rutstam2012",
+        match="unknown preset 'nope'; known presets: cohen1977, friedl1997, maple-tippe-top",
     ):
         presets.get("nope")
 
@@ -86,3 +89,27 @@ def test_unknown_override_is_refused():
         presets.get("rutstam2013", spin=3.0)
     with pytest.raises(ValueError, match="either alpha or a"):
         presets.get("rutstam2013", alpha=0.3, a=0.006)
+
+
+def test_friedl_stemmed_geometry_is_measured_from_the_centre_of_mass():
+    # Friedl's (Leine & Glocker's) a1 = 3 mm and a2 = 16 mm are distances from the CM along the
+    # axis, both on the ball's side: α = a1/r1 and ball centre to stem centre a2 − a1 = 13 mm
+    top = presets.stemmed("friedl1997")
+    assert isinstance(top, mett.stem.StemmedTop)
+    b = top.ball
+    assert (b.m, b.R, b.I1, b.I3) == (0.006, 0.015, 8e-7, 7e-7)
+    assert b.R * b.alpha == pytest.approx(0.003, rel=1e-15)
+    assert top.radius == 0.005
+    assert b.R * b.alpha + top.distance == pytest.approx(0.016, rel=1e-15)  # CM to stem centre
+    # the stem touches down where the two spheres' lowest points are level
+    th = top.touchdown_angle
+    assert b.R + top.distance * math.cos(th) == pytest.approx(top.radius, abs=1e-17)
+    assert presets.get("friedl1997") == b
+    assert presets.stemmed("friedl1997", mu=0.1).ball.mu == 0.1
+
+
+def test_stemmed_needs_a_preset_with_a_stem():
+    with pytest.raises(ValueError, match="preset 'rutstam2013' has no stem; presets with a stem"):
+        presets.stemmed("rutstam2013")
+    with pytest.raises(ValueError, match="unknown preset"):
+        presets.stemmed("nope")

@@ -60,7 +60,7 @@ def test_contact_labels_follow_the_geometry(near):
     on_ball = near.contact == "ball"
     assert np.all(near.theta[on_ball] <= td + 1e-9)
     assert np.all(near.theta[~on_ball] >= td - 1e-9)
-    assert [to for _, _, to in near.switches] == ["stem", "ball"] * (len(near.switches) // 2) + (
+    assert [sw.after for sw in near.switches] == ["stem", "ball"] * (len(near.switches) // 2) + (
         ["stem"] if len(near.switches) % 2 else []
     )
     # the ball phase's normal force is the ball's, the stem's the stem's: both positive
@@ -88,7 +88,7 @@ def test_energy_never_increases(near):
     E = near.E
     assert np.all(np.diff(E) <= 1e-12 * E[0])
     # and each impact dissipates: the state after the switch has less energy than before it
-    for t, _, _ in near.switches:
+    for t in (sw.t for sw in near.switches):
         before = near.at(t - 1e-12)
         after = near.at(t)
         assert before.theta == pytest.approx(after.theta, abs=1e-9)
@@ -143,7 +143,7 @@ def test_impact_law(near, to):
     # is computed here independently (matrix exponential of the linear impulse ODE and a root)
     p = near.params
     n = 0
-    for t, frm, dst in near.switches:
+    for t, frm, dst in ((sw.t, sw.before, sw.after) for sw in near.switches):
         if dst != to:
             continue
         n += 1

@@ -61,7 +61,9 @@ def solve_hybrid(
             y_sw, target = y_ev, ev.target
             if ev.jump is not None:
                 try:
-                    y_sw = np.asarray(ev.jump(y_ev, params), dtype=float)
+                    seen = [*switches, (t_sw, run.phase.name, ev.target)]
+                    args = (seen,) if ev.history else ()
+                    y_sw = np.asarray(ev.jump(y_ev, params, *args), dtype=float)
                 except JumpFailed as exc:  # the run ends at the switch, state before it kept
                     jump_failed, last = f"{exc} (t = {t_sw:.9g} s)", True
             if ev.select is not None and not last:

@@ -141,6 +141,10 @@ class Event:
         and locates the zero before it (:func:`mett.dynamics.dop853.solve`, ``grazing``); the
         other backends check the ends of steps (scipy) or sample points (Taylor) only. Needs a
         direction of −1 or +1.
+    history : bool
+        ``jump`` also takes the run's switches so far, this one last: ``jump(y, p, switches)``
+        with ``switches`` a list of (time, from, to), so that it can see a sequence of switches
+        (e.g. impacts that accumulate, :mod:`.stem`).
     """
 
     fn: Callable[[float, Any, Any], float]
@@ -151,6 +155,7 @@ class Event:
     jump: Callable[[np.ndarray, Params], np.ndarray] | None = None
     select: Callable[[np.ndarray, Params], str] | None = None
     grazing: bool = False
+    history: bool = False
 
     def __post_init__(self) -> None:
         if self.grazing and self.direction == 0.0:

@@ -227,8 +227,8 @@ def simulate(
     top : TippeTop or StemmedTop
         Body and friction parameters. A :class:`~mett.stem.StemmedTop` (``top.with_stem(...)``)
         runs the ``"stemmed"`` model: ball and stem contacts with inelastic impacts at each change
-        of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball" or
-        "stem" per sample) and ``touchdowns`` (s). With ``friction=Coulomb(...)`` it runs
+        of contact (``docs/theory/stem.md``); its Trajectory also has ``contact`` ("ball",
+        "stem" or "both" per sample) and ``touchdowns`` (s). With ``friction=Coulomb(...)`` it runs
         ``"stemmed-coulomb"`` (``"stemmed-coulomb-contensou"``): stick–slip on either contact,
         ``phase`` per sample as for the dry models below (docs/theory/stem.md#dry-friction).
     state : State or array_like

@@ -7,14 +7,22 @@ The body is one rigid body whichever sphere touches the plane; only the contact 
     stem:  a_s = (l + l_s) 3̂ − r_s ẑ       (stem centre at G + (l + l_s) 3̂).
 
 So each phase is the gliding vector form (:mod:`mett.dynamics.gliding`) with (R, l) or
-(r_s, l + l_s). The state is the gliding state plus a phase flag ``y[10]`` (0: ball, 1: stem; its
-rate is 0), so that every sample says which constraint fixes the CM height and vertical velocity
-(the two agree in position at the switch, not in velocity).
+(r_s, l + l_s). The state is the gliding state plus a phase flag ``y[10]`` (0: ball, 1: stem,
+2: both; its rate is 0), so that every sample says which constraint fixes the CM height and
+vertical velocity (the two agree in position at the switch, not in velocity).
+
+Phase "both" (:func:`both_core`, docs/theory/stem.md#double-contact): both spheres on the plane,
+θ held at the touchdown angle, two normal forces λ_1 (ball), λ_2 (stem) from the two
+constraints. It starts when impacts accumulate (:func:`accumulation`: a geometric sequence of
+impact times, jumped to its limit by :func:`close_both`) or when an impact would leave the old
+contact closing, if both forces are positive (:func:`transition`); it ends when either force
+reaches 0 (the lift-off of that contact, located as an event).
 
 Switches (hybrid model, :mod:`mett.dynamics.registry`):
 
-* touchdown, ball → stem: the stem clearance R + l_s 3̂_z − r_s falls through 0;
-* landing, stem → ball: the ball clearance r_s − l_s 3̂_z − R falls through 0.
+* touchdown, ball → stem (or both): the stem clearance R + l_s 3̂_z − r_s falls through 0;
+* landing, stem → ball (or both): the ball clearance r_s − l_s 3̂_z − R falls through 0;
+* lift-off, both → stem or ball: λ_1 or λ_2 falls through 0.
 
 The new contact arrives with a downward normal velocity, so the switch is an impact. Impact law
 (Darboux–Keller, perfectly inelastic): the normal impulse p grows from 0 and the tangential
@@ -31,6 +39,7 @@ Coulomb law in the impulse equations.
 
 from __future__ import annotations
 
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -51,15 +60,27 @@ from .registry import (
 )
 
 __all__ = [
+    "ACCUMULATION_RATIOS",
+    "ACCUMULATION_SPREAD",
+    "BOTH_FORCE_MIN",
     "MODEL",
+    "PHASE_NAMES",
+    "Accumulation",
     "ImpactFrame",
+    "accumulation",
     "apply_impulse",
     "ball_clearance",
+    "both_core",
+    "both_rhs",
+    "close_both",
     "darboux_keller",
     "impact",
     "impact_frame",
+    "normal_forces",
+    "on_both",
     "stem_clearance",
     "stem_params",
+    "transition",
 ]
 
 N_STATE = 11
@@ -164,6 +185,111 @@ def _stem_contact(t: float, y: Any, p: Any) -> Any:
 def _landing(t: float, y: Any, p: Any) -> Any:
     """Ball clearance while the stem touches (:func:`ball_clearance`)."""
     return ball_clearance(y, p[ix.R], p[ix.R_S], p[ix.L_S])
+
+
+# --- both spheres on the plane ("both", flag 2) -------------------------------------------------
+
+
+def both_core(y: Any, p: Any) -> tuple:
+    """Rates and normal forces of the double contact; plain arithmetic (docs/theory/stem.md).
+
+    Both contact constraints hold: the CM height is fixed and 3̂_z = c_t = (r_s − R)/l_s (θ at the
+    touchdown angle), so v_z = 0 and θ̇ = 0. The axis is that of the state turned to θ_t about
+    the vertical (its azimuth is the state's; its length and 3̂_z are not read), and L loses its
+    component along the line of nodes n̂ = ẑ × 3̂/sin θ_t (the θ̇ the constraint forbids): the
+    state represents a point of the double-contact manifold exactly, whatever the integrator's
+    drift. With F_i = λ_i(ẑ − μ ν_i) at the ball (i = 1; a_1 = l 3̂ − R ẑ) and the stem (i = 2;
+    a_2 = (l + l_s) 3̂ − r_s ẑ), K_i = a_i × (ẑ − μ ν_i) and k_i = (K_i × 3̂)·ẑ, the constraints at
+    acceleration level are
+
+        v̇_z = 0:  λ_1 + λ_2 = m g,
+        3̂̈_z = 0:  λ_1 k_1 + λ_2 k_2 = −(L × 3̂̇)·ẑ,
+
+    solved in closed form. Returns ``(rates[0:10], λ_1, λ_2, 3̂, L, ω, ν_1, ν_2)``.
+    """
+    m, R, l, I1, I3, mu, g = p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G]
+    r_s, l_s = p[ix.R_S], p[ix.L_S]
+    l2 = l + l_s
+    ez = (r_s - R) / l_s
+    st = (1.0 - ez * ez) ** 0.5
+    nh = (y[7] * y[7] + y[8] * y[8]) ** 0.5
+    ex, ey = st * y[7] / nh, st * y[8] / nh
+    Lx, Ly, Lz = y[4], y[5], y[6]
+    Ln = (Ly * ex - Lx * ey) / st  # L·n̂, n̂ = (−3̂_y, 3̂_x, 0)/sin θ_t
+    Lx = Lx + Ln * ey / st
+    Ly = Ly - Ln * ex / st
+    cLe = (1.0 / I3 - 1.0 / I1) * (Lx * ex + Ly * ey + Lz * ez)
+    wx, wy, wz = Lx / I1 + cLe * ex, Ly / I1 + cLe * ey, Lz / I1 + cLe * ez
+    dex = (Ly * ez - Lz * ey) / I1  # 3̂̇ = (L × 3̂)/I1, its vertical part 0 by the projection
+    dey = (Lz * ex - Lx * ez) / I1
+    vx, vy = y[2], y[3]
+    n1x, n1y = vx + l * dex - R * wy, vy + l * dey + R * wx  # slip of the ball's contact point
+    n2x, n2y = vx + l2 * dex - r_s * wy, vy + l2 * dey + r_s * wx  # and of the stem's
+    u1x, u1y, u2x, u2y = -mu * n1x, -mu * n1y, -mu * n2x, -mu * n2y
+    a1x, a1y, a1z = l * ex, l * ey, l * ez - R
+    a2x, a2y, a2z = l2 * ex, l2 * ey, l2 * ez - r_s
+    K1x, K1y, K1z = a1y - a1z * u1y, a1z * u1x - a1x, a1x * u1y - a1y * u1x
+    K2x, K2y, K2z = a2y - a2z * u2y, a2z * u2x - a2x, a2x * u2y - a2y * u2x
+    k1 = K1x * ey - K1y * ex
+    k2 = K2x * ey - K2y * ex
+    q = Lx * dey - Ly * dex  # (L × 3̂̇)·ẑ
+    det = k1 - k2  # = −l_s sin²θ_t at μ = 0
+    lam1 = (-q - m * g * k2) / det
+    lam2 = (q + m * g * k1) / det
+    rates = (
+        vx,
+        vy,
+        (lam1 * u1x + lam2 * u2x) / m,
+        (lam1 * u1y + lam2 * u2y) / m,
+        lam1 * K1x + lam2 * K2x,
+        lam1 * K1y + lam2 * K2y,
+        lam1 * K1z + lam2 * K2z,
+        dex,
+        dey,
+        0.0,
+    )
+    return (rates, lam1, lam2, (ex, ey, ez), (Lx, Ly, Lz), (wx, wy, wz), (n1x, n1y), (n2x, n2y))
+
+
+def both_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
+    """Right-hand side of the double contact (:func:`both_core`); the phase flag stays constant."""
+    return np.array((*both_core(y, p)[0], 0.0))
+
+
+def _both_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = both_core(y, p)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _both_contact(t: float, y: Any, p: Any) -> Any:
+    """(λ_1 + λ_2)/(m g) = 1: the double contact cannot lose both contacts at once (v̇_z = 0);
+    each lift-off is a switch (:func:`_ball_lift`, :func:`_stem_lift`)."""
+    d = both_core(y, p)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ball_lift(t: float, y: Any, p: Any) -> Any:
+    """λ_1/(m g), the ball's normal force in the double contact: the ball lifts off at 0."""
+    return both_core(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _stem_lift(t: float, y: Any, p: Any) -> Any:
+    """λ_2/(m g), the stem's normal force in the double contact: the stem lifts off at 0."""
+    return both_core(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def on_both(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The state ``y`` on the double-contact manifold, as :func:`both_core` reads it: 3̂ turned
+    to θ_t about the vertical (unit length), L without its nodal part; flag 2."""
+    d = both_core(np.asarray(y, dtype=float), p)
+    out = np.array(y, dtype=float)
+    for i in range(3):  # 3̂_z and L_z are scalars where the rest are arrays
+        out[4 + i] = d[4][i]
+        out[7 + i] = d[3][i]
+    out[10] = 2.0
+    return out
 
 
 # --- the impact ----------------------------------------------------------------------------------
@@ -275,12 +401,179 @@ def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     return sol.y_events[0][0][3:]
 
 
-def _to_stem(y: np.ndarray, p: tuple) -> np.ndarray:
-    return impact(y, p, "stem")[0]
+# --- entering and leaving the double contact -------------------------------------------------
+
+ACCUMULATION_RATIOS = 3
+"""Impacts accumulate when this many consecutive two-impact ratios q_k = Δ_k/Δ_{k−2} of the
+intervals Δ between impacts agree to :data:`ACCUMULATION_SPREAD` and lie in (0, 1): the bounces
+(ball, stem, ball, …: two alternating geometric sequences) then form a geometric series with a
+finite limit (Zeno), which the run jumps to instead of resolving its infinitely many impacts."""
+
+ACCUMULATION_SPREAD = 0.1
+"""Relative spread allowed between consecutive ratios q_k (see :data:`ACCUMULATION_RATIOS`)."""
+
+BOTH_FORCE_MIN = 1e-9
+"""A double contact starts only if both normal forces exceed this fraction of m g: a force that
+starts at 0 would fall through it unseen (a zero at a phase's start is no event); the other
+contact then carries the top alone."""
 
 
-def _to_ball(y: np.ndarray, p: tuple) -> np.ndarray:
-    return impact(y, p, "ball")[0]
+class Accumulation(NamedTuple):
+    """A geometric sequence of impacts detected at the last impact (:func:`accumulation`)."""
+
+    ratio: float
+    """q = Δ_k/Δ_{k−2}, the geometric ratio of every second interval (the mean of the last
+    :data:`ACCUMULATION_RATIOS`)."""
+    t_limit: float
+    """t_∞ = t_k + q (Δ_{k−1} + Δ_k)/(1 − q) (s): the accumulation point, the sum of the
+    remaining intervals of both alternating sequences."""
+
+
+def accumulation(times: Any) -> Accumulation | None:
+    """The accumulation point of the impact times ``times`` (s, increasing, the last the impact
+    just located), or None if their intervals are not (yet) a geometric sequence.
+
+    With ball and stem alternating, the intervals Δ_k on the stem and on the ball form two
+    geometric sequences of the same ratio q (each bounce loses the same fraction of its normal
+    speed at each contact and its duration is proportional to that speed): the test is on
+    q_k = Δ_k/Δ_{k−2}, and t_∞ = t_k + Σ_{j≥1} Δ_{k+j} = t_k + q (Δ_{k−1} + Δ_k)/(1 − q).
+    """
+    t = np.asarray(times, dtype=float)
+    n = ACCUMULATION_RATIOS
+    if t.size < n + 3:
+        return None
+    d = np.diff(t[-(n + 3) :])
+    if not np.all(d > 0.0):
+        return None
+    q = d[2:] / d[:-2]
+    if not (np.all(q > 0.0) and np.all(q < 1.0)):
+        return None
+    if np.any(np.abs(np.diff(q)) > ACCUMULATION_SPREAD * q[1:]):
+        return None
+    r = float(np.mean(q))
+    return Accumulation(r, float(t[-1] + r * (d[-2] + d[-1]) / (1.0 - r)))
+
+
+def _impact_times(switches: Any) -> list[float]:
+    """Times of the trailing run of impacts (ball ↔ stem switches) in ``switches``."""
+    out: list[float] = []
+    for t, before, after in reversed(switches):
+        if {before, after} != {"ball", "stem"}:
+            break
+        out.append(t)
+    return out[::-1]
+
+
+def _normal_speed(y: np.ndarray, p: tuple, on: str) -> tuple[float, float]:
+    """The normal velocities (m/s) of the ball's and the stem's contact points of state ``y``
+    on the contact ``on`` ("ball" or "stem"; V_z from its constraint)."""
+    e, L, w, V = _body(y, _ball(p) if on == "ball" else _stem(p))
+    out = []
+    for R_i, l_i in ((p[ix.R], p[ix.L]), (p[ix.R_S], p[ix.L] + p[ix.L_S])):
+        a = l_i * e - np.array([0.0, 0.0, R_i])
+        out.append(float(V[2] + np.cross(w, a)[2]))
+    return out[0], out[1]
+
+
+def close_both(y: np.ndarray, p: tuple, on: str) -> tuple[np.ndarray, np.ndarray]:
+    """The state on both contacts after the perfectly plastic impact that stops both normal
+    velocities, and the normal impulses (P_1, P_2) (N s) of the ball and the stem.
+
+    ``y`` is a state on the contact ``on``. The impulses are vertical: P = −W_nn⁻¹ v_n, W_nn the
+    2×2 normal block of the Delassus matrix of the two contacts, W_ij = 𝟙/m − [a_i×] I⁻¹ [a_j×].
+    This is the projection of the velocity onto the double-contact constraints in the metric of
+    the kinetic energy, which therefore falls by ½ v_nᵀ W_nn⁻¹ v_n ≥ 0 whatever the signs of the
+    impulses: the limit of an accumulating sequence of impacts (docs/theory/stem.md).
+    """
+    e, L, w, V = _body(y, _ball(p) if on == "ball" else _stem(p))
+    m, I1, I3 = p[ix.M], p[ix.I1], p[ix.I3]
+    Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
+    z = np.array([0.0, 0.0, 1.0])
+    arms = [p[ix.L] * e - p[ix.R] * z, (p[ix.L] + p[ix.L_S]) * e - p[ix.R_S] * z]
+    v_n = np.array([V[2] + np.cross(w, a)[2] for a in arms])
+    # W_ij,zz = 1/m + (a_i × ẑ)·I⁻¹(a_j × ẑ)
+    t_ = [np.cross(a, z) for a in arms]
+    Wnn = np.array([[1.0 / m + t_[i] @ Iinv @ t_[j] for j in range(2)] for i in range(2)])
+    P = -np.linalg.solve(Wnn, v_n)
+    out = np.array(y, dtype=float)  # the horizontal CM velocity keeps (vertical impulses)
+    out[4:7] = L + P[0] * t_[0] + P[1] * t_[1]
+    return on_both(out, p), P
+
+
+def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
+    d = both_core(np.asarray(y, dtype=float), p)
+    return float(d[1]), float(d[2])
+
+
+def _settle_both(y: np.ndarray, p: tuple) -> np.ndarray:
+    """A state on both contacts (flag 2) if both normal forces exceed :data:`BOTH_FORCE_MIN` m g;
+    else the same state on the contact whose force is larger (the other lifts off with zero
+    normal velocity)."""
+    f1, f2 = _both_forces(y, p)
+    mg = p[ix.M] * p[ix.G]
+    if min(f1, f2) > BOTH_FORCE_MIN * mg:
+        return y
+    out = np.array(y, dtype=float)
+    out[10] = 0.0 if f1 >= f2 else 1.0
+    return out
+
+
+def transition(
+    y: np.ndarray, p: tuple, to: str, switches: Any = ()
+) -> tuple[np.ndarray, str, float]:
+    """The state after the contact ``to`` ("ball" or "stem") closes on state ``y`` (on the other
+    contact), the reason and the accumulation point (s; NaN if none).
+
+    * the single impact of :func:`impact` at the new contact, if the old contact then separates
+      (its normal velocity > 0) and the impacts do not accumulate: reason "touchdown"/"landing";
+    * else both contacts closed (:func:`close_both`): reason "accumulation" (the impact times
+      of ``switches``, the run's (time, from, to) so far, form a geometric sequence:
+      :func:`accumulation`) or "closure" (the old contact would not separate); the double
+      contact starts if both normal forces are positive (:func:`_settle_both`).
+    """
+    old = "ball" if to == "stem" else "stem"
+    single = "touchdown" if to == "stem" else "landing"
+    acc = accumulation(_impact_times(switches)) if len(switches) else None
+    after, _ = impact(y, p, to)
+    v_ball, v_stem = _normal_speed(after, p, to)
+    v_old = v_ball if old == "ball" else v_stem
+    if acc is None and v_old > 0.0:
+        return after, single, math.nan
+    closed, _ = close_both(y, p, old)
+    reason = "accumulation" if acc is not None else "closure"
+    return _settle_both(closed, p), reason, (acc.t_limit if acc is not None else math.nan)
+
+
+def _to_stem(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
+    return transition(y, p, "stem", switches)[0]
+
+
+def _to_ball(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
+    return transition(y, p, "ball", switches)[0]
+
+
+def _lift(y: np.ndarray, p: tuple, to: float) -> np.ndarray:
+    out = on_both(y, p)
+    out[10] = to
+    return out
+
+
+def _ball_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Lift-off of the ball (λ_1 = 0): the state of the double contact, on the stem."""
+    return _lift(y, p, 1.0)
+
+
+def _stem_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Lift-off of the stem (λ_2 = 0): the state of the double contact, on the ball."""
+    return _lift(y, p, 0.0)
+
+
+def _select(y: np.ndarray, p: tuple) -> str:
+    """The phase of a state by its flag: 0 ball, 1 stem, 2 both."""
+    return PHASE_NAMES[round(float(y[10]))]
+
+
+PHASE_NAMES = ("ball", "stem", "both")
 
 
 # --- conversions and series ----------------------------------------------------------------------
@@ -297,26 +590,54 @@ def _initial(state: Any, p: tuple) -> np.ndarray:
 
 
 def _start_phase(y0: np.ndarray, p: tuple) -> str:
-    return "stem" if y0[10] > 0.5 else "ball"
+    return _select(y0, p)
+
+
+def _projected(Y: np.ndarray, p: tuple) -> np.ndarray:
+    """States ``Y`` (11, k) with the double-contact samples (flag 2) on their manifold
+    (:func:`on_both`)."""
+    Y = np.array(Y, dtype=float)
+    both = Y[10] > 1.5
+    if np.any(both):
+        Y[:, both] = on_both(Y[:, both], p)
+    return Y
+
+
+def normal_forces(Y: np.ndarray, p: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """The normal forces (N) of the ball and of the stem of states ``Y`` (11, k) or (11,): the
+    single contact's g_n and 0, or λ_1, λ_2 of the double contact (:func:`both_core`)."""
+    Y = np.asarray(Y, dtype=float)
+    flag = np.round(Y[10])
+    gb = np.asarray(gliding_core(Y, _ball(p))[10], dtype=float)
+    gs = np.asarray(gliding_core(Y, _stem(p))[10], dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = both_core(Y, p)
+    l1, l2 = np.asarray(d[1], dtype=float), np.asarray(d[2], dtype=float)
+    ball = np.where(flag == 0, gb, np.where(flag == 2, l1, 0.0))
+    stem = np.where(flag == 1, gs, np.where(flag == 2, l2, 0.0))
+    return ball, stem
 
 
 def _normal_force(y: np.ndarray, p: tuple) -> Any:
-    y = np.asarray(y, dtype=float)
-    return np.where(y[10] > 0.5, gliding_core(y, _stem(p))[10], gliding_core(y, _ball(p))[10])
+    """The total normal force (N): that of the contact, or λ_1 + λ_2 = m g in the double contact."""
+    ball, stem = normal_forces(y, p)
+    return ball + stem
 
 
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
-    """Series of each sample on its own contact: ν, g_n, E, λ of the sphere in contact."""
-    Y = np.asarray(Y, dtype=float)
+    """Series of each sample on its own contact: ν, g_n, E, λ of the sphere in contact; in the
+    double contact those of the ball (ν, λ) with g_n = λ_1 + λ_2."""
+    Y = _projected(Y, p)
     ball, stem = gliding_series(Y, _ball(p)), gliding_series(Y, _stem(p))
-    on = Y[10] > 0.5
+    on = np.round(Y[10]) == 1
     out = {k: np.where(on, stem[k], np.asarray(ball[k], dtype=float)) for k in ball}
+    out["gn"] = np.asarray(_normal_force(Y, p), dtype=float)
     out["x"], out["y"] = Y[0], Y[1]
     return out
 
 
 def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
-    e = unit_axis(np.asarray(Y, dtype=float), 7)
+    e = unit_axis(_projected(Y, p), 7)
     return np.arccos(np.clip(e[2], -1.0, 1.0))
 
 
@@ -339,14 +660,44 @@ STEM_DISTANCE = Option(
 )
 
 
+_LIFT_REASONS = {"ball": "stem lifts off", "stem": "ball lifts off"}
+
+
 def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """``Model.finish``: the contact of each sample ("ball"/"stem", also for a run that ended
-    at t = 0, before any phase ran) and ``touchdowns``, the times the stem touched down (s)."""
-    contact = np.where(traj.states[10] > 0.5, "stem", "ball")
+    """``Model.finish``: the contact of each sample ("ball", "stem" or "both", also for a run
+    that ended at t = 0, before any phase ran), the normal forces ``gn_ball`` and ``gn_stem``
+    (N) of each sample, ``touchdowns`` (the times the stem touched down, s), ``switches``
+    (:class:`mett.dynamics.stickslip.Switch` records with their reasons: "touchdown",
+    "landing", "accumulation", "closure", "ball lifts off", "stem lifts off"; ``t_event`` of
+    an "accumulation" is the accumulation point t_∞ it jumped to) and ``accumulations``
+    (the times of the impacts where a geometric sequence was detected, s)."""
+    from .stickslip import Switch
+
+    p = traj.params
+    flag = np.round(traj.states[10]).astype(int)
+    contact = np.array(PHASE_NAMES)[np.clip(flag, 0, 2)]
+    gb, gs = normal_forces(traj.states, p)
+    records = []
+    seen: list[tuple[float, str, str]] = []
+    for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
+        t_event = t
+        if before == "both":
+            reason = _LIFT_REASONS[after]
+        else:  # the jump saw the switches so far and this one with its event's target
+            to = "stem" if before == "ball" else "ball"
+            _, reason, t_limit = transition(y_ev, p, to, [*seen, (t, before, to)])
+            if reason == "accumulation":
+                t_event = t_limit
+        records.append(Switch(t, before, after, reason, math.nan, math.nan, t_event))
+        seen.append((t, before, after))
     touchdowns = np.array(
-        [sw[0] for sw in traj.switches if sw[1].startswith("ball") and sw[2].startswith("stem")]
+        [sw.t for sw in records if sw.before == "ball" and sw.after in ("stem", "both")]
     )
-    return {"contact": contact}, {"touchdowns": touchdowns}
+    acc = np.array([sw.t for sw in records if sw.reason == "accumulation"])
+    return (
+        {"contact": contact, "gn_ball": gb, "gn_stem": gs},
+        {"touchdowns": touchdowns, "switches": records, "accumulations": acc},
+    )
 
 
 MODEL = register(
@@ -365,7 +716,15 @@ MODEL = register(
         conserved_lengths=((7, 8, 9),),
         events=(
             Event(_ball_contact, -1.0, "contact_lost"),
-            Event(_touchdown, -1.0, "switch", target="stem", jump=_to_stem),
+            Event(
+                _touchdown,
+                -1.0,
+                "switch",
+                target="stem",
+                jump=_to_stem,
+                select=_select,
+                history=True,
+            ),
         ),
         options=(
             STEM_RADIUS,
@@ -381,7 +740,25 @@ MODEL = register(
                 _stem_into,
                 (
                     Event(_stem_contact, -1.0, "contact_lost"),
-                    Event(_landing, -1.0, "switch", target="ball", jump=_to_ball),
+                    Event(
+                        _landing,
+                        -1.0,
+                        "switch",
+                        target="ball",
+                        jump=_to_ball,
+                        select=_select,
+                        history=True,
+                    ),
+                ),
+            ),
+            Phase(
+                "both",
+                both_rhs,
+                _both_into,
+                (
+                    Event(_both_contact, -1.0, "contact_lost"),
+                    Event(_ball_lift, -1.0, "switch", target="stem", jump=_ball_lifts),
+                    Event(_stem_lift, -1.0, "switch", target="ball", jump=_stem_lifts),
                 ),
             ),
         ),

@@ -310,10 +310,28 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray, fl
     return _converted(after, p, dry.from_gliding), P, Q
 
 
-def _impact_to(to: str) -> Any:
-    """The jump of a change of contact: the impact, then the slip settled on the new contact."""
+def _contact_changes(switches: Any) -> list[float]:
+    """Times (s) of the changes of contact (impacts) among the run's switches (time, from, to)."""
+    return [t for t, a, b in switches if a.split("-")[0] != b.split("-")[0]]
 
-    def jump(y: np.ndarray, p: tuple) -> np.ndarray:
+
+def _impact_to(to: str) -> Any:
+    """The jump of a change of contact: the impact, then the slip settled on the new contact.
+
+    Impacts that accumulate (:func:`mett.dynamics.stem.accumulation`) would settle the top onto
+    both spheres at once, a double contact that this dry-friction model does not continue: the
+    run ends there with status "failed" and that reason, the trajectory up to it kept (never a
+    "completed" over thousands of chattering impacts).
+    """
+
+    def jump(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
+        acc = stem.accumulation(_contact_changes(switches))
+        if acc is not None:
+            raise JumpFailed(
+                f"impacts accumulate (ratio {acc.ratio:.3g}, limit t = {acc.t_limit:.9g} s): the "
+                "top settles onto ball and stem at once, a double contact that the dry-friction "
+                "stemmed model does not continue"
+            )
         return dry.settle(impact(y, p, to)[0], _contact(p, to == "stem"))
 
     return jump
@@ -453,10 +471,22 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
 PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling")
 
 _TOUCHDOWN = Event(
-    _touchdown, -1.0, "switch", target="stem-sliding", jump=_impact_to("stem"), select=_select
+    _touchdown,
+    -1.0,
+    "switch",
+    target="stem-sliding",
+    jump=_impact_to("stem"),
+    select=_select,
+    history=True,
 )
 _LANDING = Event(
-    _landing, -1.0, "switch", target="ball-sliding", jump=_impact_to("ball"), select=_select
+    _landing,
+    -1.0,
+    "switch",
+    target="ball-sliding",
+    jump=_impact_to("ball"),
+    select=_select,
+    history=True,
 )
 
 MODEL = register(
