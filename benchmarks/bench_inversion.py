@@ -36,38 +36,68 @@ def table() -> None:
     page.write_text(doc[:i] + text + doc[j:], encoding="utf-8")
 
 
+METHODS = ("gyroscopic", "averaged")
+
+
+def _reference(c, preds):
+    """The simulated first crossing of π/2 for case c, long enough for every method's prediction."""
+    finite = [p.t_half for p in preds.values() if math.isfinite(p.t_half)]
+    t_end = min(2 * max(finite), 60.0) if finite else 20.0
+    return (*simulated_t_half(c, t_end, rtol=1e-8), t_end)
+
+
+def _error(p, ts, T_n):
+    # one nutation period of slack (the phase of θ within the band): |Δ| − T_n, relative
+    return max(abs(p.t_half - ts) - T_n, 0.0) / ts
+
+
 def _table() -> None:
     rows = []
     for c in cases():
-        p = predict_inversion(c.top, c.state, c.friction)
-        t_end = min(2 * p.t_half, 60.0) if math.isfinite(p.t_half) else 20.0
-        ts, T_n, status = simulated_t_half(c, t_end, rtol=1e-8)
-        rows.append((c, p, ts, T_n, status))
+        preds = {m: predict_inversion(c.top, c.state, c.friction, method=m) for m in METHODS}
+        rows.append((c, preds, *_reference(c, preds)))
     print(
-        "| case | law | start | λ/λ_thres | θ0 | μ | ε | t_half pred (s) | sim (s) | error | status |"
+        "| case | law | start | λ/λ_thres | θ0 | μ | ε | t_half gyroscopic (s) | averaged (s) "
+        "| sim (s) | error gyr. | error avg. | status |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    verified = []
-    for c, p, ts, T_n, status in rows:
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    stats = {m: {"err": [], "right": 0, "n": 0, "verified": []} for m in METHODS}
+    excluded = 0
+    for c, preds, ts, T_n, status, _ in rows:
         at_rest = float(c.state.nu_x) == 0.0 and float(c.state.nu_y) == 0.0
         start = "ν=0" if at_rest else "CM at rest"
-        err = ""
-        if status == "completed" and math.isfinite(ts):
-            # one nutation period of slack (the phase of θ within the band)
-            e = max(abs(p.t_half - ts) - T_n, 0.0) / ts
-            err = f"{e:.1%}"
-            if not p.validity.outside_verified_range:
-                verified.append(e)
+        errs = {m: "" for m in METHODS}
+        if status == "completed":
+            for m, p in preds.items():
+                st = stats[m]
+                st["n"] += 1
+                st["right"] += p.inverts is (True if math.isfinite(ts) else False)
+                if math.isfinite(ts) and math.isfinite(p.t_half):
+                    e = _error(p, ts, T_n)
+                    errs[m] = f"{e:.1%}"
+                    st["err"].append(e)
+                    if not p.validity.outside_verified_range:
+                        st["verified"].append(e)
+        else:
+            excluded += 1
+        g, a = preds["gyroscopic"], preds["averaged"]
+        flag = "" if g.validity.outside_verified_range else " (verified range)"
         print(
-            f"| {c.name} | {c.law} | {start} | {p.validity.spin_ratio:.1f} | {float(c.state.theta):.3f} "
-            f"| {c.top.mu if c.law == 'viscous' else c.friction.mu:.3g} | {p.validity.epsilon:.3g} "
-            f"| {p.t_half:.3f} | {ts:.3f} | {err} | {status}{'' if p.validity.outside_verified_range else ' (verified range)'} |"
+            f"| {c.name} | {c.law} | {start} | {g.validity.spin_ratio:.1f} | {float(c.state.theta):.3f} "
+            f"| {c.top.mu if c.law == 'viscous' else c.friction.mu:.3g} | {g.validity.epsilon:.3g} "
+            f"| {g.t_half:.3f} | {a.t_half:.3f} | {ts:.3f} | {errs['gyroscopic']} | {errs['averaged']} "
+            f"| {status}{flag} |"
         )
-    if verified:
-        print(
-            f"\nverified range: {len(verified)} cases, median error {statistics.median(verified):.1%}, "
-            f"worst {max(verified):.1%}"
-        )
+    print(f"\nexcluded (the simulated top loses contact before π/2): {excluded} of {len(rows)}")
+    for m, st in stats.items():
+        e, v = st["err"], st["verified"]
+        line = f"{m}: `inverts` right in {st['right']} of {st['n']} cases with a reference"
+        if e:
+            line += (f"; t_half error over {len(e)} crossings: median {statistics.median(e):.1%}, "
+                     f"worst {max(e):.1%}")  # fmt: skip
+        if v:
+            line += f"; verified range: {len(v)} cases, median {statistics.median(v):.1%}, worst {max(v):.1%}"
+        print(line)
 
 
 def _best(fn, repeat: int = 3) -> float:
