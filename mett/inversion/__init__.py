@@ -338,7 +338,7 @@ def predict_inversion(
         )
     target = theta_end - tol if theta_end > amp else theta_end + tol
     try:
-        t, theta = slow_path(top, lam, law, amp, target)
+        t, theta, balance = slow_path(top, lam, law, amp, target)
     except NoBalance as exc:
         return empty(
             None,
@@ -360,7 +360,7 @@ def predict_inversion(
         return float(np.interp(th, theta, t))
 
     times = {"start": time_at(theta0), "half": time_at(0.5 * math.pi), "end": float(t[-1])}
-    D, E_mod = balance_D_and_E_mod(top, lam_path, theta)
+    D, E_mod = balance_D_and_E_mod(top, lam, theta, balance)
     t_half = times["half"]
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
