@@ -16,7 +16,8 @@ one nutation period at frozen (Ẽ, D). The slow flow is therefore
     dD̄/dt = −⟨c g_n R ν_y sin θ √d⟩,   dẼ̄/dt = −⟨c g_n |ν|²⟩,   λ constant,
 
 with ⟨·⟩ the time average over the band (:func:`mett.separation.band_average`, the exact period's
-quadrature), g_n = m g + m R α (θ̈ sin θ + θ̇² cos θ) from the METT's θ̈.
+quadrature), g_n = m g + m R α (θ̈ sin θ + θ̇² cos θ) from the METT's θ̈. Where the band collapses
+(Ẽ reaches min V) the flow slides along steady precession at the bottom of the well (:func:`rates`).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from .. import _formulas as fm
 from ..friction import RegularisedCoulomb, Viscous
 from ..potential import V, dV_dz
-from ..separation import band_average
+from ..separation import band_average, minima
 from ..top import TippeTop
 
 
@@ -66,13 +67,34 @@ def _band_functions(top: TippeTop, law, D: float, Et: float, lam: float):
 
 
 def rates(top: TippeTop, law, lam: float, D: float, Et: float, z0: float | None = None):
-    """(dD̄/dt, dẼ̄/dt, ⟨θ⟩, ⟨z⟩, band, T) of the averaged flow at (D, Ẽ)."""
-    b, T, avg = band_average(top, Et, D, lam, _band_functions(top, law, D, Et, lam), z0)
-    return -avg[1], -avg[0], avg[2], avg[3], b, T
+    """(dD̄/dt, dẼ̄/dt, ⟨θ⟩, ⟨z⟩, band, T) of the averaged flow at (D, Ẽ).
+
+    Where friction has emptied the band (Ẽ at or below min V(·, D, λ), a single well) the top
+    precesses steadily at the bottom z_m of the well and slides along that branch (Filippov):
+    Ẽ = V(z_m, D, λ), dẼ/dt = max(−⟨c g_n |ν|²⟩, ∂V/∂D (z_m) dD/dt) (the envelope theorem gives
+    d min V/dD = ∂V/∂D at z_m); the band reopens where dissipation falls behind the well.
+    """
+    try:
+        b, T, avg = band_average(top, Et, D, lam, _band_functions(top, law, D, Et, lam), z0)
+        return -avg[1], -avg[0], avg[2], avg[3], b, T
+    except ValueError as exc:
+        if "admits no motion" not in str(exc):
+            raise
+        zs = minima(top, D, lam)
+        if len(zs) != 1:
+            raise
+    zm = float(zs[0])
+    Em = float(V(top, zm, D, lam))
+    b, T, avg = band_average(top, Em, D, lam, _band_functions(top, law, D, Em, lam), zm)
+    dD = -avg[1]
+    R, I1, I3, a = top.R, top.I1, top.I3, top.alpha
+    n = lam * math.sqrt(float(fm.d(top, zm))) + R * D * (a - zm)
+    dV_dD = n * (a - zm) * I3 / (I1 * I1 * R * (1.0 - zm * zm)) + D / I1
+    return dD, max(-avg[0], dV_dD * dD), avg[2], avg[3], b, T
 
 
 class AveragingFails(Exception):
-    """The band of V(z, D̄, λ) cannot be followed (no motion, several wells, a separatrix)."""
+    """The band of V(z, D̄, λ) cannot be followed (several wells, a separatrix, no motion)."""
 
 
 def slow_path(top: TippeTop, law, lam: float, D0: float, E0: float, z0: float, theta_to: float,
