@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import optimize
@@ -114,7 +114,7 @@ def _separatrix(form: _PoleForm, exact: _PoleForm) -> bool:
     return form.A == 0.0 and exact.N_p == 0.0
 
 
-def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: Weight) -> tuple[float, float]:
+def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: Weight) -> tuple[float, Any]:
     """(T, ∮ φ̇ dt) for a band with an end in the layer of a pole (:func:`_pole_layer`).
 
     Each end is written as its distance u_t from its nearer pole and re-solved there
@@ -178,7 +178,7 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: Weight) -> t
     return T, integral
 
 
-def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: Weight) -> tuple[float, float]:
+def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: Weight) -> tuple[float, Any]:
     """(T, ∮ φ̇ dt) over one period of one element's band (NaN without ``precession``; with a
     callable F, ∮ F dt, an array of F's q components).
 
