@@ -10,7 +10,10 @@
   inclination θ̄ obtained from Jellett's integral and the dissipated power, integrated from θ_u(0)
   (:mod:`mett.inversion._gyroscopic`);
 * for exact Coulomb friction, whether the initial slip stops before the fast motion turns it
-  (then the top rolls, conserves E, D, λ and does not invert).
+  (then the top rolls, conserves E, D, λ and does not invert);
+* with ``method="averaged"``, instead of the balance flow: the flow of (D̄, Ẽ̄) averaged over the
+  nutation band of V(z, D, λ) (:mod:`mett.inversion._averaged`), which overestimates t_half and is
+  always flagged as unverified.
 
 The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
 """
