@@ -10,7 +10,10 @@
   inclination θ̄ obtained from Jellett's integral and the dissipated power, integrated from θ_u(0)
   (:mod:`mett.inversion._gyroscopic`);
 * for exact Coulomb friction, whether the initial slip stops before the fast motion turns it
-  (then the top rolls, conserves E, D, λ and does not invert).
+  (then the top rolls, conserves E, D, λ and does not invert);
+* with ``method="averaged"``, instead of the balance flow: the flow of (D̄, Ẽ̄) averaged over the
+  nutation band of V(z, D, λ) (:mod:`mett.inversion._averaged`), which overestimates t_half and is
+  always flagged as unverified.
 
 The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
 """
@@ -29,16 +32,17 @@ from .. import _validate
 from ..asymptotics import high_spin
 from ..classification import asymptotic_state
 from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
-from ..integrals import jellett
+from ..integrals import jellett, modified_energy, routh
 from ..stability import escape_time
 from ..state import State
 from ..top import TippeTop
+from . import _averaged
 from ._gyroscopic import NoBalance, balance_D_and_E_mod, slow_path
 from ._result import InversionPrediction, Validity
 
 __all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
 
-METHODS = ("gyroscopic",)
+METHODS = ("gyroscopic", "averaged")
 
 
 # The box of the verification table (docs/theory/inversion.md#verification): outside it the
@@ -141,9 +145,12 @@ def predict_inversion(
     friction : mett.friction law, optional
         :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
         or :class:`~mett.friction.Coulomb` (with or without Contensou radius).
-    method : {"gyroscopic"}
-        The reduction. ``"gyroscopic"``: linear initiation + gyroscopic-balance slow flow
-        (docs/theory/inversion.md).
+    method : {"gyroscopic", "averaged"}
+        The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
+        gyroscopic-balance slow flow. ``"averaged"``: the flow of (D̄, Ẽ̄) averaged over the
+        nutation band of V(z, D, λ) from the state's own integrals (viscous and regularised
+        Coulomb laws; always flagged outside the verified range: it overestimates ``t_half``, see
+        the docs page).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
 
@@ -214,6 +221,8 @@ def predict_inversion(
     name = _law_name(law)
     spin_ratio = lam / top.lambda_thres
     notes: list[str] = []
+    if method == "averaged":
+        notes.append("method averaged: not within the error target (docs/theory/inversion.md)")
     if name not in VERIFIED["laws"]:
         notes.append(f"law {name} not in the verification table")
     lo, hi = VERIFIED["theta0"]
@@ -326,9 +335,13 @@ def predict_inversion(
             lam=lam,
         )
     amp = esc.amplitude
+    if method == "averaged":
+        return _predict_averaged(
+            top, state, law, lam, theta_end, end.kind, tol, esc, validity, empty
+        )
     target = theta_end - tol if theta_end > amp else theta_end + tol
     try:
-        t, theta = slow_path(top, lam, law, amp, target)
+        t, theta, balance = slow_path(top, lam, law, amp, target)
     except NoBalance as exc:
         return empty(
             None,
@@ -350,7 +363,7 @@ def predict_inversion(
         return float(np.interp(th, theta, t))
 
     times = {"start": time_at(theta0), "half": time_at(0.5 * math.pi), "end": float(t[-1])}
-    D, E_mod = balance_D_and_E_mod(top, lam_path, theta)
+    D, E_mod = balance_D_and_E_mod(top, lam, theta, balance)
     t_half = times["half"]
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
@@ -377,6 +390,73 @@ def predict_inversion(
         D=np.asarray(D),
         E_mod=np.asarray(E_mod),
         lam=np.asarray(lam_path),
+        theta_end=theta_end,
+        validity=validity(eps),
+    )
+
+
+def _end_reason(top: TippeTop, theta_end: float) -> str:
+    if top.group == "III":
+        theta_f = math.acos(top.alpha / (1.0 - top.gamma))
+        why = f"group III: the tumbling state below theta_f = {theta_f:.4g} rad"
+    else:
+        why = "lambda_0 < lam < lambda_thres: partial inversion to the tumbling state"
+    return f"hangs at theta_t = {theta_end:.4g} rad ({why})"
+
+
+def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity, empty):
+    """method="averaged": the band-averaged flow of (D̄, Ẽ̄) from the state's integrals."""
+    theta0 = float(state.theta)
+    if not isinstance(law, (Viscous, RegularisedCoulomb)):
+        return empty(
+            None,
+            "the averaged flow covers the viscous and regularised Coulomb laws only",
+            "averaged",
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    D0, E0 = float(routh(top, state)), float(modified_energy(top, state))
+    target = theta_end - tol if theta_end > theta0 else theta_end + tol
+    # The slow time scale is 1/(μ g) (the rates are proportional to the friction coefficient):
+    # a few hundred of them bound any inversion the flow can describe.
+    mu_lin = _linear_mu(top, law, state)
+    t_max = 300.0 / (mu_lin * top.g)
+    try:
+        t, theta, D, E_mod, t_half, t_end, _ = _averaged.slow_path(
+            top, law, lam, D0, E0, math.cos(theta0), target, t_max
+        )
+    except _averaged.AveragingFails as exc:
+        return empty(
+            None,
+            f"the averaged flow cannot follow the band: {exc}",
+            "averaged",
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+    eps = T_n / t_half if math.isfinite(t_half) else math.nan
+    if kind == "inverted":
+        inverts, reason = (True, "inverts") if math.isfinite(t_half) else (None, "")
+        if inverts is None:
+            reason = f"the averaged flow does not reach pi/2 by t = {t[-1]:.3g} s"
+    else:
+        inverts, reason = False, _end_reason(top, theta_end)
+    t_start = 0.0 if esc.amplitude >= theta0 else math.log(theta0 / esc.amplitude) / esc.growth_rate
+    return InversionPrediction(
+        inverts=inverts,
+        reason=reason,
+        method="averaged",
+        t_start=t_start,
+        t_half=t_half,
+        t_inv=t_end,
+        tol=tol,
+        t=np.asarray(t),
+        theta=np.asarray(theta),
+        D=np.asarray(D),
+        E_mod=np.asarray(E_mod),
+        lam=np.full(len(t), lam),
         theta_end=theta_end,
         validity=validity(eps),
     )

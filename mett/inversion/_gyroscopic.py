@@ -78,13 +78,17 @@ def friction_rates(law, top: TippeTop, nu, omega_n):
 
 def flow_rate(top: TippeTop, lam: float, law, theta):
     """dθ/dt = −P(θ)/E'(θ) of the balance flow (1/s), vectorised; NaN where no balance exists."""
-    theta = np.asarray(theta, dtype=float)
+    return _flow_rate_and_state(top, lam, law, np.asarray(theta, dtype=float))[0]
+
+
+def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray):
+    """(dθ/dt, the balance state at θ): the state is reused for D and Ẽ along the path."""
     h = 1e-30
     # Complex step: E'(θ) to machine precision, no cancellation near θ = 0 or π.
     E_th = balance_state(top, lam, theta + 1j * h)[2].imag / h
-    nu = balance_state(top, lam, theta)[3]
-    P, _ = friction_rates(law, top, nu, 0.0)
-    return -P / E_th
+    state = balance_state(top, lam, theta)
+    P, _ = friction_rates(law, top, state[3], 0.0)
+    return -P / E_th, state
 
 
 def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float, n: int = 1025):
@@ -95,7 +99,7 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
     upright (θ̇ ∝ θ) and the inverted or tumbling end (θ̇ ∝ θ_end − θ). Cumulative Simpson on a
     uniform grid in s: relative error O(h⁴), h = Δs/(n − 1) (1e-12 at the end point for the
     thesis top with n = 1025; reading t at π/2 by linear interpolation adds O(h²), 5e-7 there).
-    Returns (t, θ); raises NoBalance
+    Returns (t, θ, the balance state along θ: see :func:`balance_state`); raises NoBalance
     at the first θ where the fast precession does not exist, ValueError if the flow runs
     backwards (the top does not move towards ``theta_to``).
     """
@@ -103,22 +107,23 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
 
     s = np.linspace(math.log(math.tan(0.5 * theta_from)), math.log(math.tan(0.5 * theta_to)), n)
     theta = 2.0 * np.arctan(np.exp(s))
-    rate = flow_rate(top, lam, law, theta)
+    rate, state = _flow_rate_and_state(top, lam, law, theta)
     bad = ~np.isfinite(rate)
     if bad.any():
         raise NoBalance(float(theta[np.argmax(bad)]))
     if np.any(rate * np.sign(theta_to - theta_from) <= 0.0):
         raise ValueError("the balance flow does not move towards the end state")
     t = cumulative_simpson(np.sin(theta) / rate, x=s, initial=0.0)
-    return t, theta
+    return t, theta, state
 
 
-def balance_D_and_E_mod(top: TippeTop, lam: np.ndarray, theta: np.ndarray):
+def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
     """Routh integral D = I3 ω3 √d(z) and modified energy Ẽ = E + ½ m v_A² of the balance state.
 
     With the centre of mass at rest v_A = ω × a, and Ẽ = E + ½ m |ν|² − m ν·ṙ (docs/theory/equations.md#integrals).
+    ``state``: :func:`balance_state` at (λ, θ) if already computed.
     """
-    _, omega3, E, nu, _ = balance_state(top, lam, theta)
+    _, omega3, E, nu, _ = balance_state(top, lam, theta) if state is None else state
     z = np.cos(theta)
     D = top.I3 * omega3 * np.sqrt(_d_of_z(top, z))
     return D, E + 0.5 * top.m * nu**2

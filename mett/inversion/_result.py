@@ -58,7 +58,9 @@ class InversionPrediction:
         That tolerance (rad).
     t, theta, D, E_mod : ndarray
         The slow path: times (s), mean inclination θ̄ (rad), Routh integral D̄ (kg m² s⁻¹) and
-        modified energy Ẽ̄ (J) of the gyroscopic-balance state along it.
+        modified energy Ẽ̄ (J): those of the gyroscopic-balance state along it (method
+        "gyroscopic"), or the band-averaged flow's own (D̄, Ẽ̄) and its time-averaged θ over the
+        band (method "averaged").
     lam : ndarray
         Jellett's integral along the path (kg m³ s⁻¹): constant except for the Contensou law.
     theta_end : float

@@ -50,6 +50,7 @@ from ._api import (
     _reference_turning_points,
     _start_energy,
     band,
+    band_average,
     classify_motion,
     f,
     mean_precession,
@@ -75,6 +76,7 @@ from ._wells import (
 __all__ = [
     "Band",
     "band",
+    "band_average",
     "classify_motion",
     "f",
     "mean_precession",

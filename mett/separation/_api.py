@@ -213,6 +213,54 @@ def _value_one(
     return integral / T
 
 
+def band_average(
+    top: TippeTop, E: float, D: float, lam: float, weight, z0: float | None = None
+) -> tuple[Band, float, np.ndarray]:
+    """Time averages ⟨F⟩ = ∮ F dt / T over one period of the rolling θ-motion with integrals (Ẽ, D, λ).
+
+    ∮ F dt = 2 ∫ F(z) √(g(z)/P(z)) dz over the band, by the same quadrature as
+    :func:`nutation_period` (the turning points' inverse square roots removed by the change of
+    variable), so that ⟨1⟩ = 1 to rounding.
+
+    Parameters
+    ----------
+    top : TippeTop
+    E, D, lam : float
+        Ẽ (J), D (kg m² s⁻¹), λ (kg m³ s⁻¹); one element.
+    weight : callable
+        F(z) for an array z of nodes in the band: an array of shape (q, *z.shape) (q quantities
+        averaged at once).
+    z0 : float, optional
+        A point of the band (selects the well where V has several).
+
+    Returns
+    -------
+    (Band, float, ndarray)
+        The band, its period T (s; ``inf`` on a separatrix, where ⟨F⟩ is F at the pole) and ⟨F⟩
+        (shape (q,)). A steady band gives F at the bottom of the well and the small-oscillation period.
+
+    Raises
+    ------
+    ValueError
+        As :func:`band`: (Ẽ, D, λ) admit no motion, or z0 lies in no band.
+    TypeError
+        If ``weight`` is not callable.
+    """
+    if not callable(weight):
+        raise TypeError(f"weight must be a callable F(z); got {type(weight).__name__}")
+    E, D, lam = (_validate.finite_scalar(n, v) for n, v in (("E", E), ("D", D), ("lam", lam)))
+    b, E = _band_one(top, E, D, lam, z0)
+    if b.kind == "none":
+        raise ValueError(_no_motion_message(E, D, lam, b.depth, b.z_min))
+    w = _well(top, E, D, lam)
+    if b.kind == "steady":
+        T = float(_steady_values(top, w, np.array([b.z_min]), "period")[0])
+        return b, T, np.asarray(weight(np.array([b.z_min])))[..., 0]
+    _set_reference_one(w, b.z_min)
+    T, integral = _quadrature(top, b, w, weight)
+    return b, T, integral if math.isinf(T) else integral / T
+
+
 def _broadcast(E, D, lam, z0=None):
     E = _validate.as_finite_array("E", E)
     D = _validate.as_finite_array("D", D)

@@ -11,7 +11,8 @@ the change of variables at a pole (:func:`_anchored_half`), which makes the laye
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import optimize
@@ -24,6 +25,17 @@ if TYPE_CHECKING:
 from ._exact import _EPS, _MAXITER
 from ._roots import _offset_roots
 from ._wells import Band, _interior_u, _pole_layer, _PoleForm, _root_towards, _Wells
+
+# The weight of a band integral ∮ F dt: False (the period only), True (F = φ̇), or a callable
+# F(z) -> array of shape (q, *z.shape) for q band integrals at once (the nutation average of a
+# slow flow, mett.inversion).
+Weight = bool | Callable[[np.ndarray], np.ndarray]
+
+
+def _weight_at(weight: Weight, z, phidot):
+    """F at the nodes z: φ̇ (``phidot()``, evaluated only then) or the callable's values."""
+    return weight(z) if callable(weight) else phidot()
+
 
 _N_QUAD = 96  # Gauss–Legendre nodes in u for periods and means
 _U_NODES, _U_WEIGHTS = np.polynomial.legendre.leggauss(_N_QUAD)
@@ -46,7 +58,7 @@ _TAU_PANEL = 0.75  # width of the Gauss–Legendre panels in τ (see _anchored_h
 _TAU_NODES = np.polynomial.legendre.leggauss(20)
 
 
-def _anchored_half(form: _PoleForm, u_t: float, u_s: float, weight: bool):
+def _anchored_half(form: _PoleForm, u_t: float, u_s: float, weight: Weight):
     """∫ √(g/P) dz (and ∫ φ̇ √(g/P) dz) from the turning point u_t to the interior point u_s.
 
     With u = u_t + s c sinh²τ (s = ±1 towards u_s, W = |u_s − u_t|, c the scale of the layer at
@@ -83,8 +95,10 @@ def _anchored_half(form: _PoleForm, u_t: float, u_s: float, weight: bool):
     R = form.P(u) / dist
     f = 2.0 * math.sqrt(c) * np.cosh(tau) * np.sqrt(g(form.w.top, z) / R)
     T = float(np.dot(weights, f))
-    if not weight:
+    if weight is False:
         return T, math.nan
+    if callable(weight):
+        return T, (f * weight(z)) @ weights
     return T, float(np.dot(weights, f * form.phidot(u)))
 
 
@@ -100,7 +114,7 @@ def _separatrix(form: _PoleForm, exact: _PoleForm) -> bool:
     return form.A == 0.0 and exact.N_p == 0.0
 
 
-def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tuple[float, float]:
+def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: Weight) -> tuple[float, Any]:
     """(T, ∮ φ̇ dt) for a band with an end in the layer of a pole (:func:`_pole_layer`).
 
     Each end is written as its distance u_t from its nearer pole and re-solved there
@@ -146,6 +160,8 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
         if at_end:
             exact = _PoleForm(w, form.p, at_pole=False)
             if _separatrix(form, exact):
+                if callable(weight):  # all the time at the pole: F there
+                    return math.inf, weight(np.array([form.p]))[..., 0]
                 return math.inf, form.phidot_limit()
             if exact.N_p != 0.0 and float(exact.P(us)) > 0.0:
                 # N(p) zero only to rounding: the doubles' own motion turns at the root of P
@@ -155,15 +171,16 @@ def _anchored_quadrature(top: TippeTop, b: Band, w: _Wells, weight: bool) -> tup
                 # the angle it sweeps past the pole, sign(N_p) π in the limit, is the jump left
                 # out of ⟨φ̇⟩ (mean_precession)
                 form, u_t = exact, _root_towards(exact.P, 0.0, us)
-                jump = math.copysign(math.pi, exact.N_p)
+                jump = math.copysign(math.pi, exact.N_p) if weight is True else 0.0
         t_half, i_half = _anchored_half(form, u_t, us, weight)
         T += 2.0 * t_half
         integral += 2.0 * i_half - jump
     return T, integral
 
 
-def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: bool) -> tuple[float, float]:
-    """(T, ∮ φ̇ dt) over one period of one element's band (NaN without ``precession``).
+def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: Weight) -> tuple[float, Any]:
+    """(T, ∮ φ̇ dt) over one period of one element's band (NaN without ``precession``; with a
+    callable F, ∮ F dt, an array of F's q components).
 
     Bands in the layer of a pole: :func:`_anchored_quadrature`; with P about the bottom of the
     well: :func:`_gauss_quadrature`; without a reference (a well within a few
@@ -175,13 +192,17 @@ def _quadrature(top: TippeTop, b: Band, w: _Wells, precession: bool) -> tuple[fl
         T, integral = _gauss_quadrature(
             w, np.array([b.z_low]), np.array([b.z_high]), np.array([b.z_min]), precession
         )
-        return float(T[0]), math.nan if integral is None else float(integral[0])
+        if integral is None:
+            return float(T[0]), math.nan
+        return float(T[0]), integral[..., 0] if callable(precession) else float(integral[0])
     c, h = 0.5 * (b.z_low + b.z_high), 0.5 * (b.z_high - b.z_low)
     z = c + h * _SIN_U
     integrand = h * _COS_U * np.sqrt(g(top, z) / w.P(z))
     T = 2.0 * float(_gauss_sum(integrand))
     if not precession:
         return T, math.nan
+    if callable(precession):
+        return T, 2.0 * _gauss_sum(integrand * precession(z))
     return T, 2.0 * float(_gauss_sum(integrand * w.phidot(z)))
 
 
@@ -221,7 +242,7 @@ def _steady_values(top: TippeTop, W: _Wells, zm, quantity: str) -> np.ndarray:
     return out
 
 
-def _gauss_quadrature(W: _Wells, z_low, z_high, z_min, precession: bool):
+def _gauss_quadrature(W: _Wells, z_low, z_high, z_min, precession: Weight):
     """(T, ∮ φ̇ dt or None) for every element of W (reference set), by Gauss–Legendre in u after
     z = c + h sin u.
 
@@ -241,7 +262,7 @@ def _gauss_quadrature(W: _Wells, z_low, z_high, z_min, precession: bool):
     divided = (np.abs(z_low) < 1.0) & (np.abs(z_high) < 1.0) & root_a & root_b
     divided &= not W.pole_ref
     T = np.full(z_low.shape, np.nan)
-    integral = np.full(z_low.shape, np.nan) if precession else None
+    integral = None if precession is False else [None]
     k = np.flatnonzero(divided)
     if k.size:
         Wk = W.sub(k).col()
@@ -258,19 +279,23 @@ def _gauss_quadrature(W: _Wells, z_low, z_high, z_min, precession: bool):
         if not fine.all():
             divided[k[~fine]] = False
             k, Wk, z, R = k[fine], Wk.sub(fine), z[fine], R[fine]
-        _gauss_sums(Wk, np.sqrt(g(top, z) / R), z, k, T, integral)
+        _gauss_sums(Wk, np.sqrt(g(top, z) / R), z, k, T, integral, precession)
     k = np.flatnonzero(~divided)
     if k.size:
         Wk = W.sub(k).col()
         x = c[k, None] + h[k, None] * _SIN_U
         z = np.clip(Wk.zr + x, -1.0, 1.0)
         integrand = h[k, None] * _COS_U * np.sqrt(g(top, z) / Wk.P_offset(x))
-        _gauss_sums(Wk, integrand, z, k, T, integral)
-    return T, integral
+        _gauss_sums(Wk, integrand, z, k, T, integral, precession)
+    return T, None if integral is None else integral[0]
 
 
-def _gauss_sums(Wk: _Wells, integrand, z, k, T, integral) -> None:
-    """T[k] = 2 Σ integrand (and integral[k] = 2 Σ integrand · φ̇(z) unless None), in place."""
+def _gauss_sums(Wk: _Wells, integrand, z, k, T, integral, weight: Weight = True) -> None:
+    """T[k] = 2 Σ integrand (and integral[0][..., k] = 2 Σ integrand · F(z) unless None, F = φ̇ or
+    the callable ``weight``; integral[0] is allocated on first use), in place."""
     T[k] = 2.0 * _gauss_sum(integrand)
     if integral is not None:
-        integral[k] = 2.0 * _gauss_sum(integrand * Wk.phidot(z))
+        sums = 2.0 * _gauss_sum(integrand * _weight_at(weight, z, lambda: Wk.phidot(z)))
+        if integral[0] is None:
+            integral[0] = np.full((*sums.shape[:-1], T.size), np.nan)
+        integral[0][..., k] = sums
