@@ -384,7 +384,8 @@ def simulate(
 
         return stemmed_run(simulate, top, state, t_end, model=model, rtol=rtol, atol=atol,
                            t_eval=t_eval, events=events, method=method, backend=backend,
-                           max_step=max_step, friction=friction, **options)  # fmt: skip
+                           max_step=max_step, friction=friction,
+                           stop_on_contact_loss=stop_on_contact_loss, **options)  # fmt: skip
     prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
                     events=events, method=method, backend=backend, max_step=max_step,
                     friction=friction, stop_on_contact_loss=stop_on_contact_loss,
