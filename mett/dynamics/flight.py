@@ -109,7 +109,12 @@ class _Flier:
     to_body: Callable[[np.ndarray, tuple], np.ndarray]
     from_body: Callable[[np.ndarray, tuple], np.ndarray]
     dry: bool
-    stemmed: bool = False
+    stem: tuple[int, int] | None = None
+    """The stemmed top's: the indices of (r_s, l_s) in its parameters; None for the ball top."""
+
+    @property
+    def stemmed(self) -> bool:
+        return self.stem is not None
 
 
 def _same(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -131,12 +136,37 @@ def _flagged(y: np.ndarray, p: tuple, flag: float = 0.0) -> np.ndarray:
     return np.concatenate((y, np.full((1, *y.shape[1:]), float(flag))))
 
 
+def _dry_stem_params(p: tuple, on: int) -> tuple:
+    """The dry stemmed top's contact parameters (stickslip's tuple) of the ball (``on`` 0) or
+    the stem sphere (1): (R, l) replaced by (r_s, l + l_s) on the stem (as :mod:`.stemslip`)."""
+    if on != 1:
+        return tuple(p)
+    q = list(p)
+    q[ix.R], q[ix.L] = p[ix.DRY_R_S], p[ix.L] + p[ix.DRY_L_S]
+    return tuple(q)
+
+
+def _dry_stem_body(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The gliding state of a dry stemmed state (λ of its contact → L_z, the flag dropped)."""
+    return contact.to_gliding(np.asarray(y, dtype=float)[:10], _dry_stem_params(p, round(y[10])))
+
+
+def _stem_layout(flier: _Flier, G: np.ndarray, p: tuple, flag: int) -> np.ndarray:
+    """Gliding states ``G`` (10,) or (10, k) in the stemmed model's layout, on sphere ``flag``
+    (the dry models: row 6 the Jellett integral λ of that sphere; no settling)."""
+    if flier.dry:
+        G = contact.from_gliding(G, _dry_stem_params(p, flag))
+    return _flagged(G, p, flag)
+
+
 _FLIERS = {
     "gliding": _Flier(_same, _same, False),
     "coulomb": _Flier(contact.to_gliding, _dry_from_body, True),
     "coulomb-contensou": _Flier(contact.to_gliding, _dry_from_body, True),
     "coulomb-regularised": _Flier(contact.to_gliding, _dry_from_body, True),
-    "stemmed": _Flier(_first_ten, _flagged, False, True),
+    "stemmed": _Flier(_first_ten, _flagged, False, (ix.R_S, ix.L_S)),
+    "stemmed-coulomb": _Flier(_dry_stem_body, _flagged, True, (ix.DRY_R_S, ix.DRY_L_S)),
+    "stemmed-coulomb-contensou": _Flier(_dry_stem_body, _flagged, True, (ix.DRY_R_S, ix.DRY_L_S)),
 }
 
 
@@ -532,7 +562,8 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             for name, value in traj.records.items():
                 if name in ("switches", "jumps"):
                     (switches if name == "switches" else jumps).extend(value)
-                elif flier.stemmed and name in records:  # touchdowns, accumulations: all phases
+                elif flier.stemmed and name in records and np.ndim(value) == 1:
+                    # touchdowns, accumulations: those of every contact piece
                     records[name] = np.concatenate((records[name], value))
                 else:
                     records.setdefault(name, value)
@@ -542,6 +573,8 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                 break
             y_lo = np.asarray(traj._sol(t_lo), dtype=float)
             last = str(traj.phase[-1]) if len(traj.t) else ""
+            if flier.stemmed and flier.dry and len(traj.t):  # its phase: contact-friction phase
+                last = f"{traj.contact[-1]}-{last}"
             t, y = t_lo, y_lo
         else:
             contact_times.append(0.0)
@@ -557,9 +590,9 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                        "double contact is not implemented")  # fmt: skip
             pieces.append(_contact_end(y, t, phase, p, mdl))
             break
-        body_c = _sphere_body(p, on) if flier.stemmed else body
+        body_c = _sphere_body(p, on, flier.stem) if flier.stemmed else body
         hop = Hop(g, t, body_c)
-        other = _other_hop(hop, g, t, p, on) if flier.stemmed else None
+        other = _other_hop(hop, g, t, p, on, flier.stem) if flier.stemmed else None
         nu = gliding_core(g.tolist(), (*body_c[:5], 0.0, body_c[5]))[12]
         switches.append(Switch(t, last or "sliding", "flight", "lift-off", math.nan,
                                math.hypot(nu[0], nu[1]), t))  # fmt: skip
@@ -580,7 +613,7 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                                         other=other))  # fmt: skip
             break
         g_td = hop.state(tau_end)
-        sphere = _sphere_body(p, lands_on)[1:3] if flier.stemmed else None
+        sphere = _sphere_body(p, lands_on, flier.stem)[1:3] if flier.stemmed else None
         try:
             landed = (None if tau is None
                       else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere))  # fmt: skip
@@ -610,8 +643,11 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
         t_td = float(t + tau_end)
         g_after, P, Q, margin = landed
         if flier.stemmed:  # on the sphere that landed
-            y, y_before = _flagged(g_after, p, lands_on), _flagged(g_td, p, on)
-            body_l = _sphere_body(p, lands_on)
+            y = _stem_layout(flier, g_after, p, lands_on)
+            if flier.dry:
+                y = contact.settle(y, _dry_stem_params(p, lands_on))
+            y_before = _stem_layout(flier, g_td, p, on)
+            body_l = _sphere_body(p, lands_on, flier.stem)
         else:
             y = flier.from_body(g_after, p)
             y_before = flier.from_body(g_td, p) if not flier.dry else contact.from_gliding(g_td, p)
@@ -646,21 +682,23 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                      t_events)  # fmt: skip
 
 
-def _sphere_body(p: tuple, on: int) -> tuple:
+def _sphere_body(p: tuple, on: int, stem_ix: Any = (ix.R_S, ix.L_S)) -> tuple:
     """(m, radius, distance G → centre, I1, I3, g) of the stemmed top's ball (``on`` 0) or stem
-    sphere (1): the body :class:`Hop` flies on that sphere's contact."""
+    sphere (1): the body :class:`Hop` flies on that sphere's contact (``stem_ix``: the indices
+    of r_s and l_s in the model's parameters)."""
     if on == 1:
-        return (p[ix.M], p[ix.R_S], p[ix.L] + p[ix.L_S], p[ix.I1], p[ix.I3], p[ix.G])
+        r_s, l_s = p[stem_ix[0]], p[stem_ix[1]]
+        return (p[ix.M], r_s, p[ix.L] + l_s, p[ix.I1], p[ix.I3], p[ix.G])
     return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.G])
 
 
-def _other_hop(hop: Hop, g: np.ndarray, t: float, p: tuple, on: int) -> Hop:
+def _other_hop(hop: Hop, g: np.ndarray, t: float, p: tuple, on: int, stem_ix: Any) -> Hop:
     """The same flight as ``hop`` (lift-off from sphere ``on``) seen by the other sphere of the
     stemmed top: its gap h_o = z_G + l_o 3̂_z − R_o, at lift-off R_c − R_o + (l_o − l_c) 3̂_z (the
     stem's or the ball's clearance of stem.py, ≥ 0 up to its switch offset: clipped at 0), and
     its rate ż_G + l_o 3̂̇_z. :class:`Hop` with (R_o, l_o) and these (h, ḣ) is then the exact gap
     of that sphere (its ż_G = −l_o 3̂̇_z + ḣ is the flight's)."""
-    c, o = _sphere_body(p, on), _sphere_body(p, 1 - on)
+    c, o = _sphere_body(p, on, stem_ix), _sphere_body(p, 1 - on, stem_ix)
     ez = float(g[9] / np.linalg.norm(g[7:10]))
     clear = max(c[1] - o[1] + (o[2] - c[2]) * ez, 0.0)
     return Hop(g, t, o, gap=clear, gap_rate=hop.vz0 + o[2] * hop.Omega * float(hop.v[2]))
@@ -712,7 +750,7 @@ def _layout(flier: _Flier, G: np.ndarray, p: tuple, flag: int = 0) -> np.ndarray
     """Gliding-layout states ``G`` (10, k) in the model's layout (no settling in flight; the
     stemmed top's phase flag ``flag``)."""
     if flier.stemmed:
-        return _flagged(G, p, flag)
+        return _stem_layout(flier, G, p, flag)
     return G if not flier.dry else contact.from_gliding(G, p)
 
 
@@ -746,11 +784,19 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
     if flight.any():  # flight samples: derived from the states, g_n = 0, E with the true height
         Yf = states[:, flight]
         d = mdl.derive(Yf, p)
-        stemmed = _FLIERS[mdl.name].stemmed
-        G = Yf if mdl.name == "gliding" else (Yf[:10] if stemmed else contact.to_gliding(Yf, p))
+        flier = _FLIERS[mdl.name]
+        if flier.stem is not None:
+            on = np.round(Yf[10]) == 1
+            G = np.array(Yf[:10], dtype=float)
+            for mask, k in ((~on, 0), (on, 1)):
+                if flier.dry and mask.any():
+                    G[:, mask] = contact.to_gliding(Yf[:10, mask], _dry_stem_params(p, k))
+            lc = p[ix.L] + p[flier.stem[1]] * on
+        else:
+            G = Yf if mdl.name == "gliding" else contact.to_gliding(Yf, p)
+            lc = p[ix.L]
         e = G[7:10] / np.linalg.norm(G[7:10], axis=0)
         L = G[4:7]
-        lc = p[ix.L] + (p[ix.L_S] * (np.round(Yf[10]) == 1) if stemmed else 0.0)
         vz_c = -lc * np.cross(L, e, axis=0)[2] / p[ix.I1]  # the contact value −l 3̂̇_z
         egap = [pc.gap if pc.egap is None else pc.egap for pc in pieces]
         erate = [pc.gap_rate if pc.egap_rate is None else pc.egap_rate for pc in pieces]
