@@ -29,6 +29,12 @@ normal direction, the friction law in impulse form: the viscous law's
 (the same Darboux–Keller integration with its force). After it the contact model resumes; if
 the force it needs is again ≤ 0 the top flies again at once.
 
+The top with a stem (models "stemmed", "stemmed-coulomb", "stemmed-coulomb-contensou") flies
+the same way from the sphere in contact, (R, l) or (r_s, l + l_s): the other sphere's gap
+z_G + l_o 3̂_z − R_o is the same formula with its own (h, ḣ) at the lift-off (:func:`_other_hop`)
+and the touchdown is the earlier of the two first roots; the landing impact is that sphere's
+(docs/theory/flight.md#the-stemmed-top).
+
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
 :data:`ORDER` on steps of Ω h ≤ 1/8: truncation below 1e-30), so that a trajectory with flights
@@ -506,8 +512,10 @@ def warn_if_artefact(traj: Trajectory) -> None:
 
 
 def run_with_flight(prep: PreparedRun) -> Trajectory:
-    """Integrate a prepared run of a ball model that flies (:func:`flies`): contact phases on
-    the run's backend, exact flights between them, landing impacts at the touchdowns.
+    """Integrate a prepared run of a model that flies (:func:`flies`): contact phases on
+    the run's backend, exact flights between them, landing impacts at the touchdowns (the
+    stemmed top's on whichever sphere touches first; ``contact`` then "ball", "stem", "both"
+    or "none", ``gap`` the lower sphere's).
 
     A run that never loses contact is the contact model's Trajectory unchanged (bit for bit).
     Otherwise the Trajectory has, per sample, ``contact`` ("ball" or "none"), ``gap`` (m: the
