@@ -796,9 +796,9 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
         if flier.stem is not None:
             on = np.round(Yf[10]) == 1
             G = np.array(Yf[:10], dtype=float)
-            for mask, k in ((~on, 0), (on, 1)):
+            for mask, which in ((~on, 0), (on, 1)):
                 if flier.dry and mask.any():
-                    G[:, mask] = contact.to_gliding(Yf[:10, mask], _dry_stem_params(p, k))
+                    G[:, mask] = contact.to_gliding(Yf[:10, mask], _dry_stem_params(p, which))
             lc = p[ix.L] + p[flier.stem[1]] * on
         else:
             G = Yf if mdl.name == "gliding" else contact.to_gliding(Yf, p)
