@@ -293,6 +293,24 @@ def _state_from_args(args: argparse.Namespace, top: TippeTop):
     return State(theta=args.theta0, omega3=args.omega3, thetadot=args.thetadot, phidot=args.phidot)
 
 
+def _preset_stem(args: argparse.Namespace) -> tuple[float, float] | None:
+    """(radius, distance) (m) of the stem of ``--preset`` (:func:`mett.presets.stemmed`), if it
+    has one and no --model is given or the one given takes a stem; None otherwise."""
+    from .dynamics import MODELS
+
+    if args.preset is None:
+        return None
+    if args.model is not None and not any(
+        o.name == "stem_radius" for o in MODELS[args.model].options
+    ):
+        return None
+    try:
+        top = presets.stemmed(args.preset)
+    except ValueError:  # a preset without a stem
+        return None
+    return (top.radius, top.distance)
+
+
 def _model_options(args: argparse.Namespace, top: TippeTop) -> tuple[str, dict[str, Any]]:
     """The model and the keyword arguments of :func:`mett.simulate` that --model, --friction and
     --stem give, or a ``ValueError`` saying what the model needs, before any run.
@@ -392,6 +410,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     plot = None if args.plot is None else _check_output_file("--plot", args.plot, _image_suffixes())
     top = _top_from_args(args)
     state = _state_from_args(args, top)
+    if args.stem is None:  # a preset with a stem runs with it (mett.presets.stemmed)
+        args.stem = _preset_stem(args)
     name, kw = _model_options(args, top)
 
     import numpy as np

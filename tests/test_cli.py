@@ -758,3 +758,30 @@ def test_sweep_of_a_stemmed_top(tmp_path, capsys):
                       progress=False)  # fmt: skip
     np.testing.assert_array_equal(pd.read_csv(path, comment="#")["theta_end"], want["theta_end"])
     assert_error(call([*SWEEP, "--model", "stemmed", "--out", path], capsys), "needs --stem")
+
+
+@pytest.mark.parametrize(
+    ("extra", "law", "stemmed"),
+    [
+        ([], None, True),
+        (["--friction", "coulomb-contensou:0.3,5e-4"], Coulomb(0.3, contensou_radius=5e-4), True),
+        (["--model", "stemmed"], None, True),
+        (["--model", "gliding"], None, False),
+    ],
+)  # fmt: skip
+def test_a_preset_with_a_stem_simulates_with_it(tmp_path, capsys, extra, law, stemmed):
+    """`mett simulate --preset friedl1997` runs the StemmedTop of mett.presets.stemmed (any
+    --friction), as the library does; an explicit model without a stem runs the ball alone."""
+    import mett
+
+    path = tmp_path / "t.npz"
+    argv = ["simulate", "--preset", "friedl1997", "--theta0", "0.1", "--omega3", "180",
+            "--t-end", "0.02", *extra, "--out", path]  # fmt: skip
+    code, _, err = call(argv, capsys)
+    assert code == 0, err
+    got = mett.Trajectory.load(path)
+    top = mett.presets.stemmed("friedl1997") if stemmed else mett.presets.get("friedl1997")
+    kw = {} if law is None else {"friction": law}
+    want = mett.simulate(top, mett.State(theta=0.1, omega3=180.0), 0.02, **kw)
+    assert got.model == want.model and got.model.startswith("stemmed") == stemmed
+    np.testing.assert_array_equal(got.states, want.states)

@@ -255,13 +255,16 @@ def test_leine_glocker_top_from_upright_to_its_end_state_on_the_stem(distance, k
 
 def test_contact_lost_on_the_stem_is_a_status():
     # a hard touchdown: the stem takes the impact and then leaves the plane (g_n reaches 0)
-    tr = simulate(TOP, mett.State(theta=2.2, thetadot=20.0, omega3=-90.0), 0.5)
+    # (stop_on_contact_loss=True: by default the top flies on, tests/test_stem_flight.py)
+    tr = simulate(TOP, mett.State(theta=2.2, thetadot=20.0, omega3=-90.0), 0.5,
+                  stop_on_contact_loss=True)  # fmt: skip
     assert tr.status == "contact_lost", tr.message
     assert tr.touchdowns.size == 1 and tr.contact[-1] == "stem"
     assert tr.t_contact_lost == pytest.approx(tr.t[-1])
     assert tr.touchdowns[0] < tr.t_contact_lost < 0.01
     assert abs(tr.gn[-1]) < 1e-9 * BALL.m * BALL.g
     # a start on the stem whose normal force is already negative ends at t = 0
-    at0 = simulate(TOP, mett.State(theta=2.6, thetadot=-40.0, omega3=-90.0), 0.5)
+    at0 = simulate(TOP, mett.State(theta=2.6, thetadot=-40.0, omega3=-90.0), 0.5,
+                   stop_on_contact_loss=True)  # fmt: skip
     assert at0.status == "contact_lost" and at0.t_contact_lost == 0.0
     assert list(at0.contact) == ["stem"] and at0.touchdowns.size == 0

@@ -29,6 +29,12 @@ normal direction, the friction law in impulse form: the viscous law's
 (the same Darboux–Keller integration with its force). After it the contact model resumes; if
 the force it needs is again ≤ 0 the top flies again at once.
 
+The top with a stem (models "stemmed", "stemmed-coulomb", "stemmed-coulomb-contensou") flies
+the same way from the sphere in contact, (R, l) or (r_s, l + l_s): the other sphere's gap
+z_G + l_o 3̂_z − R_o is the same formula with its own (h, ḣ) at the lift-off (:func:`_other_hop`)
+and the touchdown is the earlier of the two first roots; the landing impact is that sphere's
+(docs/theory/flight.md#the-stemmed-top).
+
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
 :data:`ORDER` on steps of Ω h ≤ 1/8: truncation below 1e-30), so that a trajectory with flights
@@ -109,6 +115,12 @@ class _Flier:
     to_body: Callable[[np.ndarray, tuple], np.ndarray]
     from_body: Callable[[np.ndarray, tuple], np.ndarray]
     dry: bool
+    stem: tuple[int, int] | None = None
+    """The stemmed top's: the indices of (r_s, l_s) in its parameters; None for the ball top."""
+
+    @property
+    def stemmed(self) -> bool:
+        return self.stem is not None
 
 
 def _same(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -119,11 +131,48 @@ def _dry_from_body(y: np.ndarray, p: tuple) -> np.ndarray:
     return contact.settle(contact.from_gliding(y, p), p)
 
 
+def _first_ten(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The gliding part of a stemmed state (its phase flag y[10] dropped)."""
+    return np.array(y[:10], dtype=float)
+
+
+def _flagged(y: np.ndarray, p: tuple, flag: float = 0.0) -> np.ndarray:
+    """A gliding-layout state (10,) or (10, k) with the stemmed model's phase flag appended."""
+    y = np.asarray(y, dtype=float)
+    return np.concatenate((y, np.full((1, *y.shape[1:]), float(flag))))
+
+
+def _dry_stem_params(p: tuple, on: int) -> tuple:
+    """The dry stemmed top's contact parameters (stickslip's tuple) of the ball (``on`` 0) or
+    the stem sphere (1): (R, l) replaced by (r_s, l + l_s) on the stem (as :mod:`.stemslip`)."""
+    if on != 1:
+        return tuple(p)
+    q = list(p)
+    q[ix.R], q[ix.L] = p[ix.DRY_R_S], p[ix.L] + p[ix.DRY_L_S]
+    return tuple(q)
+
+
+def _dry_stem_body(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The gliding state of a dry stemmed state (λ of its contact → L_z, the flag dropped)."""
+    return contact.to_gliding(np.asarray(y, dtype=float)[:10], _dry_stem_params(p, round(y[10])))
+
+
+def _stem_layout(flier: _Flier, G: np.ndarray, p: tuple, flag: int) -> np.ndarray:
+    """Gliding states ``G`` (10,) or (10, k) in the stemmed model's layout, on sphere ``flag``
+    (the dry models: row 6 the Jellett integral λ of that sphere; no settling)."""
+    if flier.dry:
+        G = contact.from_gliding(G, _dry_stem_params(p, flag))
+    return _flagged(G, p, flag)
+
+
 _FLIERS = {
     "gliding": _Flier(_same, _same, False),
     "coulomb": _Flier(contact.to_gliding, _dry_from_body, True),
     "coulomb-contensou": _Flier(contact.to_gliding, _dry_from_body, True),
     "coulomb-regularised": _Flier(contact.to_gliding, _dry_from_body, True),
+    "stemmed": _Flier(_first_ten, _flagged, False, (ix.R_S, ix.L_S)),
+    "stemmed-coulomb": _Flier(_dry_stem_body, _flagged, True, (ix.DRY_R_S, ix.DRY_L_S)),
+    "stemmed-coulomb-contensou": _Flier(_dry_stem_body, _flagged, True, (ix.DRY_R_S, ix.DRY_L_S)),
 }
 
 
@@ -319,7 +368,7 @@ def _first_root(coeffs: list[float]) -> float | None:
 
 
 def land(
-    y: np.ndarray, vz: float, p: tuple, dry: bool
+    y: np.ndarray, vz: float, p: tuple, dry: bool, sphere: tuple[float, float] | None = None
 ) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The landing impact of the sphere: state after it (gliding layout), P (N s), Q (N m s)
     and the cone margin of the impulse ((μP_n − |Π_t|)/(μP_n), NaN for the viscous law).
@@ -328,9 +377,12 @@ def land(
     centre of mass (m/s); ``p`` the contact model's parameters (m, R, l, I1, I3, mu, g, ...).
     Perfectly inelastic Darboux–Keller impact (docs/theory/stem.md): viscous law
     (:func:`mett.dynamics.stem.darboux_keller`) or Coulomb (–Contensou)
-    (:func:`mett.dynamics.stemslip.dry_impulse`) in impulse form.
+    (:func:`mett.dynamics.stemslip.dry_impulse`) in impulse form. ``sphere`` = (radius, distance
+    from G to its centre) of the sphere that lands (m); default the ball's (R, l).
     """
     m, R, l, I1, I3, mu = p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU]
+    if sphere is not None:
+        R, l = sphere
     e = y[7:10] / np.linalg.norm(y[7:10])
     L = np.asarray(y[4:7], dtype=float)
     w = L / I1 + (1.0 / I3 - 1.0 / I1) * float(L @ e) * e
@@ -433,6 +485,10 @@ class _Piece:
     flight: bool
     gap: np.ndarray
     gap_rate: np.ndarray
+    egap: np.ndarray | None = None
+    """The gap (m) and its rate (m/s) of the sphere whose contact the flight's states are derived
+    on (the stemmed top's, whose ``gap`` is the lower of its two spheres'); None: ``gap``."""
+    egap_rate: np.ndarray | None = None
 
 
 def warn_if_artefact(traj: Trajectory) -> None:
@@ -456,8 +512,10 @@ def warn_if_artefact(traj: Trajectory) -> None:
 
 
 def run_with_flight(prep: PreparedRun) -> Trajectory:
-    """Integrate a prepared run of a ball model that flies (:func:`flies`): contact phases on
-    the run's backend, exact flights between them, landing impacts at the touchdowns.
+    """Integrate a prepared run of a model that flies (:func:`flies`): contact phases on
+    the run's backend, exact flights between them, landing impacts at the touchdowns (the
+    stemmed top's on whichever sphere touches first; ``contact`` then "ball", "stem", "both"
+    or "none", ``gap`` the lower sphere's).
 
     A run that never loses contact is the contact model's Trajectory unchanged (bit for bit).
     Otherwise the Trajectory has, per sample, ``contact`` ("ball" or "none"), ``gap`` (m: the
@@ -512,6 +570,9 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             for name, value in traj.records.items():
                 if name in ("switches", "jumps"):
                     (switches if name == "switches" else jumps).extend(value)
+                elif flier.stemmed and name in records and np.ndim(value) == 1:
+                    # touchdowns, accumulations: those of every contact piece
+                    records[name] = np.concatenate((records[name], value))
                 else:
                     records.setdefault(name, value)
             contact_times.append(t_lo - t)
@@ -520,6 +581,8 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                 break
             y_lo = np.asarray(traj._sol(t_lo), dtype=float)
             last = str(traj.phase[-1]) if len(traj.t) else ""
+            if flier.stemmed and flier.dry and len(traj.t):  # its phase: contact-friction phase
+                last = f"{traj.contact[-1]}-{last}"
             t, y = t_lo, y_lo
         else:
             contact_times.append(0.0)
@@ -528,34 +591,54 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
         if t_lost is None:
             t_lost = t
         g = flier.to_body(y, p)
-        hop = Hop(g, t, body)
-        nu = gliding_core(g.tolist(), (*body[:5], 0.0, body[5]))[12]
+        on = round(float(y[10])) if flier.stemmed else 0  # the sphere that lifts off
+        if on == 2:  # both forces at 0 at once: not reached from the double contact's events
+            status = "failed"
+            message = (f"both contacts lift off at once at t = {t:.9g} s: a flight from the "
+                       "double contact is not implemented")  # fmt: skip
+            pieces.append(_contact_end(y, t, phase, p, mdl))
+            break
+        body_c = _sphere_body(p, on, flier.stem) if flier.stemmed else body
+        hop = Hop(g, t, body_c)
+        other = _other_hop(hop, g, t, p, on, flier.stem) if flier.stemmed else None
+        nu = gliding_core(g.tolist(), (*body_c[:5], 0.0, body_c[5]))[12]
         switches.append(Switch(t, last or "sliding", "flight", "lift-off", math.nan,
                                math.hypot(nu[0], nu[1]), t))  # fmt: skip
         jumps.append((y.copy(), y.copy()))
         tau = hop.touchdown(t_end - t)
+        lands_on = on
+        if other is not None and tau != 0.0:  # the other sphere first? (stemmed top)
+            tau_o = other.touchdown(t_end - t if tau is None else tau)
+            if tau_o is not None and (tau is None or tau_o < tau):
+                tau, lands_on = tau_o, 1 - on
         tau_end = t_end - t if tau is None else tau
-        if tau == 0.0:
+        if tau == 0.0 and lands_on == on:
             status = "failed"
             message = (f"contact cannot be continued at t = {t:.9g} s: the normal force the "
                        "contact needs is negative and the free motion enters the table (a hop of "
                        "zero length; Painlevé-type inconsistency of the contact law)")  # fmt: skip
-            pieces.append(_flight_piece(hop, 0.0, flier, p, t_eval_arr, last=True))
+            pieces.append(_flight_piece(hop, 0.0, flier, p, t_eval_arr, last=True, flag=on,
+                                        other=other))  # fmt: skip
             break
         g_td = hop.state(tau_end)
+        sphere = _sphere_body(p, lands_on, flier.stem)[1:3] if flier.stemmed else None
         try:
-            landed = None if tau is None else land(g_td, float(hop.vz(tau)), p, flier.dry)
+            landed = (None if tau is None
+                      else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere))  # fmt: skip
         except JumpFailed as exc:  # the run ends at the touchdown, the flight kept
             status, message = "failed", f"landing at t = {t + tau_end:.9g} s: {exc}"
-            pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True))
+            pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True, flag=on,
+                                        other=other))  # fmt: skip
             break
-        piece = _flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None)
+        piece = _flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None, flag=on,
+                              other=other)  # fmt: skip
         if events:  # the user events on the flight's dense output, as on a compiled run's
             stop = _user_events(events, piece.sol)
             t_events = events.result(t + tau_end if stop is None else stop[0])
             if stop is not None and stop[0] <= t + tau_end:
                 t_term = stop[0]
-                piece = _flight_piece(hop, t_term - t, flier, p, t_eval_arr, last=True)
+                piece = _flight_piece(hop, t_term - t, flier, p, t_eval_arr, last=True, flag=on,
+                                      other=other)  # fmt: skip
                 status = "completed"
                 message = f"stopped by terminal event {stop[1]} at t = {t_term:.9g} s"
                 pieces.append(piece)
@@ -567,10 +650,18 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             break
         t_td = float(t + tau_end)
         g_after, P, Q, margin = landed
-        y = flier.from_body(g_after, p)
+        if flier.stemmed:  # on the sphere that landed
+            y = _stem_layout(flier, g_after, p, lands_on)
+            if flier.dry:
+                y = contact.settle(y, _dry_stem_params(p, lands_on))
+            y_before = _stem_layout(flier, g_td, p, on)
+            body_l = _sphere_body(p, lands_on, flier.stem)
+        else:
+            y = flier.from_body(g_after, p)
+            y_before = flier.from_body(g_td, p) if not flier.dry else contact.from_gliding(g_td, p)
+            body_l = body
         phase = _start_phase(run, table, y)
-        nu = gliding_core(g_after.tolist(), (*body[:5], 0.0, body[5]))[12]
-        y_before = flier.from_body(g_td, p) if not flier.dry else contact.from_gliding(g_td, p)
+        nu = gliding_core(g_after.tolist(), (*body_l[:5], 0.0, body_l[5]))[12]
         switches.append(Switch(t_td, "flight", phase.name or "sliding", "touchdown", margin,
                                math.hypot(nu[0], nu[1]), t_td))  # fmt: skip
         jumps.append((y_before, y.copy()))
@@ -599,6 +690,28 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                      t_events)  # fmt: skip
 
 
+def _sphere_body(p: tuple, on: int, stem_ix: Any = (ix.R_S, ix.L_S)) -> tuple:
+    """(m, radius, distance G → centre, I1, I3, g) of the stemmed top's ball (``on`` 0) or stem
+    sphere (1): the body :class:`Hop` flies on that sphere's contact (``stem_ix``: the indices
+    of r_s and l_s in the model's parameters)."""
+    if on == 1:
+        r_s, l_s = p[stem_ix[0]], p[stem_ix[1]]
+        return (p[ix.M], r_s, p[ix.L] + l_s, p[ix.I1], p[ix.I3], p[ix.G])
+    return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.G])
+
+
+def _other_hop(hop: Hop, g: np.ndarray, t: float, p: tuple, on: int, stem_ix: Any) -> Hop:
+    """The same flight as ``hop`` (lift-off from sphere ``on``) seen by the other sphere of the
+    stemmed top: its gap h_o = z_G + l_o 3̂_z − R_o, at lift-off R_c − R_o + (l_o − l_c) 3̂_z (the
+    stem's or the ball's clearance of stem.py, ≥ 0 up to its switch offset: clipped at 0), and
+    its rate ż_G + l_o 3̂̇_z. :class:`Hop` with (R_o, l_o) and these (h, ḣ) is then the exact gap
+    of that sphere (its ż_G = −l_o 3̂̇_z + ḣ is the flight's)."""
+    c, o = _sphere_body(p, on, stem_ix), _sphere_body(p, 1 - on, stem_ix)
+    ez = float(g[9] / np.linalg.norm(g[7:10]))
+    clear = max(c[1] - o[1] + (o[2] - c[2]) * ez, 0.0)
+    return Hop(g, t, o, gap=clear, gap_rate=hop.vz0 + o[2] * hop.Omega * float(hop.v[2]))
+
+
 def _user_events(events: backends.UserEvents, sol: Any) -> tuple[float, int] | None:
     """Advance the user events over a flight's dense output; the terminal stop, if any."""
     ts = np.asarray(sol.ts, dtype=float)
@@ -611,15 +724,19 @@ def _user_events(events: backends.UserEvents, sol: Any) -> tuple[float, int] | N
 
 
 def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any,
-                  last: bool) -> _Piece:  # fmt: skip
-    """The samples and dense output of a flight over [0, tau_end] (its end kept if ``last``)."""
+                  last: bool, flag: int = 0, other: Hop | None = None) -> _Piece:  # fmt: skip
+    """The samples and dense output of a flight over [0, tau_end] (its end kept if ``last``).
+
+    A stemmed top's flight keeps the flag ``flag`` of the sphere it left (its series and energy
+    are taken on that sphere's contact, corrected by ``hop``'s gap); its samples' ``gap`` is the
+    lower of the two spheres' gaps (``other`` the other sphere's :class:`Hop`)."""
     if tau_end == 0.0:  # a hop of zero length: its one state
         from .dense import ConstantSolution
 
-        y0 = _layout(flier, hop.state(0.0).reshape(10, 1), p)[:, 0]
+        y0 = _layout(flier, hop.state(0.0).reshape(10, 1), p, flag)[:, 0]
         return _Piece(np.array([hop.t0]), y0.reshape(-1, 1), ConstantSolution(hop.t0, y0),
                       "flight", {}, {}, True, np.zeros(1), np.zeros(1))  # fmt: skip
-    sol = hop.dense(tau_end, lambda G: _layout(flier, G, p))
+    sol = hop.dense(tau_end, lambda G: _layout(flier, G, p, flag))
     if t_eval is None:
         t = sol.t if last else sol.t[:-1]
     else:
@@ -629,11 +746,19 @@ def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any
         t = np.array([hop.t0])
     states = np.asarray(sol(t), dtype=float).reshape(-1, t.size)
     gap, rate = hop.gaps(t - hop.t0)
-    return _Piece(t, states, sol, "flight", {}, {}, True, gap, rate)
+    if other is None:
+        return _Piece(t, states, sol, "flight", {}, {}, True, gap, rate)
+    gap_o, rate_o = other.gaps(t - hop.t0)
+    lower = gap_o < gap
+    return _Piece(t, states, sol, "flight", {}, {}, True, np.where(lower, gap_o, gap),
+                  np.where(lower, rate_o, rate), gap, rate)  # fmt: skip
 
 
-def _layout(flier: _Flier, G: np.ndarray, p: tuple) -> np.ndarray:
-    """Gliding-layout states ``G`` (10, k) in the model's layout (no settling in flight)."""
+def _layout(flier: _Flier, G: np.ndarray, p: tuple, flag: int = 0) -> np.ndarray:
+    """Gliding-layout states ``G`` (10, k) in the model's layout (no settling in flight; the
+    stemmed top's phase flag ``flag``)."""
+    if flier.stemmed:
+        return _stem_layout(flier, G, p, flag)
     return G if not flier.dry else contact.from_gliding(G, p)
 
 
@@ -667,12 +792,24 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
     if flight.any():  # flight samples: derived from the states, g_n = 0, E with the true height
         Yf = states[:, flight]
         d = mdl.derive(Yf, p)
-        G = Yf if mdl.name == "gliding" else contact.to_gliding(Yf, p)
+        flier = _FLIERS[mdl.name]
+        if flier.stem is not None:
+            on = np.round(Yf[10]) == 1
+            G = np.array(Yf[:10], dtype=float)
+            for mask, which in ((~on, 0), (on, 1)):
+                if flier.dry and mask.any():
+                    G[:, mask] = contact.to_gliding(Yf[:10, mask], _dry_stem_params(p, which))
+            lc = p[ix.L] + p[flier.stem[1]] * on
+        else:
+            G = Yf if mdl.name == "gliding" else contact.to_gliding(Yf, p)
+            lc = p[ix.L]
         e = G[7:10] / np.linalg.norm(G[7:10], axis=0)
         L = G[4:7]
-        vz_c = -p[ix.L] * np.cross(L, e, axis=0)[2] / p[ix.I1]  # the contact value −l 3̂̇_z
-        gap = np.concatenate([pc.gap for pc in pieces])[flight]
-        rate = np.concatenate([pc.gap_rate for pc in pieces])[flight]
+        vz_c = -lc * np.cross(L, e, axis=0)[2] / p[ix.I1]  # the contact value −l 3̂̇_z
+        egap = [pc.gap if pc.egap is None else pc.egap for pc in pieces]
+        erate = [pc.gap_rate if pc.egap_rate is None else pc.egap_rate for pc in pieces]
+        gap = np.concatenate(egap)[flight]
+        rate = np.concatenate(erate)[flight]
         vz = vz_c + rate
         dE = 0.5 * m * (vz * vz - vz_c * vz_c) + m * g * gap
         for k in SERIES:
@@ -696,7 +833,7 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
                 parts.append(np.zeros(pc.t.size))
         extras[k] = np.concatenate(parts)
     extras["phase"] = np.where(flight, "flight", extras.get("phase", np.full(t.size, "sliding")))
-    extras["contact"] = np.where(flight, "none", "ball")
+    extras["contact"] = np.where(flight, "none", extras.get("contact", "ball"))
     extras["gap"] = np.concatenate([pc.gap for pc in pieces])
     extras["gap_rate"] = np.concatenate([pc.gap_rate for pc in pieces])
     # pieces that end where the next begins: drop repeated times (the later state holds)

@@ -320,10 +320,11 @@ def simulate(
         :class:`~mett.dynamics.resistance.RollingResistance` runs ``"rolling-resistance"``.
     stop_on_contact_loss : bool, default False
         What happens where the normal force reaches 0. False: a model that flies
-        (:func:`mett.dynamics.flight.flies`: ``"gliding"`` and the dry laws it hands over to)
+        (:func:`mett.dynamics.flight.flies`: ``"gliding"`` and the dry laws it hands over to,
+        the stemmed top's models)
         follows the exact free flight, the touchdown and the landing impact, and goes on in
         contact (:func:`mett.dynamics.flight.run_with_flight`, docs/theory/flight.md); its
-        Trajectory then has ``contact`` ("ball"/"none"), ``gap``, ``gap_rate`` (m, m/s) and the
+        Trajectory then has ``contact`` ("ball"/"stem"/"both"/"none"), ``gap``, ``gap_rate`` (m, m/s) and the
         lift-offs and touchdowns in ``switches``; a run that never loses contact is unchanged.
         True, and every other model: the run ends there with status "contact_lost".
     **options
@@ -384,7 +385,8 @@ def simulate(
 
         return stemmed_run(simulate, top, state, t_end, model=model, rtol=rtol, atol=atol,
                            t_eval=t_eval, events=events, method=method, backend=backend,
-                           max_step=max_step, friction=friction, **options)  # fmt: skip
+                           max_step=max_step, friction=friction,
+                           stop_on_contact_loss=stop_on_contact_loss, **options)  # fmt: skip
     prep = prepare_run(top, state, t_end, model=model, rtol=rtol, atol=atol, t_eval=t_eval,
                     events=events, method=method, backend=backend, max_step=max_step,
                     friction=friction, stop_on_contact_loss=stop_on_contact_loss,
