@@ -248,3 +248,11 @@ def test_a_terminal_hears_one_line_while_a_kernel_compiles(tmp_path):
     assert "'written'" in run.stdout
     notice = [ln for ln in heard.decode().splitlines() if ln.startswith("mett: compiling")]
     assert len(notice) == 1 and "the Taylor kernel" in notice[0] and "mett warmup" in notice[0]
+
+
+def test_a_run_with_user_events_does_not_go_to_taylor():
+    # Next to the pole θ̇ changes sign twice per nutation period and Taylor's long steps (looked at
+    # in a few points each) can hold both zeros: the rolling top at θ0 = 1e-8 (the separation
+    # tests' check) has 5+ zeros of θ̇ in 1.2 s that a Taylor run misses some of
+    assert _chosen(TOP, model="rolling") == "taylor"
+    assert _chosen(TOP, model="rolling", events=[lambda t, s: s.thetadot]) == "compiled"

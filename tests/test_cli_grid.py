@@ -205,7 +205,7 @@ def test_simulate_writes_csv_and_netcdf_as_the_library_does(tmp_path, capsys):
 
 def test_a_partial_run_is_written_and_exits_1(tmp_path, capsys):
     argv = ["simulate", *THESIS, "--theta0", "1.5", "--omega3", "0", "--thetadot", "100",
-            "--t-end", "1", "--out", tmp_path / "t.nc"]  # fmt: skip
+            "--t-end", "1", "--out", tmp_path / "t.nc", "--stop-on-contact-loss"]  # fmt: skip
     code, out, _ = call(argv, capsys)
     assert code == 1 and "contact_lost" in out
     assert mett.load(tmp_path / "t.nc").status == "contact_lost"

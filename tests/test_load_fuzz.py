@@ -65,7 +65,7 @@ def _legit() -> dict:
     top = presets.get("rutstam2013")
     start = State(theta=0.1, omega3=155.0)
     runs = {
-        "gliding": mett.simulate(top, start, 0.3, events=[_tick]),
+        "gliding": mett.simulate(top, start, 0.3, events=[_tick], backend="compiled"),
         # a stemmed top under Coulomb friction: ball and stem contacts, sliding and rolling
         "coulomb": mett.simulate(_STEMMED, _NEAR_TOUCHDOWN, 0.07, friction=Coulomb(0.3)),
         "taylor": mett.simulate(top, start, 0.2, backend="taylor"),
@@ -429,6 +429,20 @@ def test_the_reported_metadata_cases_are_value_errors_naming_the_file(
     with pytest.raises(ValueError, match=match) as info:
         Trajectory.load(path)
     assert str(path) in str(info.value)
+
+
+def test_a_zip_version_this_python_cannot_read_is_a_value_error(files, tmp_path):
+    # zipfile raises NotImplementedError for an entry that needs a newer zip version (a byte
+    # flipped in the central directory's "version needed" field): the file is refused as such
+    meta, entries = files["gliding"]
+    path = tmp_path / "case.npz"
+    _write(path, meta, entries)
+    raw = bytearray(path.read_bytes())
+    at = raw.index(b"PK\x01\x02")  # the first central-directory header
+    raw[at + 6 : at + 8] = (64).to_bytes(2, "little")  # version needed to extract: 6.4
+    path.write_bytes(bytes(raw))
+    with pytest.raises(ValueError, match="not a readable mett trajectory file"):
+        mett.load(path)
 
 
 def test_the_reported_array_cases_are_value_errors(files, tmp_path):

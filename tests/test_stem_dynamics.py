@@ -268,3 +268,54 @@ def test_contact_lost_on_the_stem_is_a_status():
                    stop_on_contact_loss=True)  # fmt: skip
     assert at0.status == "contact_lost" and at0.t_contact_lost == 0.0
     assert list(at0.contact) == ["stem"] and at0.touchdowns.size == 0
+
+
+@pytest.mark.parametrize("mu", [1e3, 1e6, 1e12, 1e50])
+def test_stiff_darboux_keller_impact_against_an_implicit_integration(mu):
+    # huge μ (or speeds) make the impulse equations stiff: the exact linear solution (and its
+    # μ → ∞ limit v = 0) against an independent Radau integration with the exact Jacobian, and
+    # continuous with the explicit path at the switch between them
+    from scipy.integrate import solve_ivp
+
+    from mett.dynamics.stem import darboux_keller
+
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(3, 3))
+    W = A @ A.T + 0.5 * np.eye(3)  # a Delassus matrix: symmetric positive definite
+    v0 = np.array([0.3, -0.2, -1.0])
+    J = np.zeros((6, 6))
+    J[:3, :2] = -mu * W[:, :2]
+    J[3:5, :2] = -mu * np.eye(2)
+
+    def rate(_, z):
+        dP = np.array([-mu * z[0], -mu * z[1], 1.0])
+        return np.concatenate((W @ dP, dP))
+
+    def stop(_, z):
+        return z[2]
+
+    stop.terminal, stop.direction = True, 1.0
+    ref = solve_ivp(rate, (0.0, 100.0), np.append(v0, np.zeros(3)), method="Radau", jac=J,
+                    events=stop, rtol=1e-12, atol=1e-14)  # fmt: skip
+    P_ref = ref.y_events[0][0][3:]
+    P = darboux_keller(v0, W, mu)
+    # both solve to ~1e-12 relative; the limit branch (μ|W|p > 1e15) errs by O(1/(μ|W|p))
+    assert np.allclose(P, P_ref, rtol=1e-9, atol=1e-9 * np.abs(P_ref).max())
+    v = v0 + W @ P
+    assert abs(v[2]) < 1e-12  # the end of compression
+    Wi = np.linalg.inv(W)
+    assert v @ Wi @ v <= v0 @ Wi @ v0  # energy never rises
+
+
+def test_darboux_keller_is_continuous_across_its_stiff_switch():
+    from mett.dynamics.stem import darboux_keller
+
+    W = np.array([[2.0, 0.3, 0.1], [0.3, 1.5, -0.2], [0.1, -0.2, 1.0]])
+    v0 = np.array([0.4, 0.1, -1.0])
+    p1 = 10.0 * -v0[2] / W[2, 2]
+    mu_switch = 1e3 / (np.linalg.norm(W, 2) * p1)
+    below = darboux_keller(v0, W, mu_switch * (1 - 1e-6))
+    above = darboux_keller(v0, W, mu_switch * (1 + 1e-6))
+    # the two paths (DOP853 at rtol 1e-13, the exact linear solution) agree to ~1e-11, the
+    # change of μ moves P by ~1e-6 × dP/dlog μ, small here (the slip has relaxed)
+    assert np.allclose(below, above, rtol=1e-6)

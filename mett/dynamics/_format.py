@@ -199,7 +199,8 @@ def load(cls: type, path: str | os.PathLike, series: Sequence[str]) -> Any:
         raise ValueError(f"{p} is a damaged mett trajectory file: {exc}") from None
     except _Named:
         raise
-    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error, NotImplementedError) as exc:
+        # (zipfile raises NotImplementedError for a damaged version or compression field)
         raise ValueError(f"{p} is not a readable mett trajectory file: {exc}") from None
     except (ValueError, TypeError, ArithmeticError, LookupError, AttributeError,
             RecursionError) as exc:  # fmt: skip

@@ -775,12 +775,21 @@ nanoseconds per run than the compiled DOP853 at rtol 1e-10, which is 30-50x fast
 :func:`choose` takes the first that accepts the run and is exact for it."""
 
 
-def choose(model: Model, method: str, params: tuple, options: dict, n_state: int) -> str:
+def choose(
+    model: Model, method: str, params: tuple, options: dict, n_state: int,
+    user_events: bool = False,
+) -> str:  # fmt: skip
     """The backend of ``backend="auto"``: the first of :data:`AUTO` that accepts ``model`` with
     ``method`` and is exact for it (``inexact`` is None): Taylor for an analytic run with
     ``method="DOP853"``, the compiled DOP853 where the Taylor polynomials cannot represent the law
-    (:meth:`TaylorBackend.inexact`), scipy for the other methods of solve_ivp."""
+    (:meth:`TaylorBackend.inexact`), scipy for the other methods of solve_ivp.
+
+    A run with ``user_events`` does not go to Taylor: a user's event is any function, whose zeros
+    may come in pairs within one of Taylor's long steps (it looks for sign changes at a few points
+    per step), e.g. θ̇ = 0 of a top next to its pole; the DOP853's short steps find them."""
     for name in AUTO:
+        if user_events and name == "taylor":
+            continue
         b = REGISTRY[name]
         if b.accepts(model, method) and b.inexact(model, params, options, n_state) is None:
             return name

@@ -64,6 +64,7 @@ from .stickslip import Switch
 from .trajectory import Trajectory
 
 __all__ = [
+    "MAX_FLIGHT_STEPS",
     "MAX_HOPS",
     "ORDER",
     "VISCOUS_ARTEFACT",
@@ -84,6 +85,25 @@ located on them, as on an integrator's steps."""
 
 MAX_HOPS = 10_000
 """A run stops with status "failed" after this many flights (hops)."""
+
+MAX_FLIGHT_STEPS = 1_000_000
+"""A flight's dense output has 8 steps per radian of the axis' rotation (:meth:`Hop.dense`); a
+flight that would need more (a spin near the rate bound) ends the run with status "failed"."""
+
+
+def _beyond_double(hop: Hop, g: np.ndarray) -> str | None:
+    """Why a flight from this state cannot be followed in double precision, None if it can: a
+    non-finite state, or a rotation rate whose powers up to :data:`ORDER` (the dense output's
+    Taylor coefficients) or whose touchdown bound M4 = l Ω⁴ |…| overflow."""
+    if not np.isfinite(g).all():
+        return "the state at the lift-off is not finite"
+    if not (hop.Omega < np.finfo(float).max ** (1.0 / ORDER) and math.isfinite(hop.M4)):
+        return (
+            f"the rotation rate Ω = {hop.Omega:.3g} rad/s is beyond what the flight's "
+            "double-precision Taylor coefficients can hold"
+        )
+    return None
+
 
 VISCOUS_ARTEFACT = 1.0
 """μ |v_A| above which a viscous run's loss of contact is an artefact of the law (see
@@ -600,6 +620,11 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             break
         body_c = _sphere_body(p, on, flier.stem) if flier.stemmed else body
         hop = Hop(g, t, body_c)
+        beyond = _beyond_double(hop, g)
+        if beyond is not None:  # rates no double-precision flight can follow: stop, run kept
+            status, message = "failed", f"lift-off at t = {t:.9g} s: {beyond}"
+            pieces.append(_contact_end(y, t, phase, p, mdl))
+            break
         other = _other_hop(hop, g, t, p, on, flier.stem) if flier.stemmed else None
         nu = gliding_core(g.tolist(), (*body_c[:5], 0.0, body_c[5]))[12]
         switches.append(Switch(t, last or "sliding", "flight", "lift-off", math.nan,
@@ -612,6 +637,13 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             if tau_o is not None and (tau is None or tau_o < tau):
                 tau, lands_on = tau_o, 1 - on
         tau_end = t_end - t if tau is None else tau
+        if 8.0 * hop.Omega * tau_end > MAX_FLIGHT_STEPS:
+            status = "failed"
+            message = (f"a flight from t = {t:.9g} s of {hop.Omega * tau_end / (2 * math.pi):.3g} "
+                       f"turns at Ω = {hop.Omega:.3g} rad/s: more than the {MAX_FLIGHT_STEPS} "
+                       "steps of dense output a flight may store")  # fmt: skip
+            pieces.append(_contact_end(y, t, phase, p, mdl))
+            break
         if tau == 0.0 and lands_on == on:
             status = "failed"
             message = (f"contact cannot be continued at t = {t:.9g} s: the normal force the "

@@ -291,7 +291,8 @@ def simulate(
         viscous gliding and rolling tops, the gliding HST, the cylinder, the Euler and
         Routhian forms and the viscous stemmed top between its impacts; the compiled DOP853 for
         dry Coulomb friction (its slip direction is not analytic where its phases switch) and
-        for a right-hand side the Taylor tracer cannot represent; scipy for the methods other
+        for a right-hand side the Taylor tracer cannot represent or a run with ``events`` (a
+        user's event may have two zeros within one long Taylor step); scipy for the methods other
         than DOP853 (:func:`mett.dynamics.backends.choose`). ``Trajectory.backend`` says which
         ran. Every backend
         keeps every step in memory and stops with status "failed" after :data:`MAX_STEPS`
@@ -501,7 +502,7 @@ def prepare_run(
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
     scales = np.asarray(mdl.scales(y0, params), dtype=float)
     if backend == "auto":  # the fastest exact backend for this model, law and method
-        backend = backends.choose(mdl, method, params, model_options, y0.size)
+        backend = backends.choose(mdl, method, params, model_options, y0.size, bool(user))
     atol_arr = _check_atol(atol, y0.size, scales)
     if atol_arr is None:
         atol_arr = rtol * scales

@@ -390,6 +390,8 @@ def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     # 1/(W⁻¹)_zz > 0 (W positive definite). Friction can make p much larger than the
     # frictionless −v_z/W_zz, so the interval is extended until v_z reaches 0.
     z, p0, p1 = np.concatenate((v0, np.zeros(3))), 0.0, 10.0 * -v0[2] / W[2, 2]
+    if mu * np.linalg.norm(W, 2) * p1 > 1e3:  # stiff: see _darboux_keller_stiff
+        return _darboux_keller_stiff(v0, W, mu, p1)
     for _ in range(12):
         sol = solve_ivp(rate, (p0, p1), z, method="DOP853", events=stop, rtol=1e-13,
                         atol=1e-15 * (1.0 + abs(v0[2])))  # fmt: skip
@@ -399,6 +401,44 @@ def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     if sol.status != 1:
         raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
     return sol.y_events[0][0][3:]
+
+
+def _darboux_keller_stiff(v0: np.ndarray, W: np.ndarray, mu: float, p1: float) -> np.ndarray:
+    """:func:`darboux_keller` where friction relaxes the slip over an impulse ~ 1/(μ|W|) far
+    below the impact's (huge μ or speeds): an explicit method would need ~ μ|W| p1 steps.
+
+    The impulse equations are linear with constant coefficients, dv/dp = W ẑ − μ W S v
+    (S = diag(1, 1, 0)), so v(p) = expm(M p) applied to (v0, 1) with M = [[−μ W S, W ẑ], [0, 0]],
+    exactly; the end of compression v_z(p) = 0 is bracketed and found by Brent's method, and
+    P = W⁻¹ (v − v0) since dv = W dP.
+    """
+    from scipy.linalg import expm
+    from scipy.optimize import brentq
+
+    if mu * np.linalg.norm(W, 2) * p1 > 1e15:
+        # the slip stops at once and stays O(1/(μ|W|)) below rounding: the contact point stops,
+        # v = 0 (the limit μ → ∞, a sticking plastic impact)
+        return np.linalg.solve(W, -v0)
+
+    M = np.zeros((4, 4))
+    M[:3, :2] = -mu * W[:, :2]
+    M[:3, 3] = W[:, 2]
+    x0 = np.append(v0, 1.0)
+
+    def v_at(p: float) -> np.ndarray:
+        return (expm(M * p) @ x0)[:3]
+
+    hi = p1
+    for _ in range(12):  # v_z grows once the slip has relaxed (darboux_keller): bracket its zero
+        if v_at(hi)[2] > 0.0:
+            break
+        hi *= 10.0
+    else:
+        raise JumpFailed(
+            "impact: the impulse equations could not be solved (no end of compression)"
+        )
+    p_end = brentq(lambda p: v_at(p)[2], 0.0, hi, xtol=1e-15 * hi, rtol=4 * np.finfo(float).eps)
+    return np.linalg.solve(W, v_at(p_end) - v0)
 
 
 # --- entering and leaving the double contact -------------------------------------------------
