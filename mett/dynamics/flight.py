@@ -437,27 +437,12 @@ def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) ->
 
     Energy: dE = v·dP = (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp ≤ 0 during compression.
     """
-    from scipy.integrate import solve_ivp
 
-    def rate(_: float, z: np.ndarray) -> np.ndarray:
-        k = -mu / math.sqrt(z[0] * z[0] + z[1] * z[1] + eps * eps)
-        dP = np.array([k * z[0], k * z[1], 1.0])
-        return np.concatenate((W @ dP, dP))
+    def tangential(vx: float, vy: float) -> tuple[float, float]:
+        k = -mu / math.sqrt(vx * vx + vy * vy + eps * eps)
+        return k * vx, k * vy
 
-    def stop(_: float, z: np.ndarray) -> float:
-        return z[2]
-
-    stop.terminal, stop.direction = True, 1.0  # type: ignore[attr-defined]
-    z, p0, p1 = np.concatenate((v0, np.zeros(3))), 0.0, 10.0 * -v0[2] / W[2, 2]
-    for _ in range(12):  # friction can make p larger than the frictionless −v_z/W_zz
-        sol = solve_ivp(rate, (p0, p1), z, method="Radau", events=stop, rtol=1e-10,
-                        atol=1e-14 * (1.0 + abs(v0[2])))  # fmt: skip
-        if sol.status != 0:
-            break
-        z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
-    if sol.status != 1:
-        raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
-    return np.asarray(sol.y_events[0][0][3:], dtype=float)
+    return stem.compression_impulse(v0, W, tangential, "Radau", 1e-10, 1e-14 * (1.0 + abs(v0[2])))
 
 
 # --- the driver ----------------------------------------------------------------------------

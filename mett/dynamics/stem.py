@@ -73,6 +73,7 @@ __all__ = [
     "both_core",
     "both_rhs",
     "close_both",
+    "compression_impulse",
     "darboux_keller",
     "impact",
     "impact_frame",
@@ -376,10 +377,33 @@ def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     (module docstring); μ in s/m. Raises :class:`JumpFailed` if the impulse equations cannot be
     solved.
     """
+    p1 = 10.0 * -v0[2] / W[2, 2]
+    if mu * np.linalg.norm(W, 2) * p1 > 1e3:  # stiff: see _darboux_keller_stiff
+        return _darboux_keller_stiff(v0, W, mu, p1)
+    return compression_impulse(
+        v0, W, lambda vx, vy: (-mu * vx, -mu * vy), "DOP853", 1e-13, 1e-15 * (1.0 + abs(v0[2]))
+    )
+
+
+def compression_impulse(
+    v0: np.ndarray,
+    W: np.ndarray,
+    tangential: Any,
+    method: str,
+    rtol: float,
+    atol: float,
+) -> np.ndarray:
+    """The impulse P (N s) of a perfectly inelastic Darboux–Keller impact whose tangential
+    impulse per unit normal impulse is ``tangential(v_x, v_y)`` (a friction law in impulse form):
+    dP = (tangential(v_t), 1) dp, dv = W dP from the contact velocity ``v0`` (v0_z < 0) until
+    v_z = 0, the end of compression, integrated with ``solve_ivp(method, rtol, atol)``. Raises
+    :class:`JumpFailed` if the impulse equations cannot be solved.
+    """
     from scipy.integrate import solve_ivp
 
     def rate(_: float, z: np.ndarray) -> np.ndarray:
-        dP = np.array([-mu * z[0], -mu * z[1], 1.0])
+        tx, ty = tangential(z[0], z[1])
+        dP = np.array([tx, ty, 1.0])
         return np.concatenate((W @ dP, dP))
 
     def stop(_: float, z: np.ndarray) -> float:
@@ -390,17 +414,14 @@ def darboux_keller(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     # 1/(W⁻¹)_zz > 0 (W positive definite). Friction can make p much larger than the
     # frictionless −v_z/W_zz, so the interval is extended until v_z reaches 0.
     z, p0, p1 = np.concatenate((v0, np.zeros(3))), 0.0, 10.0 * -v0[2] / W[2, 2]
-    if mu * np.linalg.norm(W, 2) * p1 > 1e3:  # stiff: see _darboux_keller_stiff
-        return _darboux_keller_stiff(v0, W, mu, p1)
     for _ in range(12):
-        sol = solve_ivp(rate, (p0, p1), z, method="DOP853", events=stop, rtol=1e-13,
-                        atol=1e-15 * (1.0 + abs(v0[2])))  # fmt: skip
+        sol = solve_ivp(rate, (p0, p1), z, method=method, events=stop, rtol=rtol, atol=atol)
         if sol.status != 0:
             break
         z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
     if sol.status != 1:
         raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
-    return sol.y_events[0][0][3:]
+    return np.asarray(sol.y_events[0][0][3:], dtype=float)
 
 
 def _darboux_keller_stiff(v0: np.ndarray, W: np.ndarray, mu: float, p1: float) -> np.ndarray:
