@@ -517,7 +517,10 @@ def test_a_version_1_checkpoint_still_resumes_with_a_warning(tmp_path):
     _, lines = _checkpoint(tmp_path, backend="compiled")
     path = tmp_path / "v1.jsonl"
     path.write_text("\n".join([json.dumps(header), lines[1]]) + "\n")  # point 0 done
-    with pytest.warns(mett.sweeps.CheckpointWarning, match="did not record its version"):
+    with (
+        pytest.warns(mett.sweeps.CheckpointWarning, match="before mett recorded the backend"),
+        pytest.warns(mett.sweeps.CheckpointWarning, match="did not record its version"),
+    ):
         resumed = sweep(TOP, GRID2, t_end=0.05, progress=False, checkpoint=path)
     expected = sweep(TOP, GRID2, t_end=0.05, progress=False, backend="compiled")
     pd.testing.assert_frame_equal(resumed, expected, check_exact=True, check_like=True)
