@@ -52,9 +52,16 @@ def execute(path: Path, timeout: int = CELL_TIMEOUT):
     env = dict(os.environ)
     env.pop("MPLBACKEND", None)  # the kernel draws with the inline backend
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    from jupyter_client.manager import KernelManager
+
     with tempfile.TemporaryDirectory() as cwd:
+        # The kernel talks over Unix sockets in this private directory, not TCP ports: a port is
+        # chosen by binding and releasing it, and another process of a parallel test run (a Dask
+        # cluster, another kernel) can take it in between, leaving the client waiting for ever.
+        km = KernelManager(kernel_name="python3", transport="ipc", ip=os.path.join(cwd, "kernel"))
         client = nbclient.NotebookClient(
             nb,
+            km=km,
             timeout=timeout,
             kernel_name="python3",
             resources={"metadata": {"path": cwd}},
