@@ -268,3 +268,105 @@ def test_a_painleve_inconsistent_start_ends_failed_with_a_clear_message():
         traj = mett.simulate(top, state, t_end=0.3)
     assert traj.status == "failed" and "Painlevé" in traj.message
     assert traj.t.size >= 1 and traj.t_final == 0.0 and traj.t_contact_lost == 0.0
+
+
+# --- hops do not accumulate (docs/theory/flight.md#hops-do-not-accumulate) ---------------------
+
+
+def test_the_shared_zeno_test_finds_the_closed_form_limits_of_bouncing_sequences():
+    """hybrid.geometric_tail, the one geometric-sequence test of impacts and hops: a ball dropped
+    with speed v0 and restitution e bounces for Δ_k = 2 v0 e^k/g, so its bounces end at
+    t_0 + 2 v0/(g (1 − e)); two interleaved sequences of the same ratio (lag 2, the ball and the
+    stem) likewise. Rounding only (a few ulps of the sums)."""
+    from mett.dynamics.hybrid import geometric_tail
+
+    v0, e = 0.4, 0.55
+    d = [2.0 * v0 * e**k / G for k in range(10)]
+    ratio, rest = geometric_tail(d, 1, 7, 0.05)
+    assert ratio == pytest.approx(e, rel=1e-13)
+    assert sum(d) + rest == pytest.approx(2.0 * v0 / (G * (1.0 - e)), rel=1e-13)
+    # two sequences, a Δ_a e^k and b Δ_b e^k, alternating: the limit Σ (a + b) e^k = (a + b)/(1 − e)
+    a, b = 3e-3, 1e-3
+    d2 = [(a if k % 2 == 0 else b) * e ** (k // 2) for k in range(10)]
+    ratio, rest = geometric_tail(d2, 2, 3, 0.1)
+    assert ratio == pytest.approx(e, rel=1e-13)
+    assert sum(d2) + rest == pytest.approx((a + b) / (1.0 - e), rel=1e-13)
+    # not shrinking, a drift (Δ_k ∝ 1/k, no finite sum), too few: none
+    assert geometric_tail([1e-3] * 10, 1, 7, 0.05) is None
+    assert geometric_tail([1e-3 / k for k in range(1, 13)], 1, 7, 0.05, about_mean=True) is None
+    assert geometric_tail(d[:7], 1, 7, 0.05) is None
+
+
+def _pulling_start(a: float) -> tuple[np.ndarray, float, float]:
+    """A gliding-layout state on the table whose free motion lifts the contact point off with
+    ḧ(0) = a > 0 (the contact would need the pulling force −m a/…) and h⃛(0) = j < 0: the state
+    right after a landing that is followed at once by another loss of contact. Returns (y, a, j)
+    with the axis tilted from L so that u_z < 0 < v_z, and |L| from ḧ(0) = −g − l Ω² u_z = a."""
+    Lh = np.array([math.sin(0.3), 0.0, math.cos(0.3)])
+    e = np.array([math.sin(0.9) * math.cos(0.5), math.sin(0.9) * math.sin(0.5), math.cos(0.9)])
+    u = e - float(Lh @ e) * Lh
+    v = np.cross(Lh, u)
+    assert u[2] < 0.0 < v[2]
+    Omega = math.sqrt(-(G + a) / (L * u[2]))
+    y = np.array([0.0, 0.0, 0.0, 0.0, *(I1 * Omega * Lh), *e])
+    return y, a, -L * Omega**3 * v[2]
+
+
+@pytest.mark.parametrize("a", [1e-2, 1e-1])
+def test_a_short_hop_lands_with_a_pushing_contact_force(a):
+    """Why hops cannot accumulate: a hop from h = ḣ = 0 with ḧ(0) = a > 0, h⃛(0) = j < 0 lasts
+    τ = 3a/|j| (the root of a τ²/2 + j τ³/6) and lands with ḧ = a + jτ = −2a: the contact then
+    needs a pushing force, so contact resumes instead of a next, shorter hop. Tolerances: the
+    next Taylor term, |h''''| ≤ M4 (flight.py), shifts the root by ≤ M4 τ/(4|j|) relatively and
+    ḧ by ≤ 3a δ + M4 τ²/2; twice these."""
+    y, a, j = _pulling_start(a)
+    hop = flight.Hop(y, 0.0, BODY)
+    h, h1, h2, h3 = hop.gap(0.0)
+    assert h == 0.0 and h1 == 0.0
+    assert h2 == pytest.approx(a, rel=1e-9) and h3 == pytest.approx(j, rel=1e-12)
+    tau0 = 3.0 * a / abs(j)
+    delta = hop.M4 * tau0 / (4.0 * abs(j))
+    tau = hop.touchdown(1.0)
+    assert tau == pytest.approx(tau0, rel=2.0 * delta)
+    assert hop.gap(tau)[2] == pytest.approx(
+        -2.0 * a, abs=2.0 * (3 * a * delta + hop.M4 * tau**2 / 2)
+    )
+    # the contact model after the (frictionless) landing: a positive normal force
+    from mett.dynamics.gliding import gliding_core
+
+    after = flight.land(hop.state(tau), float(hop.vz(tau)), (M, R, L, I1, I3, 0.0, G), False)[0]
+    assert gliding_core(after.tolist(), (M, R, L, I1, I3, 0.0, G))[10] > 0.0
+
+
+def test_hops_of_a_real_run_do_not_accumulate_and_stay_bounded():
+    """The α = 0.4 body at ω3 = 500 rad/s from θ0 = 0.02 (viscous law) hops ~150 times in 8 s;
+    once a landing needs a pulling force and the top flies again at once (handled: touchdown and
+    lift-off at the same time). As the short-hop argument says, such a landing is never followed
+    by another one: every hop after it ends in a contact phase of positive length, and the run
+    completes without the accumulation guard."""
+    top = mett.TippeTop(m=TOP.m, R=TOP.R, alpha=0.4, I1=TOP.I1, I3=TOP.I3, mu=TOP.mu)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", flight.ViscousArtefactWarning)
+        traj = mett.simulate(top, mett.State(theta=0.02, omega3=500.0), t_end=8.0)
+    assert traj.status == "completed", traj.message
+    hops = [s for s in traj.switches if s.reason in ("lift-off", "touchdown")]
+    lift = [s.t for s in hops if s.reason == "lift-off"]
+    land = [s.t for s in hops if s.reason == "touchdown"]
+    assert 1 < len(lift) < flight.MAX_HOPS and len(land) >= len(lift) - 1
+    at_once = [k for k in range(len(land)) if k + 1 < len(lift) and lift[k + 1] == land[k]]
+    assert at_once  # the case of the issue occurs in this run...
+    for k in at_once:  # ...and is followed by a landing into contact, never by another one
+        assert k + 2 >= len(lift) or lift[k + 2] > land[k + 1]
+    # issue 23 item 3: contact is "ball" or "none", and every change of it between two samples
+    # is a switch with its reason, located between them; every switch but the at-once pairs
+    # (touchdown and lift-off at one time: no contact sample) shows as such a change
+    contact = np.asarray(traj.contact)
+    assert set(contact) == {"ball", "none"}
+    assert np.array_equal(contact == "none", np.asarray(traj.phase) == "flight")
+    reason = {("ball", "none"): "lift-off", ("none", "ball"): "touchdown"}
+    change = np.flatnonzero(contact[1:] != contact[:-1])
+    for i in change:
+        want = reason[(contact[i], contact[i + 1])]
+        assert any(s.reason == want and traj.t[i] <= s.t <= traj.t[i + 1] for s in hops)
+    paired = {land[k] for k in at_once}
+    assert len(change) == sum(1 for s in hops if s.t not in paired)

@@ -8,6 +8,7 @@ the event's ``jump`` applied (docs/theory/friction.md).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -17,10 +18,50 @@ from .dense import SegmentedSolution
 from .registry import JumpFailed, Phase
 from .trajectory import Trajectory
 
-__all__ = ["MAX_SWITCHES", "solve_hybrid"]
+__all__ = ["MAX_SWITCHES", "geometric_tail", "solve_hybrid"]
 
 MAX_SWITCHES = 100_000
 """A hybrid model's run stops with status "failed" after this many phase switches."""
+
+
+def geometric_tail(
+    intervals: Any, lag: int, ratios: int, spread: float, about_mean: bool = False
+) -> tuple[float, float] | None:
+    """The ratio q and the remaining time Σ of a Zeno sequence: the last ``intervals`` (s)
+    between the events of a bouncing motion (impacts, hops) shrink geometrically, or None.
+
+    The test (shared by the impacts of :mod:`.stem` and the hops of :mod:`.flight`): the last
+    ``ratios`` ratios q_k = Δ_k/Δ_{k−lag} all lie in (0, 1) and consecutive ones agree to the
+    relative ``spread``, |q_k − q_{k−1}| ≤ spread q_k (with ``about_mean``: each lies within
+    ``spread`` of their mean q̄, |q_k − q̄| ≤ spread q̄, which also rejects a slow drift such as
+    the ratios k/(k + 1) of the non-summable Δ_k ∝ 1/k). ``lag`` is the number of interleaved
+    sequences of the same ratio (1 for the hops of one sphere; 2 for the impacts of ball and
+    stem, which alternate). Their intervals then continue as Δ_{k+j} = q Δ_{k+j−lag}, q the mean
+    ratio, and the remaining ones sum to
+
+        Σ = Σ_{j≥1} Δ_{k+j} = q (Δ_{k−lag+1} + … + Δ_k)/(1 − q),
+
+    the time from the last event to the accumulation point (e.g. a ball bouncing with
+    restitution e from speed v0: Δ_k = 2 v0 e^k/g, q = e, Σ = Δ_k e/(1 − e); the sequence's limit
+    t_0 + 2 v0/(g (1 − e))).
+    """
+    n = ratios
+    d = np.asarray(intervals, dtype=float)
+    if d.size < n + lag:
+        return None
+    d = d[-(n + lag) :]
+    if not np.all(d > 0.0):
+        return None
+    q = d[lag:] / d[:-lag]
+    if not (np.all(q > 0.0) and np.all(q < 1.0)):
+        return None
+    r = float(np.mean(q))
+    if about_mean:
+        if np.any(np.abs(q - r) > spread * r):
+            return None
+    elif np.any(np.abs(np.diff(q)) > spread * q[1:]):
+        return None
+    return r, float(r * np.sum(d[-lag:]) / (1.0 - r))
 
 
 def solve_hybrid(

@@ -48,6 +48,7 @@ from ..friction import Coulomb, Viscous
 from . import _params as ix
 from ._model import lab_vectors, scales_from_state, unit_axis
 from .gliding import gliding_core, gliding_series
+from .hybrid import geometric_tail  # the Zeno test, shared with the hops of flight.py
 from .registry import (
     Event,
     JumpFailed,
@@ -500,19 +501,10 @@ def accumulation(times: Any) -> Accumulation | None:
     q_k = Δ_k/Δ_{k−2}, and t_∞ = t_k + Σ_{j≥1} Δ_{k+j} = t_k + q (Δ_{k−1} + Δ_k)/(1 − q).
     """
     t = np.asarray(times, dtype=float)
-    n = ACCUMULATION_RATIOS
-    if t.size < n + 3:
+    tail = geometric_tail(np.diff(t), 2, ACCUMULATION_RATIOS, ACCUMULATION_SPREAD)
+    if tail is None:
         return None
-    d = np.diff(t[-(n + 3) :])
-    if not np.all(d > 0.0):
-        return None
-    q = d[2:] / d[:-2]
-    if not (np.all(q > 0.0) and np.all(q < 1.0)):
-        return None
-    if np.any(np.abs(np.diff(q)) > ACCUMULATION_SPREAD * q[1:]):
-        return None
-    r = float(np.mean(q))
-    return Accumulation(r, float(t[-1] + r * (d[-2] + d[-1]) / (1.0 - r)))
+    return Accumulation(tail[0], float(t[-1] + tail[1]))
 
 
 def _impact_times(switches: Any) -> list[float]:
