@@ -370,3 +370,27 @@ def test_hops_of_a_real_run_do_not_accumulate_and_stay_bounded():
         assert any(s.reason == want and traj.t[i] <= s.t <= traj.t[i + 1] for s in hops)
     paired = {land[k] for k in at_once}
     assert len(change) == sum(1 for s in hops if s.t not in paired)
+
+
+@pytest.mark.parametrize("stop", [True, False])
+def test_a_stemmed_viscous_run_warns_of_the_artefact_and_a_realistic_one_does_not(stop):
+    """The stemmed top's viscous model judges its losses of contact as the ball top's does: the
+    thesis body with a stem (r_s = 4 mm, l_s = 26 mm) at μ = 5 s/m sliding at 3 m/s lifts off at
+    μ|v_A| > 1 (the slip of the sphere in contact, from the run's ν at the stop) and warns; at
+    μ = 0.3 s/m and ω3 = 300 rad/s it lifts off near 4.96 s at μ|v_A| < 1 and does not."""
+    body = TOP.replace(mu=5.0)
+    top = body.with_stem(radius=0.004, distance=0.026)
+    state = mett.State(theta=0.5, omega3=50.0, nu_x=-3.0)
+    with pytest.warns(flight.ViscousArtefactWarning, match="mu \\|v_A\\|"):
+        traj = mett.simulate(top, state, t_end=0.06, stop_on_contact_loss=stop)
+    assert traj.t_contact_lost is not None
+    if stop:  # the criterion, from the run's own series at the loss of contact
+        assert 5.0 * math.hypot(traj.nu_x[-1], traj.nu_y[-1]) > flight.VISCOUS_ARTEFACT
+    real = TOP.with_stem(radius=0.004, distance=0.026)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", flight.ViscousArtefactWarning)
+        traj = mett.simulate(real, mett.State(theta=0.1, omega3=300.0), t_end=5.0,
+                             stop_on_contact_loss=stop)  # fmt: skip
+    assert traj.t_contact_lost is not None
+    if stop:
+        assert 0.3 * math.hypot(traj.nu_x[-1], traj.nu_y[-1]) < flight.VISCOUS_ARTEFACT

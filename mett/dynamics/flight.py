@@ -196,6 +196,10 @@ _FLIERS = {
 }
 
 
+_VISCOUS = frozenset(name for name, flier in _FLIERS.items() if not flier.dry)
+"""The viscous models that fly, whose losses of contact :func:`warn_if_artefact` judges."""
+
+
 def flies(model: Any) -> bool:
     """True if runs of ``model`` (a registered :class:`~mett.dynamics.registry.Model`) continue
     through a loss of contact by flight and landing; the others stop with "contact_lost"."""
@@ -496,9 +500,10 @@ class _Piece:
 
 
 def warn_if_artefact(traj: Trajectory) -> None:
-    """Warn (:class:`ViscousArtefactWarning`) if a viscous ``"gliding"`` run lost contact with
-    the law's coefficient μ|v_A| above :data:`VISCOUS_ARTEFACT` (at any lift-off)."""
-    if traj.model != "gliding" or traj.t_contact_lost is None:
+    """Warn (:class:`ViscousArtefactWarning`) if a viscous run (the ball top's ``"gliding"``,
+    the stemmed top's ``"stemmed"``) lost contact with the law's coefficient μ|v_A| above
+    :data:`VISCOUS_ARTEFACT` (at any lift-off; v_A the slip of the sphere that lifts off)."""
+    if traj.model not in _VISCOUS or traj.t_contact_lost is None:
         return
     mu = traj.params[ix.MU]
     lifts = [(s.t, s.slip) for s in traj.records.get("switches", []) if s.reason == "lift-off"]
