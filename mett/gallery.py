@@ -257,6 +257,68 @@ def _stem_life(ctx: _Context):
     return fig
 
 
+FLIGHT_START = (0.1, 250.0)
+"""(θ0 rad, ω3 rad/s) of the hopping run of figure ``ball_flights``: the thesis body under its
+viscous law hops about 100 times between 5.0 and 7.9 s, inverts and lands for good."""
+
+FLIGHT_WINDOW = (6.40, 6.52)
+"""The stretch of that run (s) shown in detail: a few hops, each followed by contact."""
+
+
+def _flights(ctx: _Context):
+    """The thesis body from θ0 = 0.1 rad, ω3 = 250 rad/s (viscous law, μ = 0.3 s/m): θ(t) with
+    its stretches of flight; over :data:`FLIGHT_WINDOW`, the height of the ball's lowest point
+    (the gap, 0 in contact) and the normal force g_n (0 in flight)."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import mett
+
+    top = mett.presets.get("rutstam2013")
+    theta0, omega3 = FLIGHT_START
+    t0, t1 = FLIGHT_WINDOW
+    # samples of the dense output: every 2.5 ms, every 0.1 ms in the detail (a contact lasts ~10 ms)
+    t_eval = np.union1d(np.linspace(0.0, 10.0, 4001), np.linspace(t0, t1, 1201))
+    run = mett.simulate(top, mett.State(theta=theta0, omega3=omega3), t_end=10.0, t_eval=t_eval)
+    air = np.asarray(run.contact) == "none"
+    lifts = [s.t for s in run.switches if s.reason == "lift-off"]
+    lands = [s.t for s in run.switches if s.reason == "touchdown"]
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(6.4, 7.2))
+
+    def bands(ax, lo, hi, label=None):
+        ax.fill_between(run.t, lo, hi, where=air, color="tab:orange", alpha=0.25, lw=0,
+                        label=label)  # fmt: skip
+
+    a1.plot(run.t, run.theta, color="k", label="θ")
+    bands(a1, 0.0, np.pi, 'in flight (contact "none")')
+    a1.axvspan(t0, t1, color="0.5", alpha=0.3, lw=0, label="detail below")
+    a1.set(ylabel="θ (rad)", xlabel="t (s)", xlim=(0.0, run.t[-1]), ylim=(0.0, np.pi))
+    a1.legend(loc="upper left", fontsize="small")
+    a1.set_title(
+        f"thesis body, θ0 = {theta0:g} rad, ω3 = {omega3:g} rad/s (viscous law): "
+        f"{len(lifts)} hops, {lifts[0]:.2f}–{lands[-1]:.2f} s",
+        fontsize="medium",
+    )
+    w = (run.t >= t0) & (run.t <= t1)
+    gap = 1e3 * np.asarray(run.gap)
+    a2.plot(run.t[w], gap[w], color="tab:blue")
+    top_ = 1.15 * float(gap[w].max())
+    bands(a2, 0.0, top_)
+    a2.set(ylabel="height of the lowest\npoint (mm)", xlim=(t0, t1), ylim=(0.0, top_))
+    a2.set_title("the gap: the ball's lowest point above the table", fontsize="medium")
+    gn = 1e3 * np.asarray(run.gn)
+    mg = 1e3 * top.m * top.g
+    a3.plot(run.t[w], gn[w], color="tab:green", label="g_n")
+    a3.axhline(mg, color="0.4", ls=":", lw=0.8, label="m g")
+    top_ = 1.1 * max(float(gn[w].max()), mg)
+    bands(a3, 0.0, top_)
+    a3.set(ylabel="normal force (mN)", xlabel="t (s)", xlim=(t0, t1), ylim=(0.0, top_))
+    a3.legend(loc="upper right", fontsize="small")
+    a3.set_title("the normal force: 0 in flight", fontsize="medium")
+    fig.tight_layout()
+    return fig
+
+
 FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "thesis_fig4a_theta": ("θ(t) of the thesis run (thesis fig. 4a)", _thesis("plot_theta")),
     "thesis_fig4bc_psidot_phidot": (
@@ -293,6 +355,10 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
         "the real top with its stem: θ(t), the contact and the normal forces",
         _stem_life,
     ),
+    "ball_flights": (
+        "a hopping ball top: θ(t), the height of its lowest point and the normal force",
+        _flights,
+    ),
 }
 """Name → (description, maker). Each maker returns a matplotlib Figure."""
 
@@ -325,7 +391,9 @@ def skipped(top: TippeTop | None = None) -> dict[str, str]:
         return {}
     stem = {
         "stem_double_contact": "the figure shows the friedl1997 preset with its stem, "
-        "not the given top"
+        "not the given top",
+        "ball_flights": "the figure shows the hops of the thesis body (rutstam2013), "
+        "not the given top",
     }
     if top.group == "II":
         return stem

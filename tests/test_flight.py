@@ -394,3 +394,22 @@ def test_a_stemmed_viscous_run_warns_of_the_artefact_and_a_realistic_one_does_no
     assert traj.t_contact_lost is not None
     if stop:
         assert 0.3 * math.hypot(traj.nu_x[-1], traj.nu_y[-1]) < flight.VISCOUS_ARTEFACT
+
+
+def test_the_gallery_figure_of_flights_is_drawn_and_its_run_hops_and_lands(tmp_path):
+    """`mett figures` draws ball_flights through the registry (a PNG), skips it for another top
+    (it shows the thesis body), and its run is what the caption says: several hops, each
+    followed by contact, the last one landing for good (the run ends in contact)."""
+    from mett import gallery
+
+    (path,) = gallery.generate(tmp_path, names=["ball_flights"], animation=False, dpi=30)
+    assert path.name == "ball_flights.png" and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "ball_flights" in gallery.skipped(mett.presets.get("cohen1977"))
+    theta0, omega3 = gallery.FLIGHT_START
+    run = mett.simulate(TOP, mett.State(theta=theta0, omega3=omega3), t_end=10.0)
+    lifts = [s.t for s in run.switches if s.reason == "lift-off"]
+    lands = [s.t for s in run.switches if s.reason == "touchdown"]
+    assert run.status == "completed" and len(lifts) == len(lands) > 5
+    assert run.contact[-1] == "ball" and lands[-1] < run.t[-1]
+    t0, t1 = gallery.FLIGHT_WINDOW
+    assert sum(t0 < t < t1 for t in lifts) >= 2  # the detail shows hops
