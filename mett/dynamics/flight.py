@@ -698,7 +698,7 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                        f"(ratio {ratio:.4g}) with no contact between them, towards t = "
                        f"{t + rest:.9g} s (a Zeno sequence); every landing needed a pulling "
                        "force, so at their limit no contact force satisfies the law (a "
-                       "Painlevé-type point): the run stops there")  # fmt: skip
+                       "Painlevé-type point): the run stops at this landing")  # fmt: skip
             pieces.append(_contact_end(y, t, phase, p, mdl))
             break
         if len(durations) >= MAX_HOPS:
