@@ -363,8 +363,8 @@ def test_hops_of_a_real_run_do_not_accumulate_and_stay_bounded():
 
 
 def _check_transitions(traj) -> None:
-    """Every transition of the ball top is listed: ``contact`` is "ball" or "none" ("none" exactly on the
-    flight samples), every change of it between two samples is a switch with its reason
+    """Every transition of the ball top is listed: ``contact`` is "ball" or "none" ("none"
+    exactly on the flight samples), every change of it between two samples is a switch with its reason
     ("lift-off", "touchdown") located between them, and every such switch but those with no
     contact sample on one side (a touchdown followed at once by a lift-off, a start in flight)
     shows as such a change."""
