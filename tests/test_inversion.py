@@ -168,7 +168,7 @@ def test_bad_input_is_refused(thesis):
         predict_inversion(thesis.with_stem(0.004, 0.02), state)
     with pytest.raises(TypeError):
         predict_inversion(thesis, state, friction="viscous")
-    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3))
+    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3), method="averaged")
     assert p.inverts is None and "Contensou" in p.reason
 
 
@@ -397,3 +397,68 @@ def test_averaged_method_answers_inverts_right_on_a_fast_table_case():
     assert math.isfinite(pred.t_half) and pred.t_start < pred.t_half <= pred.t_inv
     t_sim, _, status = simulated_t_half(case, 2.0, rtol=1e-8)
     assert status == "completed" and math.isfinite(t_sim)
+
+
+# --- Coulomb–Contensou: the balance flow in (θ, λ) ------------------------------------------------
+
+
+def test_contensou_rates_are_the_laws_power_and_drilling_torque(thesis):
+    # References independent of the reduction's algebra: the law's own force and torque
+    # (Coulomb.force, Leine & Glocker 2003) at the balance state's slip and spin, Jellett's
+    # λ = −L·a under a pure couple M ẑ (dλ/dt = M R (1 − α cos θ)), and the energy balance
+    # dE/dt = −P checked by central differences of E(θ, λ) along the flow (h = 1e-5 of each
+    # rate over 1 s: O(h²) truncation, far below the 1e-6 asked).
+    from mett.inversion._gyroscopic import contensou_rates
+
+    law = Coulomb(0.3, contensou_radius=2e-3)
+    lam = 6.8944e-6
+    gn = thesis.m * thesis.g
+    for th in (0.05, 0.5, 1.5, 2.5):
+        thdot, lamdot, st = contensou_rates(thesis, law, lam, th)
+        nu, omega_n = float(st[3]), float(st[4])
+        (fx, fy), M = law.force([0.0, nu], gn, omega_n)
+        arm = thesis.R * (1.0 - thesis.alpha * math.cos(th))
+        assert float(lamdot) == pytest.approx(float(M) * arm, rel=1e-12)
+        P = -(float(fy) * nu + float(M) * omega_n)
+        dt = 1e-5
+        E = [balance_state(thesis, lam + k * dt * float(lamdot), th + k * dt * float(thdot))[2]
+             for k in (-1, 1)]  # fmt: skip
+        assert (E[1] - E[0]) / (2 * dt) == pytest.approx(-P, rel=1e-6)
+
+
+# Cases of the Contensou check (docs/theory/inversion.md#coulombcontensou) with ε = T_n/t_half
+# <= 0.03, where the reduction's declared accuracy is 10 % of t_half; both outcomes appear:
+# (preset, μ, ω3, contact radius r, θ0, centre of mass at rest)
+CONTENSOU = [
+    ("rutstam2013", 0.3, 155.0, 3e-3, 0.1, False),
+    ("rutstam2013", 0.3, 155.0, 3e-3, 0.03, False),
+    ("friedl1997", 0.3, 180.0, 3e-3, 0.1, True),
+    ("friedl1997", 0.15, 180.0, 5e-4, 0.03, False),
+    ("rutstam2013", 0.15, 155.0, 1.5e-3, 0.03, True),
+    ("friedl1997", 0.3, 288.0, 1.5e-3, 0.03, True),
+]
+
+
+@pytest.mark.parametrize(("preset", "mu", "omega3", "r", "theta0", "cm"), CONTENSOU)
+def test_contensou_prediction_matches_simulation(preset, mu, omega3, r, theta0, cm):
+    # Reference: the full Coulomb–Contensou simulation (compiled DOP853, exact law). Tolerance:
+    # the declared accuracy (10 % of t_half for ε <= 0.03) plus one nutation period of phase
+    # slack. `inverts` False must mean the simulated θ never comes within tol of π (it falls
+    # back when the drilling torque has consumed the spin), True that it does; None (undecided,
+    # the top arrives with λ < 1.5 λ_thres) asserts nothing about the outcome.
+    top = mett.presets.get(preset)
+    state = mett.State.with_cm_at_rest(top, theta=theta0, omega3=omega3) if cm else (
+        mett.State(theta=theta0, omega3=omega3))  # fmt: skip
+    law = Coulomb(mu, contensou_radius=r)
+    p = predict_inversion(top, state, law)
+    assert p.validity.epsilon <= 0.03 and p.validity.outside_verified_range
+    assert np.all(np.diff(p.lam) < 0)  # the drilling torque lowers λ all the way
+    traj = mett.simulate(top, state, 1.5 * (p.t_inv if math.isfinite(p.t_inv) else 2 * p.t_half),
+                         friction=law, rtol=1e-8, stop_on_contact_loss=True)  # fmt: skip
+    assert traj.status == "completed"
+    t_sim = traj.crossings(0.5 * math.pi)[0]
+    T_n = 2 * math.pi * top.I1 / (top.I3 * omega3)
+    assert abs(p.t_half - t_sim) <= 0.10 * t_sim + T_n
+    reached = float(np.max(traj.theta)) >= math.pi - p.tol
+    if p.inverts is not None:
+        assert reached is p.inverts, p.reason
