@@ -462,3 +462,33 @@ def test_contensou_prediction_matches_simulation(preset, mu, omega3, r, theta0, 
     reached = float(np.max(traj.theta)) >= math.pi - p.tol
     if p.inverts is not None:
         assert reached is p.inverts, p.reason
+
+
+@pytest.mark.parametrize("hang", [False, True])
+def test_slow_path_quadrature_converges(thesis, hang):
+    # The path's composite Simpson (step PATH_STEP in s = ln tan(θ/2), θ0 and π/2 as nodes)
+    # against the same flow on a 16× finer grid: O(h⁴) gives ~1e-9 relative at the times of
+    # the marks and at the end; 1e-7 leaves margin for the constant. The tumbling end (hang) is
+    # graded towards θ_t, where the flow slows like θ_t − θ; tol = 1e-3 there is 50× finer than
+    # the default and still converges: each graded segment spans a doubling of θ_t − θ with 16
+    # steps, and Simpson on the integrand ~1/(θ_t − θ) there errs by (1/16)⁴ · 24/180 ≈ 2e-6 of
+    # that segment's time (the segments near θ_t a small part of the total): 1e-6.
+    from mett.inversion._gyroscopic import PATH_STEP, slow_path
+
+    if hang:
+        lam = 0.5 * (thesis.lambda_0 + thesis.lambda_thres)
+        end = float(mett.tumbling_state(thesis, lam)[0])
+        target, fixed = end - 1e-3, end
+    else:
+        lam = float(
+            mett.jellett(thesis, mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0))
+        )
+        target, fixed = math.pi - 0.05, None
+    marks = (0.1, 0.5 * math.pi)
+    coarse = slow_path(thesis, lam, Viscous(), 1e-3, target, marks, fixed_point=fixed)
+    fine = slow_path(thesis, lam, Viscous(), 1e-3, target, marks, PATH_STEP / 16, fixed)
+    rel = 1e-6 if hang else 1e-7
+    assert coarse[0][-1] == pytest.approx(fine[0][-1], rel=rel)
+    for m in marks:
+        assert coarse[3][m] == pytest.approx(fine[3][m], rel=rel)
+    assert all(math.isfinite(coarse[3][m]) for m in marks)  # both marks lie on these paths

@@ -367,7 +367,10 @@ def predict_inversion(
         )
     target = theta_end - tol if theta_end > amp else theta_end + tol
     try:
-        t, theta, balance = slow_path(top, lam, law, amp, target)
+        t, theta, balance, at = slow_path(
+            top, lam, law, amp, target, (theta0, 0.5 * math.pi),
+            fixed_point=theta_end if end.kind == "tumbling" else None,
+        )  # fmt: skip
     except NoBalance as exc:
         return empty(
             None,
@@ -381,14 +384,7 @@ def predict_inversion(
     except ValueError as exc:
         return empty(None, f"slow flow: {exc}", method, validity(math.nan), theta0=theta0, lam=lam)
     lam_path = np.full_like(theta, lam)
-
-    def time_at(th: float) -> float:
-        # θ(t) is monotone on the path; interpolate t in the quadrature variable.
-        if not theta[0] <= th <= theta[-1]:
-            return math.inf
-        return float(np.interp(th, theta, t))
-
-    times = {"start": time_at(theta0), "half": time_at(0.5 * math.pi), "end": float(t[-1])}
+    times = {"start": at[theta0], "half": at[0.5 * math.pi], "end": float(t[-1])}
     D, E_mod = balance_D_and_E_mod(top, lam, theta, balance)
     t_half = times["half"]
     eps = T_n / t_half if math.isfinite(t_half) else math.nan

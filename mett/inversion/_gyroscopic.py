@@ -20,6 +20,7 @@ linear growth rate of the upright spin (checked in tests/test_inversion.py).
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import NamedTuple
 
@@ -85,28 +86,79 @@ def flow_rate(top: TippeTop, lam: float, law, theta):
 def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray):
     """(dθ/dt, the balance state at θ): the state is reused for D and Ẽ along the path."""
     h = 1e-30
-    # Complex step: E'(θ) to machine precision, no cancellation near θ = 0 or π.
-    E_th = balance_state(top, lam, theta + 1j * h)[2].imag / h
-    state = balance_state(top, lam, theta)
+    # Complex step: E'(θ) to machine precision, no cancellation near θ = 0 or π. The real parts
+    # are the state at θ itself: its O(h²) = 1e-60 terms are far below rounding.
+    cstate = balance_state(top, lam, theta + 1j * h)
+    E_th = cstate[2].imag / h
+    state = tuple(np.real(x) for x in cstate)
     P, _ = friction_rates(law, top, state[3], 0.0)
     return -P / E_th, state
 
 
-def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float, n: int = 1025):
+# Largest step of the slow path's quadrature in s = ln tan(θ/2). Composite Simpson's error is
+# O(h⁴): 1e-12 of t at h = 0.0117 (1 025 points, the thesis top), so (0.1/0.0117)⁴ · 1e-12 ≈ 5e-9
+# here, far below the reduction's own error (≥ 1e-3); checked against a 16× finer grid in
+# tests/test_inversion.py.
+PATH_STEP = 0.1
+
+
+def _cumulative_simpson(f: np.ndarray, h: float) -> np.ndarray:
+    """∫ f ds from the first node to each node of a uniform grid with an even number of intervals.
+
+    Even nodes: composite Simpson (O(h⁴)); odd nodes: the previous even node plus the one-interval
+    rule h/12 (5 f₀ + 8 f₁ − f₂), exact for quadratics (local O(h⁴)).
+    """
+    out = np.empty_like(f)
+    out[0] = 0.0
+    pairs = (h / 3.0) * (f[0:-2:2] + 4.0 * f[1:-1:2] + f[2::2])
+    out[2::2] = np.cumsum(pairs)
+    out[1::2] = out[0:-2:2] + (h / 12.0) * (5.0 * f[0:-2:2] + 8.0 * f[1:-1:2] - f[2::2])
+    return out
+
+
+def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float,
+              marks: tuple[float, ...] = (), h: float = PATH_STEP,
+              fixed_point: float | None = None):  # fmt: skip
     """Times t(θ) along the balance flow from ``theta_from`` to ``theta_to`` (quadrature).
 
     With λ conserved the flow is autonomous in θ alone, so t(θ) = ∫ dθ / θ̇(θ), written in
     s = ln tan(θ/2) (dθ = sin θ ds), where the integrand sin θ / θ̇ stays bounded at both the
-    upright (θ̇ ∝ θ) and the inverted or tumbling end (θ̇ ∝ θ_end − θ). Cumulative Simpson on a
-    uniform grid in s: relative error O(h⁴), h = Δs/(n − 1) (1e-12 at the end point for the
-    thesis top with n = 1025; reading t at π/2 by linear interpolation adds O(h²), 5e-7 there).
-    Returns (t, θ, the balance state along θ: see :func:`balance_state`); raises NoBalance
-    at the first θ where the fast precession does not exist, ValueError if the flow runs
-    backwards (the top does not move towards ``theta_to``).
+    upright (θ̇ ∝ θ) and the inverted or tumbling end (θ̇ ∝ θ_end − θ). The inclinations
+    ``marks`` (e.g. θ0 and π/2) that lie between the ends are nodes: the path is split there into
+    segments, each a uniform grid in s with an even number of steps ≤ ``h``, integrated by
+    cumulative Simpson (relative error O(h⁴), see :data:`PATH_STEP`), so the times at the marks
+    are quadrature values, not interpolations. With ``fixed_point`` (a tumbling angle θ_t
+    beyond ``theta_to``: the flow slows like θ_t − θ there, on the scale |θ_t − theta_to| that
+    s does not stretch) the grid is graded towards it: nodes at θ_t ∓ |θ_t − theta_to| 2^k, and
+    at least 16 steps (at the default ``h``) between two of them.
+    Returns (t, θ, the balance state along θ: see :func:`balance_state`, {mark: t or inf});
+    raises NoBalance at the first θ where the fast precession does not exist, ValueError if the
+    flow runs backwards (the top does not move towards ``theta_to``).
     """
-    from scipy.integrate import cumulative_simpson
 
-    s = np.linspace(math.log(math.tan(0.5 * theta_from)), math.log(math.tan(0.5 * theta_to)), n)
+    def s_of(th):
+        return math.log(math.tan(0.5 * th))
+
+    lo, hi = min(theta_from, theta_to), max(theta_from, theta_to)
+    inside = sorted({m for m in marks if lo < m < hi}, reverse=theta_to < theta_from)
+    grading: list[float] = []
+    if fixed_point is not None:
+        gap = fixed_point - theta_to
+        k = 1
+        while lo < fixed_point - gap * 2**k < hi:
+            grading.append(fixed_point - gap * 2**k)
+            k += 1
+    nodes = sorted({*inside, *grading}, reverse=theta_to < theta_from)
+    ends = [s_of(theta_from), *(s_of(m) for m in nodes), s_of(theta_to)]
+    # 16 steps per graded segment at the default step, more in proportion on a finer grid
+    min_steps = 2 * math.ceil(8.0 * PATH_STEP / h) if fixed_point is not None else 2
+    grids, steps = [], []
+    for a, b in itertools.pairwise(ends):
+        k = 2 * max(min_steps // 2, math.ceil(abs(b - a) / (2.0 * h)))
+        grids.append(np.linspace(a, b, k + 1))
+        steps.append((b - a) / k)
+    sizes = [len(g) for g in grids]
+    s = np.concatenate(grids)
     theta = 2.0 * np.arctan(np.exp(s))
     rate, state = _flow_rate_and_state(top, lam, law, theta)
     bad = ~np.isfinite(rate)
@@ -114,8 +166,24 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
         raise NoBalance(float(theta[np.argmax(bad)]))
     if np.any(rate * np.sign(theta_to - theta_from) <= 0.0):
         raise ValueError("the balance flow does not move towards the end state")
-    t = cumulative_simpson(np.sin(theta) / rate, x=s, initial=0.0)
-    return t, theta, state
+    g = np.sin(theta) / rate
+    t = np.empty_like(s)
+    start, t0 = 0, 0.0
+    for n, hk in zip(sizes, steps, strict=True):
+        t[start : start + n] = t0 + _cumulative_simpson(g[start : start + n], hk)
+        t0 = float(t[start + n - 1])
+        start += n
+    # drop the repeated node at each joint (the same θ, the same t)
+    keep = np.ones(len(s), dtype=bool)
+    keep[np.cumsum(sizes)[:-1]] = False
+    t, theta = t[keep], theta[keep]
+    state = tuple(np.asarray(x)[keep] for x in state)
+    at = {m: math.inf for m in marks}
+    idx = np.cumsum([n - 1 for n in sizes])[:-1]
+    for m, i in zip(nodes, idx, strict=True):
+        if m in at:
+            at[m] = float(t[i])
+    return t, theta, state, at
 
 
 def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
