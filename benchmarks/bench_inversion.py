@@ -174,8 +174,8 @@ def speed_averaged() -> None:
 
 
 def atlas_figure() -> None:
-    """docs/figures/inversion_atlas.png (predicted t_half over (μ, ω3) per law, thesis top) and
-    inversion_potential_map.png (the predicted slow path beside a simulated run)."""
+    """docs/figures/inversion_atlas.png (predicted t_half over (μ, ω3) per law, thesis top). The
+    predicted slow path beside a simulated run is the gallery's inversion_prediction (mett figures)."""
     import pathlib
 
     import matplotlib
@@ -219,16 +219,6 @@ def atlas_figure() -> None:
            title="viscous law: μ · t_half", ylim=(0, None))  # fmt: skip
     ax.legend()
     out = pathlib.Path(__file__).resolve().parents[1] / "docs" / "figures" / "inversion_atlas.png"
-    fig.savefig(out, dpi=110)
-    print(out.name)
-
-    from mett.plotting import plot_potential_map
-
-    state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
-    p = predict_inversion(top, state)
-    traj = mett.simulate(top, state, 8.0, rtol=1e-9)
-    fig = plot_potential_map(top, float(p.lam[0]), trajectory=traj, prediction=p)
-    out = out.with_name("inversion_potential_map.png")
     fig.savefig(out, dpi=110)
     print(out.name)
 

@@ -492,3 +492,45 @@ def test_slow_path_quadrature_converges(thesis, hang):
     for m in marks:
         assert coarse[3][m] == pytest.approx(fine[3][m], rel=rel)
     assert all(math.isfinite(coarse[3][m]) for m in marks)  # both marks lie on these paths
+
+
+# --- the gallery figure: the run beside the predicted slow path -----------------------------------
+
+
+def test_nutation_mean_of_a_drifting_oscillation():
+    # θ = a + c t + b sin(2π t/T): the mean over each cycle between maxima is a + c t_mid exactly;
+    # the trapezoid rule with 4 000 samples a period errs by ~b (2π/4000)²/12 = 2e-7 b, and the
+    # sampled maxima sit within half a sample of the true ones (the drift moves them by c T/(2π b)).
+    from mett.gallery import _nutation_mean
+
+    a, b, c, T = 0.3, 0.05, 0.02, 0.04
+    t = np.linspace(0.0, 1.0, 100_001)
+    tm, m = _nutation_mean(t, a + c * t + b * np.sin(2 * np.pi * t / T))
+    assert len(tm) == 24
+    np.testing.assert_allclose(m, a + c * tm, atol=1e-6)
+
+
+def test_gallery_prediction_figure_draws_both_paths():
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mett import gallery
+    from mett.plotting import D_SCALE
+
+    ctx = gallery._Context()
+    fig = gallery.FIGURES["inversion_prediction"][1](ctx)
+    p = predict_inversion(ctx.body, ctx.start)
+    a1 = fig.axes[0]  # the map
+    (a2,) = [a for a in fig.axes if a.get_xlabel() == "t [s]"]  # the θ(t) panel
+    labels = {ln.get_label(): ln for ln in a1.lines}
+    assert {"trajectory", "predicted slow path"} <= set(labels)
+    np.testing.assert_allclose(labels["predicted slow path"].get_xdata(), p.D * D_SCALE)
+    lines = {ln.get_label(): ln for ln in a2.lines}
+    np.testing.assert_allclose(lines["predicted θ̄(t) (the growing mode)"].get_ydata(), p.theta)
+    np.testing.assert_allclose(lines["simulated θ(t)"].get_ydata(), ctx.thesis.theta)
+    mean = lines["simulated, mean over each nutation"].get_ydata()
+    assert len(mean) > 100 and np.all((0.0 < mean) & (mean < math.pi))
+    plt.close(fig)
