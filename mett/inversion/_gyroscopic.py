@@ -223,9 +223,10 @@ def contensou_rates(top: TippeTop, law, lam, theta):
     h = 1e-30
     lam = np.asarray(lam, dtype=float)
     theta = np.asarray(theta, dtype=float)
-    E_th = balance_state(top, lam, theta + 1j * h)[2].imag / h
+    cstate = balance_state(top, lam, theta + 1j * h)
+    E_th = cstate[2].imag / h
     E_lam = balance_state(top, lam + 1j * h * lam, theta)[2].imag / (h * lam)
-    state = balance_state(top, lam, theta)
+    state = tuple(np.real(x) for x in cstate)  # O(h²) = 1e-60 from the state at θ
     nu, omega_n = state[3], state[4]
     rs = law.r_star
     gn = top.m * top.g
@@ -266,10 +267,16 @@ def contensou_path(top: TippeTop, law, lam0: float, theta_from: float, theta_to:
     def theta_of(s):
         return 2.0 * math.atan(math.exp(s))
 
+    cache: dict[tuple[float, float], tuple[float, float]] = {}
+
     def rates(y):
-        th = theta_of(y[0])
-        thd, lamd, _ = contensou_rates(top, law, y[1], th)
-        return float(thd) / math.sin(th), float(lamd)
+        # the turning event asks at the step ends, where RK45 (FSAL) has the rates already
+        key = (float(y[0]), float(y[1]))
+        if key not in cache:
+            th = theta_of(key[0])
+            thd, lamd, _ = contensou_rates(top, law, key[1], th)
+            cache[key] = (float(thd) / math.sin(th), float(lamd))
+        return cache[key]
 
     def rhs(t, y):
         r = rates(y)
