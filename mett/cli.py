@@ -759,9 +759,10 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     state = _state_from_args(args, top)
     from .inversion import predict_inversion
 
-    p = predict_inversion(top, state, args.friction, tol=args.tol)
+    p = predict_inversion(top, state, args.friction, method=args.method, tol=args.tol)
     v = p.validity
     values = {
+        "method": p.method,
         "inverts": p.inverts,
         "reason": p.reason,
         "t_start": p.t_start,
@@ -781,6 +782,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         _print_json(out)
         return 0
     rows = [
+        ("method", p.method),
         ("inverts", str(p.inverts)),
         ("reason", p.reason),
         ("t_start [s]", _fmt(p.t_start)),
@@ -979,6 +981,11 @@ def _build_parser() -> argparse.ArgumentParser:
                    help=friction_help)  # fmt: skip
     p.add_argument("--tol", type=_positive, default=0.05,
                    help="t_inv: mean theta within this of its end state [rad], in (0, 0.5)")  # fmt: skip
+    from .inversion import METHODS
+
+    p.add_argument("--method", default="gyroscopic", choices=METHODS,
+                   help="the reduction: gyroscopic balance (default, verified) or the averaged "
+                        "METT flow (seconds, flagged unverified); docs: theory/inversion")  # fmt: skip
     p.add_argument("--json", action="store_true", help=json_help)
     return parser
 

@@ -168,6 +168,55 @@ def _map(ctx: _Context):
     return plotting.plot_potential_map(ctx.body, ctx.lam, trajectory=ctx.thesis)
 
 
+def _nutation_mean(t, theta):
+    """θ averaged over each nutation of a run: ∫θ dt / Δt between successive maxima of θ(t),
+    placed at the middle of each cycle."""
+    import numpy as np
+
+    t, theta = np.asarray(t), np.asarray(theta)
+    peaks = np.flatnonzero((theta[1:-1] > theta[:-2]) & (theta[1:-1] >= theta[2:])) + 1
+    if len(peaks) < 2:
+        return t[:0], theta[:0]
+    area = np.concatenate([[0.0], np.cumsum(0.5 * (theta[1:] + theta[:-1]) * np.diff(t))])
+    t0, t1 = t[peaks[:-1]], t[peaks[1:]]
+    return 0.5 * (t0 + t1), (area[peaks[1:]] - area[peaks[:-1]]) / (t1 - t0)
+
+
+def _prediction(ctx: _Context):
+    """The run beside mett.predict_inversion's slow path, from the theory alone: the path on the
+    potential map, and θ̄(t) against the run's θ(t) and its nutation mean."""
+    import math
+
+    import matplotlib.pyplot as plt
+
+    import mett
+
+    from . import plotting
+
+    traj = ctx.thesis
+    p = mett.predict_inversion(ctx.body, ctx.start)
+    w, h = plt.rcParams["figure.figsize"]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(2.0 * w, h), layout="constrained")
+    plotting.plot_potential_map(ctx.body, ctx.lam, trajectory=traj, prediction=p, ax=a1)
+    a2.plot(traj.t, traj.theta, color="C1", lw=0.4 * plt.rcParams["lines.linewidth"],
+            label="simulated θ(t)")  # fmt: skip
+    tm, thm = _nutation_mean(traj.t, traj.theta)
+    a2.plot(tm, thm, color="k", label="simulated, mean over each nutation")
+    a2.plot(p.t, p.theta, color="C3", ls="--", label="predicted θ̄(t) (the growing mode)")
+    a2.axhline(0.5 * math.pi, color="0.6", ls=":")
+    hits = traj.crossings(0.5 * math.pi)
+    if len(hits):
+        a2.axvline(float(hits[0]), color="C1", ls=":")
+    if math.isfinite(p.t_half):
+        a2.axvline(p.t_half, color="C3", ls=":")
+    a2.set(xlabel="t [s]", ylabel="θ [rad]", ylim=(0.0, math.pi), xlim=(0.0, float(traj.t[-1])))
+    sim = f"{float(hits[0]):.2f} s" if len(hits) else "not reached"
+    pred = f"{p.t_half:.2f} s" if math.isfinite(p.t_half) else "never"
+    a2.set_title(f"θ passes π/2: predicted {pred}, simulated {sim}")
+    a2.legend(loc="upper left", fontsize="small")
+    return fig
+
+
 def _slices(ctx: _Context):
     import numpy as np
 
@@ -343,6 +392,10 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
     "axis_trace": ("the symmetry axis on the unit sphere", _thesis("plot_axis_trace")),
     "paper1_V_surface": ("V(cos θ, D, λ) over D ∈ [D1, D0] (Rutstam 2012)", _surface),
     "potential_map": ("V over (D, cos θ) with the well's minimum and the run's path", _map),
+    "inversion_prediction": (
+        "the run beside the predicted slow path (mett.predict_inversion): map and θ̄(t)",
+        _prediction,
+    ),
     "potential_slices": ("V(z, D, λ) at five D between D0 and D1", _slices),
     "potential_slice": ("V(z) of a rolling top with Ẽ and the turning points", _slice),
     "separation_f": ("f(z) of ż² = f(z) with its roots", _f),
@@ -374,6 +427,7 @@ RUN_FIGURES = frozenset(
         "deforming_potential",
         "axis_trace",
         "potential_map",
+        "inversion_prediction",
     ]
 )
 """Figures drawn from the inversion run (and the GIF): only for tops that can invert."""

@@ -451,14 +451,17 @@ def plot_potential_map(
     if trajectory is not None:
         y = np.cos(trajectory.theta) if coordinate == "z" else np.asarray(trajectory.theta)
         x = np.asarray(trajectory.D) * D_SCALE
-        ax.plot(x, y, color="C1", lw=_lw(0.6), label="trajectory")
+        ax.plot(x, y, color="C1", lw=_lw(0.8), label="trajectory")
         ax.plot([x[0]], [y[0]], "o", color="C1", mec="k", label="start")
         ax.plot([x[-1]], [y[-1]], "s", color="C1", mec="k", label="end")
     if prediction is not None and len(prediction.t):
         th = np.asarray(prediction.theta)
         y = np.cos(th) if coordinate == "z" else th
-        ax.plot(np.asarray(prediction.D) * D_SCALE, y, color="C3", lw=_lw(2.0),
-                label="predicted slow path")  # fmt: skip
+        # thinner than the run's nutation and outlined, so a trajectory drawn under it stays
+        # visible on both sides of it
+        ax.plot(np.asarray(prediction.D) * D_SCALE, y, color="C3", lw=_lw(1.2),
+                label="predicted slow path", zorder=3,
+                path_effects=[patheffects.withStroke(linewidth=_lw(2.4), foreground="w")])  # fmt: skip
     x0, x1, y0, y1 = Dg[0] * D_SCALE, Dg[-1] * D_SCALE, u[0], u[-1]
     if trajectory is not None:  # room for the marks on the edges
         px, py = _MAP_MARGIN * (x1 - x0), _MAP_MARGIN * (y1 - y0)

@@ -168,7 +168,7 @@ def test_bad_input_is_refused(thesis):
         predict_inversion(thesis.with_stem(0.004, 0.02), state)
     with pytest.raises(TypeError):
         predict_inversion(thesis, state, friction="viscous")
-    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3))
+    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3), method="averaged")
     assert p.inverts is None and "Contensou" in p.reason
 
 
@@ -397,3 +397,140 @@ def test_averaged_method_answers_inverts_right_on_a_fast_table_case():
     assert math.isfinite(pred.t_half) and pred.t_start < pred.t_half <= pred.t_inv
     t_sim, _, status = simulated_t_half(case, 2.0, rtol=1e-8)
     assert status == "completed" and math.isfinite(t_sim)
+
+
+# --- Coulomb–Contensou: the balance flow in (θ, λ) ------------------------------------------------
+
+
+def test_contensou_rates_are_the_laws_power_and_drilling_torque(thesis):
+    # References independent of the reduction's algebra: the law's own force and torque
+    # (Coulomb.force, Leine & Glocker 2003) at the balance state's slip and spin, Jellett's
+    # λ = −L·a under a pure couple M ẑ (dλ/dt = M R (1 − α cos θ)), and the energy balance
+    # dE/dt = −P checked by central differences of E(θ, λ) along the flow (h = 1e-5 of each
+    # rate over 1 s: O(h²) truncation, far below the 1e-6 asked).
+    from mett.inversion._gyroscopic import contensou_rates
+
+    law = Coulomb(0.3, contensou_radius=2e-3)
+    lam = 6.8944e-6
+    gn = thesis.m * thesis.g
+    for th in (0.05, 0.5, 1.5, 2.5):
+        thdot, lamdot, st = contensou_rates(thesis, law, lam, th)
+        nu, omega_n = float(st[3]), float(st[4])
+        (fx, fy), M = law.force([0.0, nu], gn, omega_n)
+        arm = thesis.R * (1.0 - thesis.alpha * math.cos(th))
+        assert float(lamdot) == pytest.approx(float(M) * arm, rel=1e-12)
+        P = -(float(fy) * nu + float(M) * omega_n)
+        dt = 1e-5
+        E = [balance_state(thesis, lam + k * dt * float(lamdot), th + k * dt * float(thdot))[2]
+             for k in (-1, 1)]  # fmt: skip
+        assert (E[1] - E[0]) / (2 * dt) == pytest.approx(-P, rel=1e-6)
+
+
+# Cases of the Contensou check (docs/theory/inversion.md#coulombcontensou) with ε = T_n/t_half
+# <= 0.03, where the reduction's declared accuracy is 10 % of t_half; both outcomes appear:
+# (preset, μ, ω3, contact radius r, θ0, centre of mass at rest)
+CONTENSOU = [
+    ("rutstam2013", 0.3, 155.0, 3e-3, 0.1, False),
+    ("rutstam2013", 0.3, 155.0, 3e-3, 0.03, False),
+    ("friedl1997", 0.3, 180.0, 3e-3, 0.1, True),
+    ("friedl1997", 0.15, 180.0, 5e-4, 0.03, False),
+    ("rutstam2013", 0.15, 155.0, 1.5e-3, 0.03, True),
+    ("friedl1997", 0.3, 288.0, 1.5e-3, 0.03, True),
+]
+
+
+@pytest.mark.parametrize(("preset", "mu", "omega3", "r", "theta0", "cm"), CONTENSOU)
+def test_contensou_prediction_matches_simulation(preset, mu, omega3, r, theta0, cm):
+    # Reference: the full Coulomb–Contensou simulation (compiled DOP853, exact law). Tolerance:
+    # the declared accuracy (10 % of t_half for ε <= 0.03) plus one nutation period of phase
+    # slack. `inverts` False must mean the simulated θ never comes within tol of π (it falls
+    # back when the drilling torque has consumed the spin), True that it does; None (undecided,
+    # the top arrives with λ < 1.5 λ_thres) asserts nothing about the outcome.
+    top = mett.presets.get(preset)
+    state = mett.State.with_cm_at_rest(top, theta=theta0, omega3=omega3) if cm else (
+        mett.State(theta=theta0, omega3=omega3))  # fmt: skip
+    law = Coulomb(mu, contensou_radius=r)
+    p = predict_inversion(top, state, law)
+    assert p.validity.epsilon <= 0.03 and p.validity.outside_verified_range
+    assert np.all(np.diff(p.lam) < 0)  # the drilling torque lowers λ all the way
+    traj = mett.simulate(top, state, 1.5 * (p.t_inv if math.isfinite(p.t_inv) else 2 * p.t_half),
+                         friction=law, rtol=1e-8, stop_on_contact_loss=True)  # fmt: skip
+    assert traj.status == "completed"
+    t_sim = traj.crossings(0.5 * math.pi)[0]
+    T_n = 2 * math.pi * top.I1 / (top.I3 * omega3)
+    assert abs(p.t_half - t_sim) <= 0.10 * t_sim + T_n
+    reached = float(np.max(traj.theta)) >= math.pi - p.tol
+    if p.inverts is not None:
+        assert reached is p.inverts, p.reason
+
+
+@pytest.mark.parametrize("hang", [False, True])
+def test_slow_path_quadrature_converges(thesis, hang):
+    # The path's composite Simpson (step PATH_STEP in s = ln tan(θ/2), θ0 and π/2 as nodes)
+    # against the same flow on a 16× finer grid: O(h⁴) gives ~1e-9 relative at the times of
+    # the marks and at the end; 1e-7 leaves margin for the constant. The tumbling end (hang) is
+    # graded towards θ_t, where the flow slows like θ_t − θ; tol = 1e-3 there is 50× finer than
+    # the default and still converges: each graded segment spans a doubling of θ_t − θ with 16
+    # steps, and Simpson on the integrand ~1/(θ_t − θ) there errs by (1/16)⁴ · 24/180 ≈ 2e-6 of
+    # that segment's time (the segments near θ_t a small part of the total): 1e-6.
+    from mett.inversion._gyroscopic import PATH_STEP, slow_path
+
+    if hang:
+        lam = 0.5 * (thesis.lambda_0 + thesis.lambda_thres)
+        end = float(mett.tumbling_state(thesis, lam)[0])
+        target, fixed = end - 1e-3, end
+    else:
+        lam = float(
+            mett.jellett(thesis, mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0))
+        )
+        target, fixed = math.pi - 0.05, None
+    marks = (0.1, 0.5 * math.pi)
+    coarse = slow_path(thesis, lam, Viscous(), 1e-3, target, marks, fixed_point=fixed)
+    fine = slow_path(thesis, lam, Viscous(), 1e-3, target, marks, PATH_STEP / 16, fixed)
+    rel = 1e-6 if hang else 1e-7
+    assert coarse[0][-1] == pytest.approx(fine[0][-1], rel=rel)
+    for m in marks:
+        assert coarse[3][m] == pytest.approx(fine[3][m], rel=rel)
+    assert all(math.isfinite(coarse[3][m]) for m in marks)  # both marks lie on these paths
+
+
+# --- the gallery figure: the run beside the predicted slow path -----------------------------------
+
+
+def test_nutation_mean_of_a_drifting_oscillation():
+    # θ = a + c t + b sin(2π t/T): the mean over each cycle between maxima is a + c t_mid exactly;
+    # the trapezoid rule with 4 000 samples a period errs by ~b (2π/4000)²/12 = 2e-7 b, and the
+    # sampled maxima sit within half a sample of the true ones (the drift moves them by c T/(2π b)).
+    from mett.gallery import _nutation_mean
+
+    a, b, c, T = 0.3, 0.05, 0.02, 0.04
+    t = np.linspace(0.0, 1.0, 100_001)
+    tm, m = _nutation_mean(t, a + c * t + b * np.sin(2 * np.pi * t / T))
+    assert len(tm) == 24
+    np.testing.assert_allclose(m, a + c * tm, atol=1e-6)
+
+
+def test_gallery_prediction_figure_draws_both_paths():
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mett import gallery
+    from mett.plotting import D_SCALE
+
+    ctx = gallery._Context()
+    fig = gallery.FIGURES["inversion_prediction"][1](ctx)
+    p = predict_inversion(ctx.body, ctx.start)
+    a1 = fig.axes[0]  # the map
+    (a2,) = [a for a in fig.axes if a.get_xlabel() == "t [s]"]  # the θ(t) panel
+    labels = {ln.get_label(): ln for ln in a1.lines}
+    assert {"trajectory", "predicted slow path"} <= set(labels)
+    np.testing.assert_allclose(labels["predicted slow path"].get_xdata(), p.D * D_SCALE)
+    lines = {ln.get_label(): ln for ln in a2.lines}
+    np.testing.assert_allclose(lines["predicted θ̄(t) (the growing mode)"].get_ydata(), p.theta)
+    np.testing.assert_allclose(lines["simulated θ(t)"].get_ydata(), ctx.thesis.theta)
+    mean = lines["simulated, mean over each nutation"].get_ydata()
+    assert len(mean) > 100 and np.all((0.0 < mean) & (mean < math.pi))
+    plt.close(fig)

@@ -11,6 +11,9 @@
   (:mod:`mett.inversion._gyroscopic`);
 * for exact Coulomb friction, whether the initial slip stops before the fast motion turns it
   (then the top rolls, conserves E, D, λ and does not invert);
+* for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
+  spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
+  make the top fall back before it inverts;
 * with ``method="averaged"``, instead of the balance flow: the flow of (D̄, Ẽ̄) averaged over the
   nutation band of V(z, D, λ) (:mod:`mett.inversion._averaged`), which overestimates t_half and is
   always flagged as unverified.
@@ -37,7 +40,7 @@ from ..stability import escape_time
 from ..state import State
 from ..top import TippeTop
 from . import _averaged
-from ._gyroscopic import NoBalance, balance_D_and_E_mod, slow_path
+from ._gyroscopic import NoBalance, balance_D_and_E_mod, contensou_path, slow_path
 from ._result import InversionPrediction, Validity
 
 __all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
@@ -64,6 +67,13 @@ VERIFIED: _Verified = {
     "epsilon": 0.05,
     "start": "centre of mass at rest",
 }
+
+
+# Coulomb–Contensou: the top is said to invert only if the drilling torque leaves λ at least this
+# many λ_thres when θ̄ arrives within tol of π. Set from the 78 simulated cases of
+# docs/theory/inversion.md#coulombcontensou: below it the simulated tops were split between
+# complete inversion and falling back (the spin consumed first); the answer there is None.
+CONTENSOU_MARGIN = 1.5
 
 
 def _law_name(law: Viscous | Coulomb | RegularisedCoulomb) -> str:
@@ -144,7 +154,11 @@ def predict_inversion(
         Initial state, near the upright spin (θ0 < π/2, ω3 > 0, a positive Jellett integral).
     friction : mett.friction law, optional
         :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
-        or :class:`~mett.friction.Coulomb` (with or without Contensou radius).
+        or :class:`~mett.friction.Coulomb`. Without a Contensou radius: whether the slip stops
+        (then the top rolls and does not invert). With one: the balance flow in (θ, λ), λ lowered
+        by the drilling torque (method "gyroscopic" only; declared accuracy 10 % of ``t_half`` +
+        one nutation period for ε ≤ 0.03, ``inverts=None`` where λ arrives below
+        ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the flow of (D̄, Ẽ̄) averaged over the
@@ -264,17 +278,27 @@ def predict_inversion(
             theta0=theta0,
             lam=lam,
         )
-    if isinstance(law, Coulomb) and law.contensou_radius > 0.0:
+    contensou = isinstance(law, Coulomb) and law.contensou_radius > 0.0
+    if contensou and method == "averaged":
         return empty(
             None,
-            "the Coulomb-Contensou law is not covered by the gyroscopic-balance reduction yet "
-            "(its spin dissipation makes the one-dimensional flow ill-conditioned near theta = 0)",
+            "the averaged flow covers the viscous and regularised Coulomb laws only (the "
+            "Coulomb-Contensou law has the gyroscopic method)",
             method,
             validity(math.nan),
             theta0=theta0,
             lam=lam,
         )
-    if isinstance(law, Coulomb) and law.mu > 0.0:
+    if contensou and not law.mu > 0.0:
+        return empty(
+            False,
+            "no friction (mu = 0): nothing dissipates, the top keeps its nutation band",
+            method,
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    if isinstance(law, Coulomb) and law.mu > 0.0 and not contensou:
         t_stop = _coulomb_stick_time(top, state) / law.mu
         # The slip direction turns with the precession: the slow (gyroscopic) precession of a
         # top spinning about its tilted axis (docs/theory/high-spin.md), or the start's own φ̇ if larger.
@@ -335,13 +359,18 @@ def predict_inversion(
             lam=lam,
         )
     amp = esc.amplitude
+    if contensou:
+        return _predict_contensou(top, state, law, lam, tol, esc, validity, empty)
     if method == "averaged":
         return _predict_averaged(
             top, state, law, lam, theta_end, end.kind, tol, esc, validity, empty
         )
     target = theta_end - tol if theta_end > amp else theta_end + tol
     try:
-        t, theta, balance = slow_path(top, lam, law, amp, target)
+        t, theta, balance, at = slow_path(
+            top, lam, law, amp, target, (theta0, 0.5 * math.pi),
+            fixed_point=theta_end if end.kind == "tumbling" else None,
+        )  # fmt: skip
     except NoBalance as exc:
         return empty(
             None,
@@ -355,14 +384,7 @@ def predict_inversion(
     except ValueError as exc:
         return empty(None, f"slow flow: {exc}", method, validity(math.nan), theta0=theta0, lam=lam)
     lam_path = np.full_like(theta, lam)
-
-    def time_at(th: float) -> float:
-        # θ(t) is monotone on the path; interpolate t in the quadrature variable.
-        if not theta[0] <= th <= theta[-1]:
-            return math.inf
-        return float(np.interp(th, theta, t))
-
-    times = {"start": time_at(theta0), "half": time_at(0.5 * math.pi), "end": float(t[-1])}
+    times = {"start": at[theta0], "half": at[0.5 * math.pi], "end": float(t[-1])}
     D, E_mod = balance_D_and_E_mod(top, lam, theta, balance)
     t_half = times["half"]
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
@@ -391,6 +413,100 @@ def predict_inversion(
         E_mod=np.asarray(E_mod),
         lam=np.asarray(lam_path),
         theta_end=theta_end,
+        validity=validity(eps),
+    )
+
+
+def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
+    """Coulomb–Contensou: the balance flow in (θ, λ), the drilling torque lowering λ
+    (docs/theory/inversion.md#coulombcontensou)."""
+    theta0 = float(state.theta)
+    # Spin-down time of the upright spin under the full drilling torque μ m g r*; |M| <= μ g_n r*
+    # at any slip, so the spin lasts at least this long: ten of them bound the slow flow.
+    t_spin = top.I3 * float(state.omega3) / (law.mu * top.m * top.g * law.r_star)
+    target = math.pi - tol
+    amp = esc.amplitude
+    try:
+        path = contensou_path(top, law, lam, amp, target, 10.0 * t_spin)
+    except ValueError as exc:
+        return empty(None, f"slow flow: {exc}", "gyroscopic", validity(math.nan), theta0=theta0,
+                     lam=lam)  # fmt: skip
+    if len(path.t) < 2:
+        no_balance = path.stop == "no balance"
+        return empty(
+            None if no_balance else False,
+            f"no gyroscopic balance at theta = {amp:.3g} (spin too low for a fast precession): "
+            "the reduction does not apply"
+            if no_balance
+            else "the balance flow does not climb from the upright spin: the drilling torque "
+            "holds the top up",
+            "gyroscopic",
+            validity(math.nan),
+            theta0=theta0,
+            lam=lam,
+        )
+    drop = 1.0 - float(path.lam[-1]) / lam
+    where = f"theta = {float(path.theta[-1]):.3g} rad, t = {float(path.t[-1]):.3g} s"
+    margin = float(path.lam[-1]) / top.lambda_thres
+    if path.stop == "end" and margin < CONTENSOU_MARGIN:
+        inverts, reason = (
+            None,
+            (
+                f"undecided: the mean inclination reaches pi - tol, but the drilling torque has "
+                f"lowered lam to {margin:.3g} lam_thres (below {CONTENSOU_MARGIN} lam_thres the "
+                "simulated tops of the check often fall back before they invert)"
+            ),
+        )
+    elif path.stop == "end":
+        inverts, reason = (
+            True,
+            (
+                f"inverts (the drilling torque lowers lam by {drop:.1%} on the way; the inverted "
+                "spin then decays too)"
+            ),
+        )
+    elif path.stop == "turns back":
+        inverts, reason = (
+            False,
+            (
+                f"falls back from {where}: the drilling torque has lowered lam by {drop:.1%}, "
+                f"to {float(path.lam[-1]) / top.lambda_thres:.3g} lam_thres, and the top no longer "
+                "climbs"
+            ),
+        )
+    elif path.stop == "no balance":
+        inverts, reason = (
+            False,
+            (
+                f"the spin is consumed at {where} (lam down by {drop:.1%}): the gyroscopic balance "
+                "ends before the top inverts"
+            ),
+        )
+    else:
+        inverts, reason = None, f"the slow flow has not ended by t = {float(path.t[-1]):.3g} s"
+    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+    eps = T_n / path.t_half if math.isfinite(path.t_half) else math.nan
+    D, E_mod = balance_D_and_E_mod(top, path.lam, path.theta, path.state)
+    if amp >= theta0:
+        t_start = 0.0
+    else:
+        t_start = (
+            float(np.interp(theta0, path.theta, path.t)) if path.theta[-1] >= theta0 else math.inf
+        )
+    return InversionPrediction(
+        inverts=inverts,
+        reason=reason,
+        method="gyroscopic",
+        t_start=t_start,
+        t_half=path.t_half,
+        t_inv=path.t_end,
+        tol=tol,
+        t=np.asarray(path.t),
+        theta=np.asarray(path.theta),
+        D=np.asarray(D),
+        E_mod=np.asarray(E_mod),
+        lam=np.asarray(path.lam),
+        theta_end=math.pi if inverts else float(path.theta[-1]),
         validity=validity(eps),
     )
 

@@ -110,8 +110,17 @@ def slow_path(top: TippeTop, law, lam: float, D0: float, E0: float, z0: float, t
     from scipy.integrate import solve_ivp
 
     last = [z0]
+    # The events and the returned ⟨θ⟩ ask for the rates at the step ends, where RK45 (FSAL) has
+    # already evaluated them: each band quadrature is done once per point (a third of the cost).
+    cache: dict[tuple[float, float], tuple] = {}
 
     def evaluate(y):
+        key = (float(y[0]), float(y[1]))
+        if key not in cache:
+            cache[key] = _evaluate(y)
+        return cache[key]
+
+    def _evaluate(y):
         try:
             out = rates(top, law, lam, float(y[0]), float(y[1]))
         except ValueError as exc:
@@ -143,7 +152,6 @@ def slow_path(top: TippeTop, law, lam: float, D0: float, E0: float, z0: float, t
                     atol=[1e-9 * scale[0], 1e-9 * scale[1]], events=(half, end))  # fmt: skip
     if sol.status < 0:
         raise AveragingFails(sol.message)
-    last[0] = z0
     theta = np.array([evaluate(y)[2] for y in sol.y.T])
     t_half = float(sol.t_events[0][0]) if len(sol.t_events[0]) else math.inf
     t_end = float(sol.t_events[1][0]) if len(sol.t_events[1]) else math.inf

@@ -20,7 +20,9 @@ linear growth rate of the upright spin (checked in tests/test_inversion.py).
 
 from __future__ import annotations
 
+import itertools
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -84,28 +86,79 @@ def flow_rate(top: TippeTop, lam: float, law, theta):
 def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray):
     """(dθ/dt, the balance state at θ): the state is reused for D and Ẽ along the path."""
     h = 1e-30
-    # Complex step: E'(θ) to machine precision, no cancellation near θ = 0 or π.
-    E_th = balance_state(top, lam, theta + 1j * h)[2].imag / h
-    state = balance_state(top, lam, theta)
+    # Complex step: E'(θ) to machine precision, no cancellation near θ = 0 or π. The real parts
+    # are the state at θ itself: its O(h²) = 1e-60 terms are far below rounding.
+    cstate = balance_state(top, lam, theta + 1j * h)
+    E_th = cstate[2].imag / h
+    state = tuple(np.real(x) for x in cstate)
     P, _ = friction_rates(law, top, state[3], 0.0)
     return -P / E_th, state
 
 
-def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float, n: int = 1025):
+# Largest step of the slow path's quadrature in s = ln tan(θ/2). Composite Simpson's error is
+# O(h⁴): 1e-12 of t at h = 0.0117 (1 025 points, the thesis top), so (0.1/0.0117)⁴ · 1e-12 ≈ 5e-9
+# here, far below the reduction's own error (≥ 1e-3); checked against a 16× finer grid in
+# tests/test_inversion.py.
+PATH_STEP = 0.1
+
+
+def _cumulative_simpson(f: np.ndarray, h: float) -> np.ndarray:
+    """∫ f ds from the first node to each node of a uniform grid with an even number of intervals.
+
+    Even nodes: composite Simpson (O(h⁴)); odd nodes: the previous even node plus the one-interval
+    rule h/12 (5 f₀ + 8 f₁ − f₂), exact for quadratics (local O(h⁴)).
+    """
+    out = np.empty_like(f)
+    out[0] = 0.0
+    pairs = (h / 3.0) * (f[0:-2:2] + 4.0 * f[1:-1:2] + f[2::2])
+    out[2::2] = np.cumsum(pairs)
+    out[1::2] = out[0:-2:2] + (h / 12.0) * (5.0 * f[0:-2:2] + 8.0 * f[1:-1:2] - f[2::2])
+    return out
+
+
+def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float,
+              marks: tuple[float, ...] = (), h: float = PATH_STEP,
+              fixed_point: float | None = None):  # fmt: skip
     """Times t(θ) along the balance flow from ``theta_from`` to ``theta_to`` (quadrature).
 
     With λ conserved the flow is autonomous in θ alone, so t(θ) = ∫ dθ / θ̇(θ), written in
     s = ln tan(θ/2) (dθ = sin θ ds), where the integrand sin θ / θ̇ stays bounded at both the
-    upright (θ̇ ∝ θ) and the inverted or tumbling end (θ̇ ∝ θ_end − θ). Cumulative Simpson on a
-    uniform grid in s: relative error O(h⁴), h = Δs/(n − 1) (1e-12 at the end point for the
-    thesis top with n = 1025; reading t at π/2 by linear interpolation adds O(h²), 5e-7 there).
-    Returns (t, θ, the balance state along θ: see :func:`balance_state`); raises NoBalance
-    at the first θ where the fast precession does not exist, ValueError if the flow runs
-    backwards (the top does not move towards ``theta_to``).
+    upright (θ̇ ∝ θ) and the inverted or tumbling end (θ̇ ∝ θ_end − θ). The inclinations
+    ``marks`` (e.g. θ0 and π/2) that lie between the ends are nodes: the path is split there into
+    segments, each a uniform grid in s with an even number of steps ≤ ``h``, integrated by
+    cumulative Simpson (relative error O(h⁴), see :data:`PATH_STEP`), so the times at the marks
+    are quadrature values, not interpolations. With ``fixed_point`` (a tumbling angle θ_t
+    beyond ``theta_to``: the flow slows like θ_t − θ there, on the scale |θ_t − theta_to| that
+    s does not stretch) the grid is graded towards it: nodes at θ_t ∓ |θ_t − theta_to| 2^k, and
+    at least 16 steps (at the default ``h``) between two of them.
+    Returns (t, θ, the balance state along θ: see :func:`balance_state`, {mark: t or inf});
+    raises NoBalance at the first θ where the fast precession does not exist, ValueError if the
+    flow runs backwards (the top does not move towards ``theta_to``).
     """
-    from scipy.integrate import cumulative_simpson
 
-    s = np.linspace(math.log(math.tan(0.5 * theta_from)), math.log(math.tan(0.5 * theta_to)), n)
+    def s_of(th):
+        return math.log(math.tan(0.5 * th))
+
+    lo, hi = min(theta_from, theta_to), max(theta_from, theta_to)
+    inside = sorted({m for m in marks if lo < m < hi}, reverse=theta_to < theta_from)
+    grading: list[float] = []
+    if fixed_point is not None:
+        gap = fixed_point - theta_to
+        k = 1
+        while lo < fixed_point - gap * 2**k < hi:
+            grading.append(fixed_point - gap * 2**k)
+            k += 1
+    nodes = sorted({*inside, *grading}, reverse=theta_to < theta_from)
+    ends = [s_of(theta_from), *(s_of(m) for m in nodes), s_of(theta_to)]
+    # 16 steps per graded segment at the default step, more in proportion on a finer grid
+    min_steps = 2 * math.ceil(8.0 * PATH_STEP / h) if fixed_point is not None else 2
+    grids, steps = [], []
+    for a, b in itertools.pairwise(ends):
+        k = 2 * max(min_steps // 2, math.ceil(abs(b - a) / (2.0 * h)))
+        grids.append(np.linspace(a, b, k + 1))
+        steps.append((b - a) / k)
+    sizes = [len(g) for g in grids]
+    s = np.concatenate(grids)
     theta = 2.0 * np.arctan(np.exp(s))
     rate, state = _flow_rate_and_state(top, lam, law, theta)
     bad = ~np.isfinite(rate)
@@ -113,8 +166,24 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
         raise NoBalance(float(theta[np.argmax(bad)]))
     if np.any(rate * np.sign(theta_to - theta_from) <= 0.0):
         raise ValueError("the balance flow does not move towards the end state")
-    t = cumulative_simpson(np.sin(theta) / rate, x=s, initial=0.0)
-    return t, theta, state
+    g = np.sin(theta) / rate
+    t = np.empty_like(s)
+    start, t0 = 0, 0.0
+    for n, hk in zip(sizes, steps, strict=True):
+        t[start : start + n] = t0 + _cumulative_simpson(g[start : start + n], hk)
+        t0 = float(t[start + n - 1])
+        start += n
+    # drop the repeated node at each joint (the same θ, the same t)
+    keep = np.ones(len(s), dtype=bool)
+    keep[np.cumsum(sizes)[:-1]] = False
+    t, theta = t[keep], theta[keep]
+    state = tuple(np.asarray(x)[keep] for x in state)
+    at = {m: math.inf for m in marks}
+    idx = np.cumsum([n - 1 for n in sizes])[:-1]
+    for m, i in zip(nodes, idx, strict=True):
+        if m in at:
+            at[m] = float(t[i])
+    return t, theta, state, at
 
 
 def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
@@ -127,3 +196,131 @@ def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
     z = np.cos(theta)
     D = top.I3 * omega3 * np.sqrt(_d_of_z(top, z))
     return D, E + 0.5 * top.m * nu**2
+
+
+# --- Coulomb–Contensou: the drilling torque makes λ a slow variable ------------------------------
+#
+# Leine & Glocker (2003): F_t = −μ g_n v_A/|γ|, M = −μ g_n r*² ω_n/|γ|, |γ| = √(v_A² + r*² ω_n²).
+# In the balance state the power lost is P = −F_t·v_A − M ω_n = μ g_n |γ|, and the couple M ẑ (a
+# force at the contact point leaves λ = −L·a unchanged) gives dλ/dt = −M ẑ·a = M R (1 − α cos θ)
+# (docs/theory/friction.md#coulombcontensou). With E = E(θ, λ) of the balance state,
+#
+#     dθ/dt = (−P − E_λ dλ/dt)/E_θ
+#           = −(μ g_n/(|γ| E_θ)) [v_A² + r*² ω_n (ω_n − R (1 − α cos θ) E_λ)],
+#
+# the second form of docs/theory/inversion.md#coulombcontensou. At θ = 0 both terms of the bracket
+# vanish (v_A = 0 and E_λ = ω3/(R (1 − α)) = ω_n/(R (1 − α))): the flow stays linear in θ there.
+
+
+def contensou_rates(top: TippeTop, law, lam, theta):
+    """(dθ/dt, dλ/dt, the balance state) of the balance flow under Coulomb–Contensou friction.
+
+    Vectorised over ``lam`` and ``theta``; NaN where the fast precession does not exist.
+    E_θ and E_λ by complex steps (exact to rounding). The bracket ω_n − R (1 − α cos θ) E_λ
+    cancels to O(θ²) near the upright spin: its rounding error is 1e-16 ω_n, a relative error
+    1e-16/θ² of the rate (1e-6 at θ = 1e-5).
+    """
+    h = 1e-30
+    lam = np.asarray(lam, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    cstate = balance_state(top, lam, theta + 1j * h)
+    E_th = cstate[2].imag / h
+    E_lam = balance_state(top, lam + 1j * h * lam, theta)[2].imag / (h * lam)
+    state = tuple(np.real(x) for x in cstate)  # O(h²) = 1e-60 from the state at θ
+    nu, omega_n = state[3], state[4]
+    rs = law.r_star
+    gn = top.m * top.g
+    gam = np.sqrt(nu * nu + (rs * omega_n) ** 2)
+    arm = top.R * (1.0 - top.alpha * np.cos(theta))
+    k = law.mu * gn / gam
+    bracket = nu * nu + rs * rs * omega_n * (omega_n - arm * E_lam)
+    return -k * bracket / E_th, -k * rs * rs * omega_n * arm, state
+
+
+class ContensouPath(NamedTuple):
+    """The balance flow in (θ, λ) under Coulomb–Contensou friction, sampled on the solver's steps."""
+
+    t: np.ndarray
+    theta: np.ndarray
+    lam: np.ndarray
+    state: tuple
+    t_half: float
+    t_end: float
+    stop: str  # "end", "turns back", "no balance", "t_max"
+
+
+def contensou_path(top: TippeTop, law, lam0: float, theta_from: float, theta_to: float,
+                   t_max: float, rtol: float = 1e-8) -> ContensouPath:  # fmt: skip
+    """Integrate the Contensou balance flow from (θ_u(0), λ0) until θ reaches ``theta_to``.
+
+    The state is (s, λ) with s = ln tan(θ/2), whose rate θ̇/sin θ stays bounded at both poles
+    (the flow is linear in θ near the upright spin). Explicit Runge–Kutta 5(4) (scipy's RK45,
+    ``rtol``): the flow is smooth and not stiff (its rates are O(μ g/(R ω)) and O(μ g r*/(R ω))
+    relative). It stops where θ reaches ``theta_to``, where the flow turns back (θ̇ = 0: the
+    drilling torque has lowered λ until the top no longer climbs), where the fast precession
+    ceases to exist (the spin is consumed), or at ``t_max``.
+    """
+    from scipy.integrate import solve_ivp
+
+    sign = 1.0 if theta_to > theta_from else -1.0
+
+    def theta_of(s):
+        return 2.0 * math.atan(math.exp(s))
+
+    cache: dict[tuple[float, float], tuple[float, float]] = {}
+
+    def rates(y):
+        # the turning event asks at the step ends, where RK45 (FSAL) has the rates already
+        key = (float(y[0]), float(y[1]))
+        if key not in cache:
+            th = theta_of(key[0])
+            thd, lamd, _ = contensou_rates(top, law, key[1], th)
+            cache[key] = (float(thd) / math.sin(th), float(lamd))
+        return cache[key]
+
+    def rhs(t, y):
+        r = rates(y)
+        if not math.isfinite(r[0]):
+            return [0.0, 0.0]  # the no-balance event ends the run here
+        return list(r)
+
+    def half(t, y):
+        return theta_of(y[0]) - 0.5 * math.pi
+
+    def end(t, y):
+        return theta_of(y[0]) - theta_to
+
+    def turns(t, y):
+        r = rates(y)[0]
+        return sign * r if math.isfinite(r) else -1.0
+
+    def balance(t, y):
+        # the discriminant of the precession quadratic (balance_state): < 0, no fast precession
+        c = math.cos(theta_of(y[0]))
+        A = top.R * top.I1 * (1.0 - top.alpha * c)
+        C = top.m * top.g * top.R**2 * top.alpha * (top.alpha - c)
+        return (y[1] * y[1] - 4.0 * A * C) / (y[1] * y[1])
+
+    for ev in (end, turns, balance):
+        ev.terminal = True  # type: ignore[attr-defined]
+    turns.direction = -1.0  # type: ignore[attr-defined]
+    balance.direction = -1.0  # type: ignore[attr-defined]
+    y0 = [math.log(math.tan(0.5 * theta_from)), lam0]
+    if not sign * rates(y0)[0] > 0.0:  # no climb at all (or no balance at the start)
+        t0 = np.zeros(1)
+        th0, l0 = np.full(1, theta_from), np.full(1, lam0)
+        stop = "no balance" if balance(0.0, y0) < 0.0 else "turns back"
+        return ContensouPath(t0, th0, l0, balance_state(top, l0, th0), math.inf, math.inf, stop)
+    sol = solve_ivp(rhs, (0.0, t_max), y0, method="RK45", rtol=rtol,
+                    atol=[1e-10, 1e-12 * lam0], events=(half, end, turns, balance))  # fmt: skip
+    if sol.status < 0:
+        raise ValueError(sol.message)
+    theta = 2.0 * np.arctan(np.exp(sol.y[0]))
+    lam = sol.y[1]
+    stop = "t_max"
+    for name, ev in zip(("end", "turns back", "no balance"), sol.t_events[1:], strict=True):
+        if len(ev):
+            stop = name
+    t_half = float(sol.t_events[0][0]) if len(sol.t_events[0]) else math.inf
+    t_end = float(sol.t[-1]) if stop == "end" else math.inf
+    return ContensouPath(sol.t, theta, lam, balance_state(top, lam, theta), t_half, t_end, stop)
