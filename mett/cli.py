@@ -300,9 +300,8 @@ def _preset_stem(args: argparse.Namespace) -> tuple[float, float] | None:
 
     if args.preset is None:
         return None
-    if args.model is not None and not any(
-        o.name == "stem_radius" for o in MODELS[args.model].options
-    ):
+    model = getattr(args, "model", None)  # mett predict has no --model
+    if model is not None and not any(o.name == "stem_radius" for o in MODELS[model].options):
         return None
     try:
         top = presets.stemmed(args.preset)
@@ -761,6 +760,16 @@ def _cmd_predict(args: argparse.Namespace) -> int:
 
     p = predict_inversion(top, state, args.friction, method=args.method, tol=args.tol)
     v = p.validity
+    notes = list(v.notes)
+    stem = _preset_stem(args)
+    if stem is not None:
+        # mett simulate runs such a preset with its stem; the reduction knows one contact only
+        # (predict_inversion refuses a StemmedTop), so say what the answer covers
+        notes.append(
+            f"--preset {args.preset} has a stem (radius {stem[0]:g} m, {stem[1]:g} m from the "
+            "ball's centre): this predicts its ball alone; after the stem touches down, beyond "
+            "pi/2, the stem contact is outside the reduction"
+        )
     values = {
         "method": p.method,
         "inverts": p.inverts,
@@ -772,7 +781,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         "epsilon": v.epsilon,
         "lambda_over_lambda_thres": v.spin_ratio,
         "outside_verified_range": v.outside_verified_range,
-        "notes": list(v.notes),
+        "notes": notes,
     }
     if args.json:
         out: dict[str, Any] = {
@@ -791,7 +800,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         ("epsilon = T_nutation/t_half", _fmt(v.epsilon)),
         (
             "outside verified range",
-            str(v.outside_verified_range) + (f" ({'; '.join(v.notes)})" if v.notes else ""),
+            str(v.outside_verified_range) + (f" ({'; '.join(notes)})" if notes else ""),
         ),
     ]
     _print_rows(rows)

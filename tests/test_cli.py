@@ -829,3 +829,22 @@ def test_predict_method_selects_the_reduction(capsys):
 @pytest.mark.parametrize("value", ["nope", "Averaged", ""])
 def test_predict_unknown_method_is_one_line_exit_2(value, capsys):
     assert_error(call([*PREDICT, "--method", value], capsys), "--method")
+
+
+def test_predict_with_a_stemmed_preset_says_it_predicts_the_ball_alone(capsys):
+    """`mett simulate --preset friedl1997` runs the stemmed top; `mett predict` cannot (its
+    reduction has one contact), so it predicts the ball and says so in its notes, naming the
+    stem; a preset without a stem gets no such note."""
+    import mett
+
+    argv = ["predict", "--theta0", "0.1", "--omega3", "180", "--cm-at-rest", "--json"]
+    code, out, err = call([*argv, "--preset", "friedl1997"], capsys)
+    assert code == 0, err
+    got = json.loads(out)
+    ball = mett.presets.get("friedl1997")
+    want = mett.predict_inversion(ball, mett.State.with_cm_at_rest(ball, theta=0.1, omega3=180.0))
+    assert got["t_half"] == want.t_half
+    assert any("has a stem" in n and "ball alone" in n for n in got["notes"])
+    code, out, err = call([*argv, "--preset", "rutstam2013"], capsys)
+    assert code == 0, err
+    assert not any("has a stem" in n for n in json.loads(out)["notes"])
