@@ -36,10 +36,8 @@ Run ``python benchmarks/bench_defaults.py [--rounds N] [--quick]``; it prints an
 from __future__ import annotations
 
 import argparse
-import gc
 import math
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -48,25 +46,7 @@ import mett
 from mett.dynamics import MODELS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_taylor import T_HALF, heyoka_sweep, heyoka_system, t_half
-
-
-def alternating_best(fns, repeat: int) -> list[float]:
-    """Best CPU time of each of ``fns`` over ``repeat`` rounds that call each once in turn
-    (mett, heyoka, mett, …): a change of the machine's load hits both, not one of them. The
-    garbage collector is held off during each call."""
-    best = [math.inf] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            gc.collect()
-            gc.disable()
-            try:
-                t0 = time.thread_time()
-                fn()
-                best[i] = min(best[i], time.thread_time() - t0)
-            finally:
-                gc.enable()
-    return best
+from bench_taylor import T_HALF, alternating_best, heyoka_sweep, heyoka_system, t_half
 
 
 def _setup(omega3: float = 155.0):
