@@ -26,8 +26,9 @@ event that the default run watches.
 
 Times are CPU times of this thread (``time.thread_time``), the best of several calls, with
 Python's garbage collector held off during each call; the calls of mett and heyoka alternate
-(:func:`alternating_best`), and every section is repeated ``--rounds`` times, and the ratios are printed per round and as a range (on a shared
-machine the absolute times move with the load, the ratios much less). Targets of the issue:
+(:func:`alternating_best`); every section is repeated ``--rounds`` times, and the ratios are
+printed per round and as a range (on a shared machine the absolute times move with the load, the
+ratios much less). Targets of the issue:
 default trajectory <= 0.8x heyoka's time, default sweep >= 1.2x heyoka's throughput per core.
 
 Run ``python benchmarks/bench_defaults.py [--rounds N] [--quick]``; it prints and asserts nothing.
