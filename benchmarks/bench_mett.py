@@ -43,7 +43,7 @@ def main(n: int = 10_000, n_scalar: int = 200) -> None:
         t_ref_n = t_ref * n / n_scalar
         diff = np.max(np.abs(np.asarray(out)[k] - out_ref) / np.abs(out_ref))
         rows.append((name, t_vec, t_ref_n, t_ref_n / t_vec, diff))
-    sol = separation._solve(top, E, D, lam, None)
+    sol = separation.solve(top, E, D, lam, None)
     print(f"{n} random rolling states of the thesis body, spins 20-3000 rad/s")
     print(
         f"{'':18s} {'array path':>12s} {'scalar (extrap.)':>17s} {'ratio':>8s} {'max rel diff':>13s}"

@@ -1,14 +1,17 @@
-"""Benchmark: ``mett.simulate`` on the compiled backend against scipy, sweeps, import and JIT cost.
+"""Benchmark: ``mett.simulate`` (default and compiled backend) against scipy, sweeps, import and
+JIT cost.
 
 1. The thesis trajectory (rutstam2013, θ0 = 0.1, ω3 = 155 rad/s, ν(0) = 0; 8 s at rtol = 1e-10):
+   the default ``mett.simulate`` (``backend="auto"``, which runs the Taylor backend here) and
    mett's compiled backend (numba DOP853 + compiled right-hand side, contact event compiled)
    against ``scipy.integrate.solve_ivp(method="DOP853")`` with the numba-compiled right-hand side
    behind a thin Python wrapper, and with the plain numpy right-hand side (mett's scipy backend).
-   All runs use simulate's tolerances, dense output and the contact event, so they take the same
-   steps. Then where the time of a compiled run goes: integration, Trajectory, crossings.
+   The DOP853 runs use simulate's tolerances, dense output and the contact event, so they take
+   the same steps. Then where the time of a compiled run goes: integration, Trajectory, crossings.
 2. A 1000-trajectory sweep (``mett.sweep``, 25 μ × 40 ω3, thesis top, short runs) on a
-   ``ProcessPoolExecutor`` with 1 and 2 workers, on the default backend (compiled DOP853) and on
-   the Taylor backend (four points per SIMD batch): trajectories per second.
+   ``ProcessPoolExecutor`` with 1 and 2 workers, on the default backend (``"auto"``: the Taylor
+   backend, four points per SIMD batch) and on the compiled DOP853 (one point at a time):
+   trajectories per second.
 3. Fresh interpreters: ``import mett`` against ``import numpy, scipy.integrate``, and the first
    ``simulate`` call (numba import + loading the compiled code from the cache), then the second.
 
@@ -92,9 +95,11 @@ def thesis(repeat: int) -> None:
         return solve_ivp(fun, (0.0, T_END), y0, method="DOP853", rtol=RTOL, atol=atol,
                          dense_output=True, events=[ev])  # fmt: skip
 
-    run_mett = lambda: mett.simulate(top, start, T_END)  # noqa: E731
+    run_default = lambda: mett.simulate(top, start, T_END)  # noqa: E731
+    t_default, tr_default = _best(run_default, repeat)
+    t_default_median = _MEDIANS[id(run_default)]
+    run_mett = lambda: mett.simulate(top, start, T_END, backend="compiled")  # noqa: E731
     t_mett, tr = _best(run_mett, repeat)
-    t_mett_median = _MEDIANS[id(run_mett)]
 
     def solve_compiled(t_end):
         return dop853.solve(
@@ -109,29 +114,30 @@ def thesis(repeat: int) -> None:
 
     n_steps = len(tr) - 1
     print(f"(1) thesis run: rutstam2013, theta0 = {THETA0}, omega3 = {OMEGA3}, nu(0) = 0, "
-          f"{T_END:g} s, rtol = {RTOL:g}; {n_steps} steps, {tr.nfev} RHS calls")  # fmt: skip
-    print("                                                 time [ms]   ratio to mett.simulate")
+          f"{T_END:g} s, rtol = {RTOL:g}; DOP853: {n_steps} steps, {tr.nfev} RHS calls")  # fmt: skip
+    print("                                                 time [ms]   ratio to the default")
     rows = [
-        ("mett.simulate (compiled backend, default)", t_mett),
+        (f"mett.simulate (default: {tr_default.backend})", t_default),
+        ('mett.simulate(backend="compiled")', t_mett),
         ("  of which dop853.solve (integration + event)", t_solve),
         ("scipy DOP853 + numba RHS (Python wrapper)", t_sc),
         ("scipy DOP853 + numpy RHS", t_sn),
         ('mett.simulate(backend="scipy")', t_sim_scipy),
     ]
     for name, t in rows:
-        print(f"  {name:<46} {1e3 * t:9.2f}   {t / t_mett:8.1f}x")
+        print(f"  {name:<46} {1e3 * t:9.2f}   {t / t_default:8.1f}x")
     print(f"  RHS calls: mett {tr.nfev}, scipy+numba {res_c.nfev}, scipy+numpy {res_n.nfev}")
-    print(f"  thesis run: mett.simulate {1e3 * t_mett:.2f} ms (best of {repeat}; median "
-          f"{1e3 * t_mett_median:.2f} ms), {t_sc / t_mett:.0f}x faster than scipy DOP853 with "
-          "the compiled RHS")  # fmt: skip
+    print(f"  thesis run: default mett.simulate {1e3 * t_default:.2f} ms (best of {repeat}; "
+          f"median {1e3 * t_default_median:.2f} ms), {t_sc / t_default:.0f}x faster than scipy "
+          "DOP853 with the compiled RHS")  # fmt: skip
 
     # where a compiled run's time goes (the rest of simulate is setup and the Trajectory)
     t_derive, _ = _best(lambda: model.derive(tr.states, tr.params), repeat)
     t_cross, _ = _best(lambda: tr.crossings(math.pi / 2), repeat)
-    t_tiny_sim, _ = _best(lambda: mett.simulate(top, start, 1e-4), repeat * 5)
+    t_tiny_sim, _ = _best(lambda: mett.simulate(top, start, 1e-4, backend="compiled"), repeat * 5)
     t_tiny_solve, _ = _best(lambda: solve_compiled(1e-4), repeat * 5)
     per_step = t_solve / max(sol.n_accepted + sol.n_rejected, 1)
-    print("  profile of the compiled run:")
+    print('  profile of the compiled run (backend="compiled"):')
     print(f"    integration (dop853.solve)                  {1e3 * t_solve:7.2f} ms "
           f"({1e6 * per_step:.2f} us per step, {1e9 * t_solve / sol.nfev:.0f} ns per RHS call)")  # fmt: skip
     print(f"    Trajectory series (model.derive, vectorised) {1e3 * t_derive:7.2f} ms")
@@ -154,7 +160,7 @@ def sweep(t_end: float) -> None:
     n = 25 * 40
     print(f"(2) sweep: {n} trajectories (rutstam2013, 25 mu x 40 omega3, t_end = {t_end:g} s, "
           f"rtol = {RTOL:g}), mett.sweep on a ProcessPoolExecutor")  # fmt: skip
-    for backend in ("auto", "taylor"):  # the compiled DOP853 (default), then the Taylor batches
+    for backend in ("auto", "compiled"):  # the default (Taylor batches), then DOP853 one by one
         for workers in (1, 2):
             t0 = time.perf_counter()
             with ProcessPoolExecutor(max_workers=workers) as pool:

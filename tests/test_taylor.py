@@ -52,6 +52,20 @@ def test_jet_of_exp_is_the_exponential_series():
     np.testing.assert_allclose(C[0], expected, rtol=1e-15, atol=0)
 
 
+def _product_into(t, y, p, out):
+    out[0] = y[0] * y[1]
+    out[1] = p[0]
+
+
+def test_the_jet_copies_values_exactly_negative_zero_included():
+    # Values are copied in the IR as x + (−0), an identity for every double (x + 0 would turn
+    # −0 into +0): the state's coefficient 0 and a product's coefficients keep their sign
+    C = _jet(_product_into, [-0.0, 1.0], [2.0], 6)
+    assert math.copysign(1.0, C[0, 0]) == -1.0  # y0(0) = −0, as given
+    assert math.copysign(1.0, C[0, 1]) == -1.0  # ẏ0 = y0 y1 = −0 · 1 = −0
+    np.testing.assert_array_equal(C[1, :2], [1.0, 2.0])
+
+
 def test_jet_of_a_square_is_the_geometric_series():
     # y' = y², y(0) = 1: y = 1/(1 − t) = Σ t^k
     C = _jet(_blowup_into, [1.0], [], 14)

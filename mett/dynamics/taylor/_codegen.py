@@ -136,8 +136,10 @@ class _IR:
         self.lines.append(f"store {self.T} {value}, {self.T}* {g}, align 8")
 
     def assign(self, name: str, value: str) -> None:
-        # SSA has no copy instruction: x + 0 is folded away by LLVM (and exact for x ≠ −0)
-        self.lines.append(f"{name} = fadd {self.T} {value}, {self.c(0.0)}")
+        # SSA has no copy instruction: x + (−0) = x exactly for every x (−0 too), so LLVM folds
+        # it away (x + 0 it may not: −0 + 0 = +0; those additions sat in the jet's dependency
+        # chains, one after every product's sum)
+        self.lines.append(f"{name} = fadd {self.T} {value}, {self.c(-0.0)}")
 
     def call(self, fn: str, arg: str) -> str:
         return f"call {self.T} @llvm.{fn}.{self.suffix}({self.T} {arg})"
