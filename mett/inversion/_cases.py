@@ -96,6 +96,9 @@ class Reference:
         Lift-offs before the crossing (before the end of the run if there is none).
     in_flight : bool
         The crossing happened during a flight.
+    airborne : float
+        Time (s) spent in flight before the crossing (before the end of the run if there is none):
+        no friction acts then, so the slow flow stands still.
     artefact : float
         Largest viscous-law coefficient μ|v_A| at those lift-offs (0 for other laws or without
         lift-off): above 1 the lift-off is an artefact of the law
@@ -110,6 +113,7 @@ class Reference:
     t_contact_lost: float | None
     hops: int
     in_flight: bool
+    airborne: float
     artefact: float
 
     @property
@@ -143,11 +147,15 @@ def reference(case: Case, t_end: float, rtol: float = 1e-8) -> Reference:
     lands = [s for s in switches if s.reason == "touchdown"]
     # in flight at the crossing: more lift-offs than touchdowns before it
     in_flight = math.isfinite(t_half) and len(lifts) > len(lands)
+    t_stop = min(t_half, traj.t_final)
+    airborne = sum(min(d.t, t_stop) - u.t for u, d in zip(lifts, lands, strict=False))
+    if len(lifts) > len(lands):  # still in the air at the crossing or at the end
+        airborne += t_stop - lifts[-1].t
     artefact = 0.0
     if case.law == "viscous" and lifts:
         artefact = case.top.mu * max(s.slip for s in lifts)
     return Reference(t_half, T_n, traj.status, traj.message, t_end, traj.t_contact_lost,
-                     len(lifts), in_flight, artefact)  # fmt: skip
+                     len(lifts), in_flight, airborne, artefact)  # fmt: skip
 
 
 def simulated_t_half(case: Case, t_end: float, rtol: float = 1e-9) -> tuple[float, float, str]:
