@@ -59,7 +59,7 @@ def test_validity_range_of_the_table_meets_the_target():
 def test_averaged_method_never_gives_a_wrong_answer_on_the_table():
     # The averaged flow misses the error target (docs/theory/inversion.md#the-averaged-mett-flow)
     # and says so: every answer is flagged, and where it answers `inverts` and the simulated top
-    # crosses π/2 (in contact or after hops), the answer is right.
+    # crosses π/2 (in contact or after hops), the answer is right and t_half is not early.
     answered = 0
     for case, pred, t_end in _runs("averaged"):
         assert pred.validity.outside_verified_range, case.name
@@ -71,4 +71,7 @@ def test_averaged_method_never_gives_a_wrong_answer_on_the_table():
             continue
         answered += 1
         assert pred.inverts is True, case.name
+        # it overestimates (too much dissipation early, a frozen band later), and a hopping top
+        # only inverts later still
+        assert pred.t_half >= ref.t_half - ref.T_n, case.name
     assert answered >= 5
