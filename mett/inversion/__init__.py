@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 from .. import _validate
 from ..asymptotics import high_spin
 from ..classification import asymptotic_state
+from ..dynamics.flight import VISCOUS_ARTEFACT
 from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
 from ..integrals import jellett, modified_energy, routh
 from ..stability import escape_time
@@ -384,6 +385,15 @@ def predict_inversion(
     except ValueError as exc:
         return empty(None, f"slow flow: {exc}", method, validity(math.nan), theta0=theta0, lam=lam)
     lam_path = np.full_like(theta, lam)
+    if isinstance(law, Viscous):
+        # The viscous law acts as a dry coefficient μ|v_A|; above 1, which no real contact has,
+        # it lifts the top off (an artefact of the law, docs/theory/flight.md) and the balance
+        # state's g_n = m g fails. Checked on the way to π/2, the part t_half depends on.
+        up = theta <= 0.5 * math.pi
+        coef = mu_lin * float(np.max(np.abs(balance[3][up]), initial=0.0))
+        if coef > VISCOUS_ARTEFACT:
+            notes.append(f"viscous mu |v_A| = {coef:.3g} > {VISCOUS_ARTEFACT:g} before pi/2")
+
     times = {"start": at[theta0], "half": at[0.5 * math.pi], "end": float(t[-1])}
     D, E_mod = balance_D_and_E_mod(top, lam, theta, balance)
     t_half = times["half"]

@@ -2,8 +2,9 @@
 
 A deterministic generator (seeded) of group-II tops, friction laws and starts spanning the ranges
 of docs/theory/inversion.md#verification, and the reference: the first crossing of θ = π/2 by a
-full compiled simulation of the gliding top (no reduction). Used by tests/test_inversion*.py and
-by benchmarks/bench_inversion.py, which writes the table on the docs page.
+full compiled simulation of the gliding top (no reduction), continued through flight and landing
+where the top hops. Used by tests/test_inversion*.py and by tools/inversion_table.py, which writes
+the table on the docs page.
 """
 
 from __future__ import annotations
@@ -74,15 +75,92 @@ def cases(n: int = 60, seed: int = 2026) -> list[Case]:
     return out
 
 
-def simulated_t_half(case: Case, t_end: float, rtol: float = 1e-9) -> tuple[float, float, str]:
-    """First time θ crosses π/2 in the full simulation (``inf`` if not by ``t_end``), the
-    nutation period at the start (s) for the slack, and the simulation's status."""
-    from ..dynamics import simulate
+@dataclass(frozen=True)
+class Reference:
+    """The simulated reference of a case: the first crossing of θ = π/2 with flight and landing.
 
-    # a run that loses contact ends there: both reductions assume a top on the table, and a
-    # top that hops is not the motion they describe (docs/theory/inversion.md#verification)
-    traj = simulate(case.top, case.state, t_end, friction=case.friction, rtol=rtol,
-                    backend="auto", stop_on_contact_loss=True)  # fmt: skip
+    Attributes
+    ----------
+    t_half : float
+        First time (s) θ crosses π/2 in the full simulation, in contact or in flight; ``inf`` if
+        not by the end of the run.
+    T_n : float
+        Nutation period at the start, 2π I1/(I3 ω3(0)) (s): the slack of the comparison.
+    status, message : str
+        The simulation's.
+    t_end : float
+        The requested end of the run (s).
+    t_contact_lost : float or None
+        First lift-off (s).
+    hops : int
+        Lift-offs before the crossing (before the end of the run if there is none).
+    in_flight : bool
+        The crossing happened during a flight.
+    airborne : float
+        Time (s) spent in flight before the crossing (before the end of the run if there is none):
+        no friction acts then, so the slow flow stands still.
+    artefact : float
+        Largest viscous-law coefficient μ|v_A| at those lift-offs (0 for other laws or without
+        lift-off): above 1 the lift-off is an artefact of the law
+        (docs/theory/flight.md#when-a-loss-of-contact-is-an-artefact).
+    """
+
+    t_half: float
+    T_n: float
+    status: str
+    message: str
+    t_end: float
+    t_contact_lost: float | None
+    hops: int
+    in_flight: bool
+    airborne: float
+    artefact: float
+
+    @property
+    def has_crossing(self) -> bool:
+        return math.isfinite(self.t_half)
+
+
+def reference(case: Case, t_end: float, rtol: float = 1e-8) -> Reference:
+    """Simulate ``case`` to ``t_end`` with flight and landing (``stop_on_contact_loss=False``)
+    and return its :class:`Reference`.
+
+    A crossing of π/2 during a flight counts: the inclination is measured the same way in the
+    air (the exact torque-free motion, docs/theory/flight.md). A run that ends "failed" (hops
+    accumulating, no consistent contact) before crossing has no crossing.
+    """
+    import warnings
+
+    from ..dynamics import simulate
+    from ..dynamics.flight import ViscousArtefactWarning
+
+    with warnings.catch_warnings():
+        # the artefact is recorded in the Reference instead (field ``artefact``)
+        warnings.simplefilter("ignore", ViscousArtefactWarning)
+        traj = simulate(case.top, case.state, t_end, friction=case.friction, rtol=rtol,
+                        backend="auto", stop_on_contact_loss=False)  # fmt: skip
     hits = traj.crossings(0.5 * math.pi)
+    t_half = float(hits[0]) if len(hits) else math.inf
     T_n = 2.0 * math.pi * case.top.I1 / (case.top.I3 * abs(float(case.state.omega3)))
-    return (float(hits[0]) if len(hits) else math.inf), T_n, traj.status
+    switches = [s for s in traj.records.get("switches", []) if s.t <= t_half]
+    lifts = [s for s in switches if s.reason == "lift-off"]
+    lands = [s for s in switches if s.reason == "touchdown"]
+    # in flight at the crossing: more lift-offs than touchdowns before it
+    in_flight = math.isfinite(t_half) and len(lifts) > len(lands)
+    t_stop = min(t_half, traj.t_final)
+    airborne = sum(min(d.t, t_stop) - u.t for u, d in zip(lifts, lands, strict=False))
+    if len(lifts) > len(lands):  # still in the air at the crossing or at the end
+        airborne += t_stop - lifts[-1].t
+    artefact = 0.0
+    if case.law == "viscous" and lifts:
+        artefact = case.top.mu * max(s.slip for s in lifts)
+    return Reference(t_half, T_n, traj.status, traj.message, t_end, traj.t_contact_lost,
+                     len(lifts), in_flight, airborne, artefact)  # fmt: skip
+
+
+def simulated_t_half(case: Case, t_end: float, rtol: float = 1e-9) -> tuple[float, float, str]:
+    """First time θ crosses π/2 in the full simulation with flight and landing (``inf`` if not
+    by ``t_end``), the nutation period at the start (s) for the slack, and the simulation's
+    status (:func:`reference`)."""
+    ref = reference(case, t_end, rtol)
+    return ref.t_half, ref.T_n, ref.status
