@@ -1,123 +1,20 @@
-"""Verification table and speed of mett.predict_inversion against the compiled simulation.
+"""Speed of mett.predict_inversion against the compiled simulation it replaces.
 
-    python benchmarks/bench_inversion.py table   # the 60-case table, written into docs/theory/inversion.md
     python benchmarks/bench_inversion.py speed   # prediction vs simulation cost, growth with ω3
     python benchmarks/bench_inversion.py speed-averaged   # the same for method="averaged"
+    python benchmarks/bench_inversion.py atlas   # the atlas figure
 
-The reference of each case is the first crossing of θ = π/2 in a full compiled simulation
-(rtol 1e-8, t_end = min(2 t_half predicted, 60 s)).
+The 60-case verification table is made by ``python tools/inversion_table.py``.
 """
 
 from __future__ import annotations
 
 import math
-import statistics
 import sys
 import time
 
 import mett
 from mett.inversion import predict_inversion
-from mett.inversion._cases import cases, simulated_t_half
-
-
-def table() -> None:
-    import contextlib
-    import io
-    import pathlib
-
-    buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
-        _table()
-    text = buf.getvalue()
-    print(text)
-    page = pathlib.Path(__file__).resolve().parents[1] / "docs" / "theory" / "inversion.md"
-    doc = page.read_text(encoding="utf-8")
-    start, end = "<!-- table:start -->\n", "<!-- table:end -->"
-    i, j = doc.index(start) + len(start), doc.index(end)
-    page.write_text(doc[:i] + text + doc[j:], encoding="utf-8")
-
-
-METHODS = ("gyroscopic", "averaged")
-
-
-def _reference(c, preds):
-    """The simulated first crossing of π/2 for case c, long enough for every method's prediction."""
-    finite = [p.t_half for p in preds.values() if math.isfinite(p.t_half)]
-    t_end = min(2 * max(finite), 60.0) if finite else 20.0
-    return (*simulated_t_half(c, t_end, rtol=1e-8), t_end)
-
-
-def _error(p, ts, T_n):
-    # one nutation period of slack (the phase of θ within the band): |Δ| − T_n, relative
-    return max(abs(p.t_half - ts) - T_n, 0.0) / ts
-
-
-def _table() -> None:
-    rows = []
-    for c in cases():
-        preds = {m: predict_inversion(c.top, c.state, c.friction, method=m) for m in METHODS}
-        rows.append((c, preds, *_reference(c, preds)))
-    print(
-        "| case | law | start | λ/λ_thres | θ0 | μ | ε | t_half gyroscopic (s) | averaged (s) "
-        "| sim (s) | error gyr. | error avg. | status |"
-    )
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    stats = {m: {"err": [], "right": 0, "n": 0, "verified": [], "none": 0, "late": 0}
-             for m in METHODS}  # fmt: skip
-    excluded = capped = 0
-    for c, preds, ts, T_n, status, t_end in rows:
-        at_rest = float(c.state.nu_x) == 0.0 and float(c.state.nu_y) == 0.0
-        start = "ν=0" if at_rest else "CM at rest"
-        errs = {m: "" for m in METHODS}
-        finite = [p.t_half for p in preds.values() if math.isfinite(p.t_half)]
-        # a run cut at 60 s before 2 t_half of a prediction says nothing about that prediction
-        if status == "completed" and not math.isfinite(ts) and any(2 * t > t_end for t in finite):
-            capped += 1
-            status += " (run cut at 60 s: no reference)"
-        elif status == "completed" and math.isfinite(ts):
-            # the simulated top inverts: `inverts` and t_half are checked
-            for m, p in preds.items():
-                st = stats[m]
-                st["n"] += 1
-                st["right"] += p.inverts is True
-                st["none"] += p.inverts is None
-                if math.isfinite(p.t_half):
-                    e = _error(p, ts, T_n)
-                    errs[m] = f"{e:.1%}"
-                    st["err"].append(e)
-                    if not p.validity.outside_verified_range:
-                        st["verified"].append(e)
-        elif status == "completed":
-            # no crossing by twice every finite prediction: t_half is off by more than 100 %
-            for m, p in preds.items():
-                if math.isfinite(p.t_half):
-                    stats[m]["late"] += 1
-                    errs[m] = "> 100%"
-        else:
-            excluded += 1
-        g, a = preds["gyroscopic"], preds["averaged"]
-        flag = "" if g.validity.outside_verified_range else " (verified range)"
-        print(
-            f"| {c.name} | {c.law} | {start} | {g.validity.spin_ratio:.1f} | {float(c.state.theta):.3f} "
-            f"| {c.top.mu if c.law == 'viscous' else c.friction.mu:.3g} | {g.validity.epsilon:.3g} "
-            f"| {g.t_half:.3f} | {a.t_half:.3f} | {ts:.3f} | {errs['gyroscopic']} | {errs['averaged']} "
-            f"| {status}{flag} |"
-        )
-    print(
-        f"\nexcluded: {excluded} of {len(rows)} (the simulated top loses contact before π/2), "
-        f"{capped} more without a reference (run cut at 60 s)"
-    )
-    for m, st in stats.items():
-        e, v = st["err"], st["verified"]
-        line = (f"{m}: `inverts` right in {st['right']} of the {st['n']} simulated inversions "
-                f"({st['none']} answered None)")  # fmt: skip
-        if e:
-            line += (f"; t_half error over {len(e)} crossings: median {statistics.median(e):.1%}, "
-                     f"worst {max(e):.1%}")  # fmt: skip
-        line += f"; {st['late']} predicted crossings not reached by twice their time"
-        if v:
-            line += f"; verified range: {len(v)} cases, median {statistics.median(v):.1%}, worst {max(v):.1%}"
-        print(line)
 
 
 def _best(fn, repeat: int = 3) -> float:
@@ -224,6 +121,6 @@ def atlas_figure() -> None:
 
 
 if __name__ == "__main__":
-    {"table": table, "speed": speed, "speed-averaged": speed_averaged, "atlas": atlas_figure}[
-        sys.argv[1] if len(sys.argv) > 1 else "table"
+    {"speed": speed, "speed-averaged": speed_averaged, "atlas": atlas_figure}[
+        sys.argv[1] if len(sys.argv) > 1 else "speed"
     ]()
