@@ -386,7 +386,11 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
         if sticking[i] and n_t == 3:
             A[rows, 5] = 1.0  # ω̇_z = 0
             rows += 1
-    x = np.linalg.lstsq(A, b, rcond=None)[0]
+    # equilibrated (rows, then columns, to unit max-norm; m and I differ by 1e4): the solve's
+    # rounding is then that of a well-scaled system
+    dr = 1.0 / np.max(np.abs(A), axis=1)
+    dc = 1.0 / np.max(np.abs(A * dr[:, None]), axis=0)
+    x = dc * np.linalg.lstsq(A * dr[:, None] * dc[None, :], b * dr, rcond=None)[0]
     lam = (float(x[c["l1"]]), float(x[c["l2"]]))
     Ft, margin = [], []
     for i in (0, 1):
@@ -575,20 +579,6 @@ def _kinetic(y: np.ndarray, p: tuple, V_z: float = 0.0) -> float:
     return 0.5 * p[ix.M] * (y[2] ** 2 + y[3] ** 2 + V_z**2) + 0.5 * float(L @ w)
 
 
-def _modes(g0: np.ndarray, p: tuple, band: float) -> list[tuple[bool, bool]]:
-    """The candidate friction modes (ball sticks, stem sticks) of an impulse on both contacts,
-    sliding first; a contact whose slip is within the band cannot slide in a known direction."""
-    k = _gen(p[ix.RSTAR])
-    t = [0, 1, 3] if k == 4 else [0, 1]
-    slow = [float(np.linalg.norm(g0[i * k + np.array(t)])) <= band for i in range(2)]
-    out = []
-    for mode in ((False, False), (True, False), (False, True), (True, True)):
-        if any(slow[i] and not mode[i] for i in range(2)):
-            continue
-        out.append(mode)
-    return out
-
-
 def close_both(
     y: np.ndarray, p: tuple, on: str, tail: bool = False
 ) -> tuple[np.ndarray, np.ndarray, tuple]:
@@ -628,8 +618,12 @@ def close_both(
     t = np.array([0, 1, 3] if k == 4 else [0, 1])
     E0 = _kinetic(yl, p, float(f.V[2]))
     tol = 1e-9 * max(float(np.max(np.abs(g0))), 1e-300)
-    for mode in _modes(g0, p, p[ix.BAND]):
-        free = [False, False]  # a tail contact pulled back: frictionless column
+    slow = [float(np.linalg.norm(g0[i * k + t])) <= p[ix.BAND] for i in range(2)]
+    for mode in ((False, False), (True, False), (False, True), (True, True)):
+        if any(slow[i] and not mode[i] and not tail for i in range(2)):
+            continue  # a contact at rest that does not stick must be pulled (tail only)
+        # a tail contact pulled back (or at rest and not sticking): frictionless column
+        free = [slow[i] and not mode[i] for i in range(2)]
         for _ in range(3):
             cols, rows = [], []
             for i in range(2):
@@ -661,9 +655,11 @@ def close_both(
             if mode[i]:
                 ok &= Pi[i * k + 2] >= 0.0
                 ok &= float(np.linalg.norm(Pi[sl])) <= mu * Pi[i * k + 2] * (1.0 + 1e-12)
+            elif free[i]:  # frictionless: only as the tail's pull
+                ok &= Pi[i * k + 2] <= 0.0
             else:
-                ok &= Pi[i * k + 2] >= -tol * m or tail
-                if mu > 0.0 and not free[i]:
+                ok &= Pi[i * k + 2] >= 0.0
+                if mu > 0.0:
                     ok &= float(gp[sl] @ g0[sl]) >= 0.0
         if not ok:
             continue
