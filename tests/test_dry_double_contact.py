@@ -267,7 +267,7 @@ def test_double_contact_samples_keep_both_contacts_with_the_dry_law(run):
 def test_energy_never_increases_over_the_run_and_at_each_jump(run):
     E = np.array([_energy(TOP, run.states[:, j]) for j in range(run.t.size)])
     # the model's E is this definition
-    np.testing.assert_allclose(run.E, E, rtol=1e-12, atol=1e-15 * E[0])
+    np.testing.assert_allclose(run.E, E, rtol=1e-12, atol=1e-12 * E[0])  # rounding of E0 terms
     # each step's local error is rtol relative (DOP853 error control); dissipative otherwise
     assert np.all(np.diff(E) <= 10 * run.rtol * E[0])
     for sw, (y_ev, y_sw) in zip(run.switches, run.jumps, strict=True):
