@@ -214,6 +214,31 @@ def test_sticking_modes_match_an_independent_kkt_solve(law, mode):
                 np.testing.assert_allclose(got["Ft"][i][: len(want)], want, atol=1e-10 * scale)
 
 
+@pytest.mark.parametrize("stuck", [0, 1], ids=["ball-rolling", "stem-rolling"])
+def test_mixed_modes_match_an_independent_kkt_solve(stuck):
+    # one contact sticking, the other sliding (Coulomb): the phase's closed form (a 3×3 solve and
+    # a Schur complement) against this file's KKT assembly
+    law = Coulomb(0.3)
+    rng = np.random.default_rng(8)
+    p = _params(law)
+    name = ("both-ball-rolling", "both-stem-rolling")[stuck]
+    phase = {ph.name: ph for ph in stemslip.MODEL.phases}[name]
+    mode = (stuck == 0, stuck == 1)
+    b = TOP.ball
+    for _ in range(20):
+        y = _random_state(TOP, rng, spin=60.0)
+        y[10] = 3.0 + stuck
+        lam, F, M, Vdot, wdot = _kkt(TOP, law, y, mode)
+        l1, l2, _, _ = stemslip.both_forces(y, p)
+        rates = phase.rhs(0.0, y, p)
+        scale = b.m * b.g + float(np.sum(np.abs(lam)))
+        assert abs(l1 - lam[0]) < 1e-11 * scale and abs(l2 - lam[1]) < 1e-11 * scale
+        np.testing.assert_allclose(rates[2:4], Vdot[:2], atol=1e-11 * scale / b.m)
+        e, w, L, I = _body(TOP, y)
+        Ldot = I @ wdot + np.cross(w, I @ w)
+        np.testing.assert_allclose(rates[4:7], Ldot, atol=1e-10 * np.max(np.abs(Ldot)))
+
+
 def _gaps(top, theta):
     b = top.ball
     c = np.cos(theta)

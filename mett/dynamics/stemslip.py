@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from ..friction import Coulomb
 from . import _params as ix
@@ -293,9 +294,176 @@ def _both_stem_stop(t: float, y: Any, p: Any) -> Any:
     return _slide_both(y, p)[4] - p[ix.BAND]
 
 
+def _solve3(A: tuple, b: tuple) -> tuple:
+    """x with A x = b, A = (row0, row1, row2) of a 3×3 matrix: Cramer's rule (plain arithmetic)."""
+    (a, b_, c), (d, e, f), (g, h, k) = A
+    x, y, z = b
+    c1 = e * k - f * h
+    c2 = d * k - f * g
+    c3 = d * h - e * g
+    det = a * c1 - b_ * c2 + c * c3
+    return (
+        (x * c1 - b_ * (y * k - f * z) + c * (y * h - e * z)) / det,
+        (a * (y * k - f * z) - x * c2 + c * (d * z - y * g)) / det,
+        (a * (e * z - y * h) - b_ * (d * z - y * g) + x * c3) / det,
+    )
+
+
+def _stick_both(y: Any, p: Any, s: Any) -> tuple:
+    """(rates[0:10], λ_1, λ_2, F_s (3), |γ_k|) of the double contact with contact ``s`` sticking
+    (0 ball, 1 stem; Coulomb, r* = 0) and the other, k, sliding: the contact accelerations are
+    affine in the forces, ν̇_i = h_i + Σ_j G_ij F_j with h_i = −g ẑ + α_0 × a_i + ω × (ω × l_i 3̂),
+    α_0 = −I⁻¹(ω × L), G_ij F = F/m + (I⁻¹(a_j × F)) × a_i; sticking ν̇_s = 0 (3 rows) and the
+    sliding contact's normal row ν̇_k,z = 0 with F_k = λ_k (ẑ − μ ν̂_k) give F_s = −G_ss⁻¹(h_s +
+    G_sk u λ_k) and λ_k from the Schur complement. Plain arithmetic."""
+    m, g, mu = p[ix.M], p[ix.G], p[ix.MU]
+    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
+    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
+    e, L, w, n1, n2, de = both_kinematics(y, R, l, I1, I3, r_s, l_s)
+    ex, ey, ez = e
+    Lx, Ly, Lz = L
+    wx, wy, wz = w
+    c = 1.0 / I3 - 1.0 / I1
+    l2 = l + l_s
+    # the sticking contact's arm (s) and the sliding one's (k), selected arithmetically
+    ls, lk = l + s * l_s, l2 - s * l_s
+    Rs, Rk = R + s * (r_s - R), r_s - s * (r_s - R)
+    nkx, nky = n2[0] + s * (n1[0] - n2[0]), n2[1] + s * (n1[1] - n2[1])
+    asx, asy, asz = ls * ex, ls * ey, ls * ez - Rs
+    akx, aky, akz = lk * ex, lk * ey, lk * ez - Rk
+    # α_0 = −I⁻¹(ω × L)
+    tx, ty, tz = -(wy * Lz - wz * Ly), -(wz * Lx - wx * Lz), -(wx * Ly - wy * Lx)
+    te = tx * ex + ty * ey + tz * ez
+    ax0, ay0, az0 = tx / I1 + c * te * ex, ty / I1 + c * te * ey, tz / I1 + c * te * ez
+    # ω × (ω × l 3̂) = l ((ω·3̂) ω − |ω|² 3̂)
+    we, ww = wx * ex + wy * ey + wz * ez, wx * wx + wy * wy + wz * wz
+    cx, cy, cz = we * wx - ww * ex, we * wy - ww * ey, we * wz - ww * ez
+    hsx = (ay0 * asz - az0 * asy) + ls * cx
+    hsy = (az0 * asx - ax0 * asz) + ls * cy
+    hsz = -g + (ax0 * asy - ay0 * asx) + ls * cz
+    hkz = -g + (ax0 * aky - ay0 * akx) + lk * cz
+
+    def resp(Fx: Any, Fy: Any, Fz: Any, bx: Any, by: Any, bz: Any, ox: Any, oy: Any, oz: Any):
+        # F/m + (I⁻¹(b × F)) × o: the acceleration at arm o of the force F at arm b
+        qx, qy, qz = by * Fz - bz * Fy, bz * Fx - bx * Fz, bx * Fy - by * Fx
+        qe = qx * ex + qy * ey + qz * ez
+        jx, jy, jz = qx / I1 + c * qe * ex, qy / I1 + c * qe * ey, qz / I1 + c * qe * ez
+        return (
+            Fx / m + (jy * oz - jz * oy),
+            Fy / m + (jz * ox - jx * oz),
+            Fz / m + (jx * oy - jy * ox),
+        )
+
+    sk = (nkx * nkx + nky * nky) ** 0.5
+    ux, uy = -mu * nkx / sk, -mu * nky / sk
+    G0 = resp(1.0, 0.0, 0.0, asx, asy, asz, asx, asy, asz)
+    G1 = resp(0.0, 1.0, 0.0, asx, asy, asz, asx, asy, asz)
+    G2 = resp(0.0, 0.0, 1.0, asx, asy, asz, asx, asy, asz)
+    A = ((G0[0], G1[0], G2[0]), (G0[1], G1[1], G2[1]), (G0[2], G1[2], G2[2]))
+    bcol = resp(ux, uy, 1.0, akx, aky, akz, asx, asy, asz)
+    r0 = resp(1.0, 0.0, 0.0, asx, asy, asz, akx, aky, akz)[2]
+    r1 = resp(0.0, 1.0, 0.0, asx, asy, asz, akx, aky, akz)[2]
+    r2 = resp(0.0, 0.0, 1.0, asx, asy, asz, akx, aky, akz)[2]
+    d = resp(ux, uy, 1.0, akx, aky, akz, akx, aky, akz)[2]
+    Ah = _solve3(A, (hsx, hsy, hsz))
+    Ab = _solve3(A, bcol)
+    lam_k = -(hkz - (r0 * Ah[0] + r1 * Ah[1] + r2 * Ah[2])) / (
+        d - (r0 * Ab[0] + r1 * Ab[1] + r2 * Ab[2])
+    )
+    Fsx = -(Ah[0] + Ab[0] * lam_k)
+    Fsy = -(Ah[1] + Ab[1] * lam_k)
+    Fsz = -(Ah[2] + Ab[2] * lam_k)
+    Fkx, Fky, Fkz = lam_k * ux, lam_k * uy, lam_k
+    rates = (
+        y[2],
+        y[3],
+        (Fsx + Fkx) / m,
+        (Fsy + Fky) / m,
+        (asy * Fsz - asz * Fsy) + (aky * Fkz - akz * Fky),
+        (asz * Fsx - asx * Fsz) + (akz * Fkx - akx * Fkz),
+        (asx * Fsy - asy * Fsx) + (akx * Fky - aky * Fkx),
+        de[0],
+        de[1],
+        0.0,
+    )
+    lam1 = Fsz + s * (lam_k - Fsz)
+    lam2 = lam_k + s * (Fsz - lam_k)
+    return rates, lam1, lam2, (Fsx, Fsy, Fsz), sk
+
+
+def _ball_stick_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = _stick_both(y, p, 0.0)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _stem_stick_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = _stick_both(y, p, 1.0)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _bs_contact(t: float, y: Any, p: Any) -> Any:
+    d = _stick_both(y, p, 0.0)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_contact(t: float, y: Any, p: Any) -> Any:
+    d = _stick_both(y, p, 1.0)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_ball_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 0.0)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_stem_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 0.0)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_ball_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 1.0)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_stem_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 1.0)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_cone(t: float, y: Any, p: Any) -> Any:
+    """(μ λ_1 − |F_t,1|)/(m g): the ball's sticking force reaches its cone."""
+    d = _stick_both(y, p, 0.0)
+    F = d[3]
+    return (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_cone(t: float, y: Any, p: Any) -> Any:
+    """(μ λ_2 − |F_t,2|)/(m g): the stem's sticking force reaches its cone."""
+    d = _stick_both(y, p, 1.0)
+    F = d[3]
+    return (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_stop(t: float, y: Any, p: Any) -> Any:
+    """|ν_2| − δ: the sliding stem's slip reaches the band while the ball sticks."""
+    return _stick_both(y, p, 0.0)[4] - p[ix.BAND]
+
+
+def _ss_stop(t: float, y: Any, p: Any) -> Any:
+    """|ν_1| − δ: the sliding ball's slip reaches the band while the stem sticks."""
+    return _stick_both(y, p, 1.0)[4] - p[ix.BAND]
+
+
 def both_forces(y: Any, p: tuple) -> tuple:
-    """(λ_1, λ_2, |γ_1|, |γ_2|) of state(s) ``y`` of the double contact, both contacts sliding:
-    the normal forces (N) of the ball and the stem and their generalised slip speeds (m/s)."""
+    """(λ_1, λ_2, |γ_1|, |γ_2|) of a state ``y`` of the double contact in the mode of its flag
+    (:data:`BOTH_FLAGS`; both sliding for an array of states): the normal forces (N) of the
+    ball and the stem and their generalised slip speeds (m/s)."""
+    if np.ndim(y) == 1 and round(float(y[10])) in (3, 4):
+        s = round(float(y[10])) - 3
+        d = _stick_both(y, p, float(s))
+        slips = _slips(y, p)
+        return d[1], d[2], slips[0], slips[1]
     d = _slide_both(y, p)
     return d[1], d[2], d[3], d[4]
 
@@ -760,9 +928,12 @@ def _stem_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
     return _lift(y, p, "ball")
 
 
-def _restart_both(y2: np.ndarray, p: tuple, i: int, direction: np.ndarray) -> np.ndarray:
-    """``y2`` after the impulse at contact ``i`` that sets its generalised slip to 2δ along
-    ``direction`` while both normal velocities stay 0 (impulses at both normals)."""
+def _restart_both(
+    y2: np.ndarray, p: tuple, i: int, direction: np.ndarray, size: float = 2.0
+) -> np.ndarray:
+    """``y2`` after the impulse at contact ``i`` that sets its generalised slip to ``size`` δ
+    along ``direction`` (0: stopped) while both normal velocities stay 0 (impulses at both
+    normals); the flag kept."""
     m, rs = p[ix.M], p[ix.RSTAR]
     e, L, w, V, Iinv = _both_body(y2, p)
     arms = _arms(e, p)
@@ -772,51 +943,160 @@ def _restart_both(y2: np.ndarray, p: tuple, i: int, direction: np.ndarray) -> np
     t = [0, 1, 3] if k == 4 else [0, 1]
     rows = [2, k + 2] + [i * k + j for j in t]
     target = np.zeros(len(rows))
-    target[2:] = 2.0 * p[ix.BAND] * np.asarray(direction, dtype=float)[: len(t)]
+    target[2:] = size * p[ix.BAND] * np.asarray(direction, dtype=float)[: len(t)]
     Wr = W[np.ix_(rows, rows)]
     x = np.linalg.solve(Wr, target - g0[rows])
     Pi = np.zeros(2 * k)
     Pi[rows] = x
-    return _apply2(y2, p, L, arms, Pi)
+    out = _apply2(y2, p, L, arms, Pi)
+    out[10] = y2[10]
+    return out
+
+
+def _slips(y2: np.ndarray, p: tuple) -> tuple[float, float]:
+    """|γ_1|, |γ_2| (m/s) of a double-contact state (any mode)."""
+    e, L, w, n1, n2, _ = both_kinematics(
+        np.asarray(y2, dtype=float), p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S],
+        p[ix.DRY_L_S],
+    )  # fmt: skip
+    sw = p[ix.RSTAR] * w[2]
+    return math.hypot(n1[0], n1[1], sw), math.hypot(n2[0], n2[1], sw)
+
+
+BOTH_FLAGS = {2.0: "both-sliding", 3.0: "both-ball-rolling", 4.0: "both-stem-rolling"}
+"""The double contact's modes by the state's flag: both contacts sliding, the ball rolling
+(sticking) with the stem sliding, the stem rolling with the ball sliding."""
+
+
+def _slip_acceleration(y2: np.ndarray, p: tuple, i: int, u: np.ndarray) -> np.ndarray:
+    """ν̇_i (m/s², horizontal) of contact ``i`` of the double contact at rest there, sliding
+    with the friction −μ λ_i u (u a horizontal unit vector; Coulomb), the other contact sliding
+    with its own slip: the rates of :func:`both_solve` turned into the contact acceleration
+    V̇ + ω̇ × a_i + ω × (ω × l_i 3̂), ω̇ = I⁻¹(L̇ − ω × L)."""
+    mu = p[ix.MU]
+    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
+    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
+    e, L, w, n1, n2, de = both_kinematics(y2, R, l, I1, I3, r_s, l_s)
+    nu = (n1, n2)
+    f = []
+    for j in range(2):
+        if j == i:
+            f.append((-mu * u[0], -mu * u[1], 0.0))
+        else:
+            sj = math.hypot(nu[j][0], nu[j][1])
+            f.append((-mu * nu[j][0] / sj, -mu * nu[j][1] / sj, 0.0))
+    rates, _, _ = both_solve(y2, p[ix.M], p[ix.G], R, l, r_s, l_s, e, L, de, f[0], f[1])
+    e, L, w = np.array(e), np.array(L), np.array(w)
+    Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
+    wdot = Iinv @ (np.array(rates[4:7]) - np.cross(w, L))
+    li = l + (l_s if i else 0.0)
+    a = li * e - np.array([0.0, 0.0, (R, r_s)[i]])
+    acc = np.array([rates[2], rates[3], 0.0]) + np.cross(wdot, a)
+    acc += np.cross(w, np.cross(w, li * e))
+    return acc[:2]
+
+
+def _excess_both(y2: np.ndarray, p: tuple, i: int) -> np.ndarray | None:
+    """The direction u in which the slip of contact ``i`` (at rest) starts under sliding
+    friction −μ λ_i u: ν̇_i = s u with s > 0, the largest such s (the angle of u scanned and
+    the zeros of (u × ν̇_i)_z refined by Brent's method, as :func:`mett.dynamics.contact.
+    excess_direction` for one contact); None if there is none (Coulomb)."""
+
+    def cross(phi: float) -> float:
+        u = np.array([math.cos(phi), math.sin(phi)])
+        v = _slip_acceleration(y2, p, i, u)
+        return float(u[0] * v[1] - u[1] * v[0])
+
+    grid = np.linspace(0.0, 2.0 * math.pi, 73)
+    cr = np.array([cross(ph) for ph in grid])
+    sign = np.sign(cr)
+    best, best_s = None, 0.0
+    for j in np.flatnonzero(sign[:-1] * sign[1:] <= 0.0):
+        if cr[j] == 0.0:
+            phi = grid[j]
+        elif cr[j + 1] == 0.0:
+            continue
+        else:
+            phi = brentq(cross, grid[j], grid[j + 1], xtol=1e-15)
+        u = np.array([math.cos(phi), math.sin(phi)])
+        sp = float(u @ _slip_acceleration(y2, p, i, u))
+        if sp > best_s:
+            best, best_s = u, sp
+    return best
 
 
 def _settle_both(y2: np.ndarray, p: tuple) -> np.ndarray:
     """A double-contact state with a contact's slip within the band: the mode of that contact
-    chosen by consistency (Leine & Glocker 2003 §4: a mode is admissible when its normal forces
-    are ≥ 0 and a sticking contact's force lies in its cone). Sticking admissible: not continued
-    yet (:class:`JumpFailed` naming the mode); else the slip restarts (2δ) opposite to the force
-    sticking would need, where the excess force drives it (exact at the cone's edge)."""
+    chosen by consistency (Pfeiffer & Glocker 1996; Leine & Glocker 2003: a mode is admissible
+    when its normal forces are ≥ 0 and each sticking contact's force lies in its cone).
+
+    Sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
+    both normal velocities 0) and the mode "both-ball-rolling" / "both-stem-rolling" runs (flag
+    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0) and for both contacts sticking (an
+    indeterminate force under Coulomb) the run ends with :class:`JumpFailed` naming the mode.
+    Not admissible: the slip restarts (2δ) opposite to the force sticking would need (where the
+    excess force drives it; exact at the cone's edge)."""
     if dry.frictionless(p) or p[ix.LAW] != dry.LAW_COULOMB:
         return y2
-    for _ in range(2):
-        _, _, s1, s2 = (float(v) for v in both_forces(y2, p))
-        slow = [i for i, s in enumerate((s1, s2)) if s <= p[ix.BAND]]
+    flag = float(round(y2[10]))
+    for _ in range(3):
+        slow = [i for i, v in enumerate(_slips(y2, p)) if v <= p[ix.BAND]]
+        if flag > 2.5:  # the sticking contact is not in question
+            slow = [i for i in slow if i != round(flag) - 3]
         if not slow:
             return y2
         i = slow[0]
-        mode = (i == 0, i == 1)
-        sol = both_stick_forces(y2, p, mode)
-        if min(sol["lam"]) >= 0.0 and sol["margin"][i] >= 0.0:
-            raise JumpFailed(
-                f"the {('ball', 'stem')[i]} contact sticks in the double contact (its force "
-                "inside the cone, both normal forces ≥ 0): a sticking mode of the dry double "
-                "contact, which is not continued yet"
-            )
+        stuck = (i == 0 or flag == 3.0, i == 1 or flag == 4.0)
+        sol = both_stick_forces(y2, p, stuck)
+        if min(sol["lam"]) >= 0.0 and all(sol["margin"][j] >= 0.0 for j in range(2) if stuck[j]):
+            if all(stuck) or p[ix.RSTAR] > 0.0:
+                which = "both contacts" if all(stuck) else f"the {('ball', 'stem')[i]} contact"
+                raise JumpFailed(
+                    f"{which} stick in the double contact (forces inside the cones, both normal "
+                    "forces ≥ 0): a sticking mode of the dry double contact that is not "
+                    "continued yet"
+                )
+            y2 = _restart_both(y2, p, i, np.zeros(3), 0.0)
+            y2[10] = 3.0 + i
+            return y2
         Ft = sol["Ft"][i]
-        gen = np.array([Ft[0], Ft[1], Ft[2]]) if p[ix.RSTAR] > 0.0 else Ft[:2]
-        y2 = _restart_both(y2, p, i, -gen / np.linalg.norm(gen))
+        if p[ix.RSTAR] > 0.0:  # Contensou: opposite the force sticking needs (the cone's edge)
+            u = -Ft / np.linalg.norm(Ft)
+        else:
+            u = _excess_both(y2, p, i) if flag == 2.0 else -Ft[:2] / np.linalg.norm(Ft[:2])
+            if u is None:
+                raise JumpFailed(
+                    f"the {('ball', 'stem')[i]} contact of the double contact can neither stick "
+                    "(its force outside the cone or a normal force < 0) nor slide (no direction "
+                    "in which its slip grows): a Painlevé-type inconsistency of the dry law"
+                )
+        y2 = _restart_both(y2, p, i, u)
     return y2
 
 
 def _both_stop(y: np.ndarray, p: tuple) -> np.ndarray:
     """A slip of the double contact reaches the band: the mode selection of :func:`_settle_both`."""
-    return _settle_both(on_both(y, _viscous(p)), p)
+    y2 = on_both(y, _viscous(p))
+    y2[10] = y[10]
+    return _settle_both(y2, p)
+
+
+def _both_cone(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The sticking contact's force reaches its cone: its slip starts (2δ) opposite to the
+    tangential force sticking needs, both contacts sliding (flag 2)."""
+    y2 = on_both(y, _viscous(p))
+    i = round(float(y[10])) - 3
+    y2[10] = y[10]
+    F = both_stick_forces(y2, p, (i == 0, i == 1))["Ft"][i]
+    y2 = _restart_both(y2, p, i, -F[:2] / np.linalg.norm(F[:2]))
+    y2[10] = 2.0
+    return y2
 
 
 def _select(y: np.ndarray, p: tuple) -> str:
     """The phase after a jump: the contact by the flag, rolling if its slip was settled."""
     if y[10] > 1.5:
-        return "both-sliding"
+        return BOTH_FLAGS[float(round(y[10]))]
     on_stem = y[10] > 0.5
     return ("stem-" if on_stem else "ball-") + dry.start_phase(y, _contact(p, on_stem))
 
@@ -883,6 +1163,24 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
             for k, v in part.items():
                 out[k][mask] = v
             out[name][mask] = part["gn"]
+    for value in (3, 4):  # one contact sticking: its force from the constraint, its margin
+        mask = flag == value
+        if mask.any():
+            Ym = Y[:, mask]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                d = _stick_both(Ym, p, float(value - 3))
+            kin = both_kinematics(
+                Ym, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S]
+            )
+            k = 4 - value  # the sliding contact: −μ λ_k ν̂_k
+            nu = np.asarray(kin[3 + k], dtype=float)
+            lam = (np.asarray(d[1], dtype=float), np.asarray(d[2], dtype=float))
+            fk = -p[ix.MU] * lam[k] / np.hypot(nu[0], nu[1])
+            out["gn_ball"][mask], out["gn_stem"][mask] = lam
+            out["gn"][mask] = lam[0] + lam[1]
+            out["F_x"][mask] = d[3][0] + fk * nu[0]
+            out["F_y"][mask] = d[3][1] + fk * nu[1]
+            out["margin"][mask] = p[ix.MU] * d[3][2] - np.hypot(d[3][0], d[3][1])
     both = flag == 2
     if both.any():  # both contacts sliding: the sums of their forces, margin 0
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -949,18 +1247,26 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     "accumulation", "closure", "ball lifts off", "stem lifts off"."""
     p = traj.params
     names = np.asarray(traj.phase).astype(str)
-    contact = np.array([n.split("-")[0] for n in names.tolist()], dtype=object).astype(str)
-    phase = np.array([n.split("-")[1] for n in names.tolist()], dtype=object).astype(str)
+    contact = np.array([n.split("-", 1)[0] for n in names.tolist()], dtype=object).astype(str)
+    phase = np.array([n.split("-", 1)[1] for n in names.tolist()], dtype=object).astype(str)
     series = {"contact": contact, "phase": phase}
     series.update(_quantities(traj.states, p, phase == "rolling"))
     records = []
     seen: list[tuple[float, str, str]] = []
     for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
-        c0, f0 = before.split("-")
-        c1, f1 = after.split("-")
+        c0, f0 = before.split("-", 1)
+        c1, f1 = after.split("-", 1)
         margin, speed, t_sw, t_event = math.nan, math.nan, t, t
-        if c0 == "both":
-            why = "reversal" if c1 == "both" else _LIFT_REASONS[c1]
+        if c0 == "both" and c1 == "both":  # a mode of the double contact changes
+            why = (
+                "stop"
+                if f0 == "sliding" and f1 != f0
+                else "cone"
+                if f1 == "sliding" and f1 != f0
+                else "reversal"
+            )
+        elif c0 == "both":
+            why = _LIFT_REASONS[c1]
         elif c0 != c1:
             to = "stem" if c0 == "ball" else "ball"
             _, why, t_limit = transition(y_ev, p, to, [*seen, (t, before, f"{to}-sliding")])
@@ -1001,7 +1307,15 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
 _LIFT_REASONS = {"ball": "stem lifts off", "stem": "ball lifts off"}
 
 
-PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling", "both-sliding")
+PHASES = (
+    "ball-sliding",
+    "ball-rolling",
+    "stem-sliding",
+    "stem-rolling",
+    "both-sliding",
+    "both-ball-rolling",
+    "both-stem-rolling",
+)
 
 _TOUCHDOWN = Event(
     _touchdown,
@@ -1144,6 +1458,88 @@ MODEL = register(
                         -1.0,
                         "switch",
                         target="both-sliding",
+                        jump=_both_stop,
+                        select=_select,
+                    ),
+                ),
+            ),
+            Phase(
+                "both-ball-rolling",
+                _python(_ball_stick_into),
+                _ball_stick_into,
+                (
+                    Event(_bs_contact, -1.0, "contact_lost"),
+                    Event(
+                        _bs_ball_lift,
+                        -1.0,
+                        "switch",
+                        target="stem-sliding",
+                        jump=_ball_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _bs_stem_lift,
+                        -1.0,
+                        "switch",
+                        target="ball-rolling",
+                        jump=_stem_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _bs_cone,
+                        -1.0,
+                        "switch",
+                        target="both-sliding",
+                        jump=_both_cone,
+                        select=_select,
+                        grazing=True,
+                    ),
+                    Event(
+                        _bs_stop,
+                        -1.0,
+                        "switch",
+                        target="both-ball-rolling",
+                        jump=_both_stop,
+                        select=_select,
+                    ),
+                ),
+            ),
+            Phase(
+                "both-stem-rolling",
+                _python(_stem_stick_into),
+                _stem_stick_into,
+                (
+                    Event(_ss_contact, -1.0, "contact_lost"),
+                    Event(
+                        _ss_ball_lift,
+                        -1.0,
+                        "switch",
+                        target="stem-rolling",
+                        jump=_ball_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _ss_stem_lift,
+                        -1.0,
+                        "switch",
+                        target="ball-sliding",
+                        jump=_stem_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _ss_cone,
+                        -1.0,
+                        "switch",
+                        target="both-sliding",
+                        jump=_both_cone,
+                        select=_select,
+                        grazing=True,
+                    ),
+                    Event(
+                        _ss_stop,
+                        -1.0,
+                        "switch",
+                        target="both-stem-rolling",
                         jump=_both_stop,
                         select=_select,
                     ),
