@@ -1025,7 +1025,7 @@ def _excess_both(y2: np.ndarray, p: tuple, i: int) -> np.ndarray | None:
     return best
 
 
-def _settle_both(y2: np.ndarray, p: tuple) -> np.ndarray:
+def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
     """A double-contact state with a contact's slip within the band: the mode of that contact
     chosen by consistency (Pfeiffer & Glocker 1996; Leine & Glocker 2003: a mode is admissible
     when its normal forces are ≥ 0 and each sticking contact's force lies in its cone).
@@ -1041,6 +1041,8 @@ def _settle_both(y2: np.ndarray, p: tuple) -> np.ndarray:
     flag = float(round(y2[10]))
     for _ in range(3):
         slow = [i for i, v in enumerate(_slips(y2, p)) if v <= p[ix.BAND]]
+        if at is not None:  # the stop event's contact: at the band (to rounding), once
+            slow, at = sorted({*slow, at}), None
         if flag > 2.5:  # the sticking contact is not in question
             slow = [i for i in slow if i != round(flag) - 3]
         if not slow:
@@ -1078,7 +1080,12 @@ def _both_stop(y: np.ndarray, p: tuple) -> np.ndarray:
     """A slip of the double contact reaches the band: the mode selection of :func:`_settle_both`."""
     y2 = on_both(y, _viscous(p))
     y2[10] = y[10]
-    return _settle_both(y2, p)
+    slips = _slips(y2, p)
+    if y2[10] > 2.5:  # the sliding contact's stop
+        at = 4 - round(float(y2[10]))
+    else:
+        at = 0 if slips[0] <= slips[1] else 1
+    return _settle_both(y2, p, at)
 
 
 def _both_cone(y: np.ndarray, p: tuple) -> np.ndarray:
@@ -1088,9 +1095,9 @@ def _both_cone(y: np.ndarray, p: tuple) -> np.ndarray:
     i = round(float(y[10])) - 3
     y2[10] = y[10]
     F = both_stick_forces(y2, p, (i == 0, i == 1))["Ft"][i]
-    y2 = _restart_both(y2, p, i, -F[:2] / np.linalg.norm(F[:2]))
     y2[10] = 2.0
-    return y2
+    u = _excess_both(y2, p, i)  # where the slip grows (−F/|F| exactly at the cone's edge)
+    return _restart_both(y2, p, i, -F[:2] / np.linalg.norm(F[:2]) if u is None else u)
 
 
 def _select(y: np.ndarray, p: tuple) -> str:
