@@ -72,7 +72,9 @@ __all__ = [
     "apply_impulse",
     "ball_clearance",
     "both_core",
+    "both_kinematics",
     "both_rhs",
+    "both_solve",
     "close_both",
     "compression_impulse",
     "darboux_keller",
@@ -200,17 +202,31 @@ def both_core(y: Any, p: Any) -> tuple:
     the vertical (its azimuth is the state's; its length and 3̂_z are not read), and L loses its
     component along the line of nodes n̂ = ẑ × 3̂/sin θ_t (the θ̇ the constraint forbids): the
     state represents a point of the double-contact manifold exactly, whatever the integrator's
-    drift. With F_i = λ_i(ẑ − μ ν_i) at the ball (i = 1; a_1 = l 3̂ − R ẑ) and the stem (i = 2;
-    a_2 = (l + l_s) 3̂ − r_s ẑ), K_i = a_i × (ẑ − μ ν_i) and k_i = (K_i × 3̂)·ẑ, the constraints at
-    acceleration level are
-
-        v̇_z = 0:  λ_1 + λ_2 = m g,
-        3̂̈_z = 0:  λ_1 k_1 + λ_2 k_2 = −(L × 3̂̇)·ẑ,
-
-    solved in closed form. Returns ``(rates[0:10], λ_1, λ_2, 3̂, L, ω, ν_1, ν_2)``.
+    drift (:func:`both_kinematics`). With F_i = λ_i(ẑ − μ ν_i) at the ball (i = 1;
+    a_1 = l 3̂ − R ẑ) and the stem (i = 2; a_2 = (l + l_s) 3̂ − r_s ẑ), the two normal forces
+    follow from the constraints at acceleration level (:func:`both_solve`). Returns
+    ``(rates[0:10], λ_1, λ_2, 3̂, L, ω, ν_1, ν_2)``.
     """
-    m, R, l, I1, I3, mu, g = p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.G]
-    r_s, l_s = p[ix.R_S], p[ix.L_S]
+    mu = p[ix.MU]
+    e, L, w, n1, n2, de = both_kinematics(
+        y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.R_S], p[ix.L_S]
+    )
+    n1x, n1y = n1
+    n2x, n2y = n2
+    u1x, u1y, u2x, u2y = -mu * n1x, -mu * n1y, -mu * n2x, -mu * n2y
+    zero = 0.0 * u1x
+    rates, lam1, lam2 = both_solve(
+        y, p[ix.M], p[ix.G], p[ix.R], p[ix.L], p[ix.R_S], p[ix.L_S], e, L, de,
+        (u1x, u1y, zero), (u2x, u2y, zero),
+    )  # fmt: skip
+    return (rates, lam1, lam2, e, L, w, n1, n2)
+
+
+def both_kinematics(y: Any, R: Any, l: Any, I1: Any, I3: Any, r_s: Any, l_s: Any) -> tuple:
+    """(3̂, L, ω, ν_1, ν_2, 3̂̇) of state(s) ``y`` read on the double-contact manifold (3̂ turned to
+    θ_t about the vertical, L without its nodal part; :func:`both_core`): the horizontal slip
+    velocities ν_1 of the ball's and ν_2 of the stem's contact point. Plain arithmetic, shared by
+    the viscous and the dry double contact (:mod:`.stemslip`)."""
     l2 = l + l_s
     ez = (r_s - R) / l_s
     st = (1.0 - ez * ez) ** 0.5
@@ -227,11 +243,36 @@ def both_core(y: Any, p: Any) -> tuple:
     vx, vy = y[2], y[3]
     n1x, n1y = vx + l * dex - R * wy, vy + l * dey + R * wx  # slip of the ball's contact point
     n2x, n2y = vx + l2 * dex - r_s * wy, vy + l2 * dey + r_s * wx  # and of the stem's
-    u1x, u1y, u2x, u2y = -mu * n1x, -mu * n1y, -mu * n2x, -mu * n2y
+    return (ex, ey, ez), (Lx, Ly, Lz), (wx, wy, wz), (n1x, n1y), (n2x, n2y), (dex, dey)
+
+
+def both_solve(
+    y: Any, m: Any, g: Any, R: Any, l: Any, r_s: Any, l_s: Any,
+    e: tuple, L: tuple, de: tuple, f1: tuple, f2: tuple,
+) -> tuple:  # fmt: skip
+    """(rates[0:10], λ_1, λ_2) of the double contact whose contact forces per unit normal force
+    are F_i/λ_i = (f_ix, f_iy, 1) at a_i with the torque f_iz ẑ per unit normal force (the
+    friction law of contact i: viscous −μ ν_i, Coulomb −μ ν̂_i, Contensou's drilling torque).
+
+    With K_i = a_i × (ẑ + f_i) + f_iz ẑ and k_i = (K_i × 3̂)·ẑ, the constraints at acceleration
+    level are
+
+        v̇_z = 0:  λ_1 + λ_2 = m g,
+        3̂̈_z = 0:  λ_1 k_1 + λ_2 k_2 = −(L × 3̂̇)·ẑ      (I1 3̂̈_z = (L̇ × 3̂ + L × 3̂̇)·ẑ),
+
+    solved in closed form; the drilling torques do not enter k_i (only L̇_z). Plain arithmetic.
+    """
+    l2 = l + l_s
+    ex, ey, ez = e
+    Lx, Ly, Lz = L
+    dex, dey = de
+    u1x, u1y, t1 = f1
+    u2x, u2y, t2 = f2
+    vx, vy = y[2], y[3]
     a1x, a1y, a1z = l * ex, l * ey, l * ez - R
     a2x, a2y, a2z = l2 * ex, l2 * ey, l2 * ez - r_s
-    K1x, K1y, K1z = a1y - a1z * u1y, a1z * u1x - a1x, a1x * u1y - a1y * u1x
-    K2x, K2y, K2z = a2y - a2z * u2y, a2z * u2x - a2x, a2x * u2y - a2y * u2x
+    K1x, K1y, K1z = a1y - a1z * u1y, a1z * u1x - a1x, a1x * u1y - a1y * u1x + t1
+    K2x, K2y, K2z = a2y - a2z * u2y, a2z * u2x - a2x, a2x * u2y - a2y * u2x + t2
     k1 = K1x * ey - K1y * ex
     k2 = K2x * ey - K2y * ex
     q = Lx * dey - Ly * dex  # (L × 3̂̇)·ẑ
@@ -250,7 +291,7 @@ def both_core(y: Any, p: Any) -> tuple:
         dey,
         0.0,
     )
-    return (rates, lam1, lam2, (ex, ey, ez), (Lx, Ly, Lz), (wx, wy, wz), (n1x, n1y), (n2x, n2y))
+    return rates, lam1, lam2
 
 
 def both_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:

@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from ..friction import Coulomb
 from . import _params as ix
@@ -80,9 +81,27 @@ from .registry import (
     positive_length,
     register,
 )
-from .stem import apply_impulse, ball_clearance, impact_frame, stem_clearance
+from .stem import (
+    BOTH_FORCE_MIN,
+    apply_impulse,
+    ball_clearance,
+    both_kinematics,
+    both_solve,
+    impact_frame,
+    on_both,
+    stem_clearance,
+)
 
-__all__ = ["CONTENSOU", "MODEL", "dry_impulse", "impact"]
+__all__ = [
+    "CONTENSOU",
+    "MODEL",
+    "both_forces",
+    "both_stick_forces",
+    "close_both",
+    "dry_impulse",
+    "impact",
+    "transition",
+]
 
 # p = (m, R, l, I1, I3, mu, g, r_star, eps, law, delta, r_s, l_s): stickslip's tuple of the ball,
 # then the stem geometry
@@ -207,6 +226,352 @@ def _landing(t: float, y: Any, p: Any) -> Any:
     return ball_clearance(y, p[ix.R], p[ix.DRY_R_S], p[ix.DRY_L_S])
 
 
+# --- both spheres on the plane: the dry double contact ("both-sliding", flag 2) ----------------
+#
+# The state of the double contact is that of the viscous stemmed model (:mod:`.stem`: L_z in
+# row 6, flag 2), read on the double-contact manifold by :func:`mett.dynamics.stem.both_kinematics`;
+# the dry law enters through the force per unit normal force of each contact (both_solve).
+
+
+def _slide_both(y: Any, p: Any) -> tuple:
+    """(rates[0:10], λ_1, λ_2, |γ_1|, |γ_2|) of the double contact with both contacts sliding:
+    F_i = λ_i (ẑ − μ ν_i/|γ_i|) and the drilling torque −μ λ_i r*² ω_z/|γ_i| ẑ at each contact,
+    γ_i = (ν_i, r* ω_z) its generalised slip (r* = 0: Coulomb). Plain arithmetic."""
+    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
+    mu, rs = p[ix.MU], p[ix.RSTAR]
+    e, L, w, n1, n2, de = both_kinematics(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], r_s, l_s)
+    sw = rs * w[2]
+    s1 = (n1[0] * n1[0] + n1[1] * n1[1] + sw * sw) ** 0.5
+    s2 = (n2[0] * n2[0] + n2[1] * n2[1] + sw * sw) ** 0.5
+    if mu == 0.0:  # frictionless: no force, also at zero slip
+        k1 = 0.0 * s1
+        k2 = 0.0 * s2
+    else:
+        k1 = -mu / s1
+        k2 = -mu / s2
+    rates, lam1, lam2 = both_solve(
+        y, p[ix.M], p[ix.G], p[ix.R], p[ix.L], r_s, l_s, e, L, de,
+        (k1 * n1[0], k1 * n1[1], k1 * rs * sw), (k2 * n2[0], k2 * n2[1], k2 * rs * sw),
+    )  # fmt: skip
+    return rates, lam1, lam2, s1, s2
+
+
+def _both_sliding_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = _slide_both(y, p)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _both_contact(t: float, y: Any, p: Any) -> Any:
+    """(λ_1 + λ_2)/(m g) = 1: the double contact cannot lose both contacts at once (v̇_z = 0);
+    each lift-off is a switch."""
+    d = _slide_both(y, p)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _both_ball_lift(t: float, y: Any, p: Any) -> Any:
+    """λ_1/(m g), the ball's normal force in the double contact: the ball lifts off at 0."""
+    return _slide_both(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _both_stem_lift(t: float, y: Any, p: Any) -> Any:
+    """λ_2/(m g), the stem's normal force in the double contact: the stem lifts off at 0."""
+    return _slide_both(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _both_ball_stop(t: float, y: Any, p: Any) -> Any:
+    """|γ_1| − δ: the ball's slip reaches the stopping band."""
+    if p[ix.MU] == 0.0:
+        return 1.0 + 0.0 * y[0]
+    return _slide_both(y, p)[3] - p[ix.BAND]
+
+
+def _both_stem_stop(t: float, y: Any, p: Any) -> Any:
+    """|γ_2| − δ: the stem's slip reaches the stopping band."""
+    if p[ix.MU] == 0.0:
+        return 1.0 + 0.0 * y[0]
+    return _slide_both(y, p)[4] - p[ix.BAND]
+
+
+def _solve3(A: tuple, b: tuple) -> tuple:
+    """x with A x = b, A = (row0, row1, row2) of a 3×3 matrix: Cramer's rule (plain arithmetic)."""
+    (a, b_, c), (d, e, f), (g, h, k) = A
+    x, y, z = b
+    c1 = e * k - f * h
+    c2 = d * k - f * g
+    c3 = d * h - e * g
+    det = a * c1 - b_ * c2 + c * c3
+    return (
+        (x * c1 - b_ * (y * k - f * z) + c * (y * h - e * z)) / det,
+        (a * (y * k - f * z) - x * c2 + c * (d * z - y * g)) / det,
+        (a * (e * z - y * h) - b_ * (d * z - y * g) + x * c3) / det,
+    )
+
+
+def _stick_both(y: Any, p: Any, s: Any) -> tuple:
+    """(rates[0:10], λ_1, λ_2, F_s (3), |γ_k|) of the double contact with contact ``s`` sticking
+    (0 ball, 1 stem; Coulomb, r* = 0) and the other, k, sliding: the contact accelerations are
+    affine in the forces, ν̇_i = h_i + Σ_j G_ij F_j with h_i = −g ẑ + α_0 × a_i + ω × (ω × l_i 3̂),
+    α_0 = −I⁻¹(ω × L), G_ij F = F/m + (I⁻¹(a_j × F)) × a_i; sticking ν̇_s = 0 (3 rows) and the
+    sliding contact's normal row ν̇_k,z = 0 with F_k = λ_k (ẑ − μ ν̂_k) give F_s = −G_ss⁻¹(h_s +
+    G_sk u λ_k) and λ_k from the Schur complement. Plain arithmetic."""
+    m, g, mu = p[ix.M], p[ix.G], p[ix.MU]
+    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
+    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
+    e, L, w, n1, n2, de = both_kinematics(y, R, l, I1, I3, r_s, l_s)
+    ex, ey, ez = e
+    Lx, Ly, Lz = L
+    wx, wy, wz = w
+    c = 1.0 / I3 - 1.0 / I1
+    l2 = l + l_s
+    # the sticking contact's arm (s) and the sliding one's (k), selected arithmetically
+    ls, lk = l + s * l_s, l2 - s * l_s
+    Rs, Rk = R + s * (r_s - R), r_s - s * (r_s - R)
+    nkx, nky = n2[0] + s * (n1[0] - n2[0]), n2[1] + s * (n1[1] - n2[1])
+    asx, asy, asz = ls * ex, ls * ey, ls * ez - Rs
+    akx, aky, akz = lk * ex, lk * ey, lk * ez - Rk
+    # α_0 = −I⁻¹(ω × L)
+    tx, ty, tz = -(wy * Lz - wz * Ly), -(wz * Lx - wx * Lz), -(wx * Ly - wy * Lx)
+    te = tx * ex + ty * ey + tz * ez
+    ax0, ay0, az0 = tx / I1 + c * te * ex, ty / I1 + c * te * ey, tz / I1 + c * te * ez
+    # ω × (ω × l 3̂) = l ((ω·3̂) ω − |ω|² 3̂)
+    we, ww = wx * ex + wy * ey + wz * ez, wx * wx + wy * wy + wz * wz
+    cx, cy, cz = we * wx - ww * ex, we * wy - ww * ey, we * wz - ww * ez
+    hsx = (ay0 * asz - az0 * asy) + ls * cx
+    hsy = (az0 * asx - ax0 * asz) + ls * cy
+    hsz = -g + (ax0 * asy - ay0 * asx) + ls * cz
+    hkz = -g + (ax0 * aky - ay0 * akx) + lk * cz
+
+    def resp(Fx: Any, Fy: Any, Fz: Any, bx: Any, by: Any, bz: Any, ox: Any, oy: Any, oz: Any):
+        # F/m + (I⁻¹(b × F)) × o: the acceleration at arm o of the force F at arm b
+        qx, qy, qz = by * Fz - bz * Fy, bz * Fx - bx * Fz, bx * Fy - by * Fx
+        qe = qx * ex + qy * ey + qz * ez
+        jx, jy, jz = qx / I1 + c * qe * ex, qy / I1 + c * qe * ey, qz / I1 + c * qe * ez
+        return (
+            Fx / m + (jy * oz - jz * oy),
+            Fy / m + (jz * ox - jx * oz),
+            Fz / m + (jx * oy - jy * ox),
+        )
+
+    sk = (nkx * nkx + nky * nky) ** 0.5
+    ux, uy = -mu * nkx / sk, -mu * nky / sk
+    G0 = resp(1.0, 0.0, 0.0, asx, asy, asz, asx, asy, asz)
+    G1 = resp(0.0, 1.0, 0.0, asx, asy, asz, asx, asy, asz)
+    G2 = resp(0.0, 0.0, 1.0, asx, asy, asz, asx, asy, asz)
+    A = ((G0[0], G1[0], G2[0]), (G0[1], G1[1], G2[1]), (G0[2], G1[2], G2[2]))
+    bcol = resp(ux, uy, 1.0, akx, aky, akz, asx, asy, asz)
+    r0 = resp(1.0, 0.0, 0.0, asx, asy, asz, akx, aky, akz)[2]
+    r1 = resp(0.0, 1.0, 0.0, asx, asy, asz, akx, aky, akz)[2]
+    r2 = resp(0.0, 0.0, 1.0, asx, asy, asz, akx, aky, akz)[2]
+    d = resp(ux, uy, 1.0, akx, aky, akz, akx, aky, akz)[2]
+    Ah = _solve3(A, (hsx, hsy, hsz))
+    Ab = _solve3(A, bcol)
+    lam_k = -(hkz - (r0 * Ah[0] + r1 * Ah[1] + r2 * Ah[2])) / (
+        d - (r0 * Ab[0] + r1 * Ab[1] + r2 * Ab[2])
+    )
+    Fsx = -(Ah[0] + Ab[0] * lam_k)
+    Fsy = -(Ah[1] + Ab[1] * lam_k)
+    Fsz = -(Ah[2] + Ab[2] * lam_k)
+    Fkx, Fky, Fkz = lam_k * ux, lam_k * uy, lam_k
+    rates = (
+        y[2],
+        y[3],
+        (Fsx + Fkx) / m,
+        (Fsy + Fky) / m,
+        (asy * Fsz - asz * Fsy) + (aky * Fkz - akz * Fky),
+        (asz * Fsx - asx * Fsz) + (akz * Fkx - akx * Fkz),
+        (asx * Fsy - asy * Fsx) + (akx * Fky - aky * Fkx),
+        de[0],
+        de[1],
+        0.0,
+    )
+    lam1 = Fsz + s * (lam_k - Fsz)
+    lam2 = lam_k + s * (Fsz - lam_k)
+    return rates, lam1, lam2, (Fsx, Fsy, Fsz), sk
+
+
+def _ball_stick_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = _stick_both(y, p, 0.0)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _stem_stick_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = _stick_both(y, p, 1.0)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _bs_contact(t: float, y: Any, p: Any) -> Any:
+    d = _stick_both(y, p, 0.0)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_contact(t: float, y: Any, p: Any) -> Any:
+    d = _stick_both(y, p, 1.0)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_ball_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 0.0)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_stem_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 0.0)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_ball_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 1.0)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_stem_lift(t: float, y: Any, p: Any) -> Any:
+    return _stick_both(y, p, 1.0)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_cone(t: float, y: Any, p: Any) -> Any:
+    """(μ λ_1 − |F_t,1|)/(m g): the ball's sticking force reaches its cone."""
+    d = _stick_both(y, p, 0.0)
+    F = d[3]
+    return (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ss_cone(t: float, y: Any, p: Any) -> Any:
+    """(μ λ_2 − |F_t,2|)/(m g): the stem's sticking force reaches its cone."""
+    d = _stick_both(y, p, 1.0)
+    F = d[3]
+    return (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _bs_stop(t: float, y: Any, p: Any) -> Any:
+    """|ν_2| − δ: the sliding stem's slip reaches the band while the ball sticks."""
+    return _stick_both(y, p, 0.0)[4] - p[ix.BAND]
+
+
+def _ss_stop(t: float, y: Any, p: Any) -> Any:
+    """|ν_1| − δ: the sliding ball's slip reaches the band while the stem sticks."""
+    return _stick_both(y, p, 1.0)[4] - p[ix.BAND]
+
+
+def both_forces(y: Any, p: tuple) -> tuple:
+    """(λ_1, λ_2, |γ_1|, |γ_2|) of a state ``y`` of the double contact in the mode of its flag
+    (:data:`BOTH_FLAGS`; both sliding for an array of states): the normal forces (N) of the
+    ball and the stem and their generalised slip speeds (m/s)."""
+    if np.ndim(y) == 1 and round(float(y[10])) in (3, 4):
+        s = round(float(y[10])) - 3
+        d = _stick_both(y, p, float(s))
+        slips = _slips(y, p)
+        return d[1], d[2], slips[0], slips[1]
+    d = _slide_both(y, p)
+    return d[1], d[2], d[3], d[4]
+
+
+def _arms(e: np.ndarray, p: tuple) -> list[np.ndarray]:
+    z = np.array([0.0, 0.0, 1.0])
+    return [p[ix.L] * e - p[ix.R] * z, (p[ix.L] + p[ix.DRY_L_S]) * e - p[ix.DRY_R_S] * z]
+
+
+def _both_body(y: np.ndarray, p: tuple) -> tuple:
+    """(3̂, L, ω, V, I⁻¹) of a double-contact state (flag 2), on the manifold (V_z = 0)."""
+    e, L, w, _, _, _ = both_kinematics(
+        np.asarray(y, dtype=float), p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S],
+        p[ix.DRY_L_S],
+    )  # fmt: skip
+    e, L, w = np.array(e, dtype=float), np.array(L, dtype=float), np.array(w, dtype=float)
+    I1, I3 = p[ix.I1], p[ix.I3]
+    Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
+    return e, L, w, np.array([y[2], y[3], 0.0]), Iinv
+
+
+def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> dict:
+    """The contact forces of the double contact in the mode ``sticking`` (ball, stem): a
+    sticking contact keeps its generalised slip at 0 (v̇_i,t = 0, and ω̇_z = 0 with Contensou),
+    a sliding one carries −μ λ_i γ̂_i. The Newton–Euler equations with the two normal rows
+    (g̈_i = 0) and the sticking rows, solved as one linear system (least squares where both
+    stick under Coulomb: the compression between the two contacts along their line is
+    indeterminate, the minimum-norm force taken).
+
+    Returns ``{"lam": (λ_1, λ_2), "Ft": [(F_x, F_y, M/r*) per contact], "margin": [μ λ_i − |F_t,i|]}``
+    (N); a sliding contact's margin is 0.
+    """
+    m, g, mu, rs = p[ix.M], p[ix.G], p[ix.MU], p[ix.RSTAR]
+    I1, I3 = p[ix.I1], p[ix.I3]
+    e, L, w, V, Iinv = _both_body(y, p)
+    Iten = I1 * np.eye(3) + (I3 - I1) * np.outer(e, e)
+    arms = _arms(e, p)
+    z = np.array([0.0, 0.0, 1.0])
+    n_t = 3 if rs > 0.0 else 2
+    cols = ["V0", "V1", "V2", "w0", "w1", "w2", "l1", "l2"]
+    for i in (0, 1):
+        if sticking[i]:
+            cols += [f"t{i}{k}" for k in range(n_t)]
+    n = len(cols)
+    A = np.zeros((n, n))
+    b = np.zeros(n)
+    c = {name: j for j, name in enumerate(cols)}
+
+    def skew(a: np.ndarray) -> np.ndarray:
+        return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+    # Newton: m V̇ − Σ F_i = −m g ẑ; Euler: I ω̇ − Σ (a_i × F_i + M_i ẑ) = −ω × I ω
+    A[0:3, 0:3] = m * np.eye(3)
+    A[3:6, 3:6] = Iten
+    b[0:3] = -m * g * z
+    b[3:6] = -np.cross(w, Iten @ w)
+    for i, a in enumerate(arms):
+        v_i = V + np.cross(w, a)
+        gam = np.array([v_i[0], v_i[1], rs * w[2]])
+        if sticking[i]:
+            dirs = np.zeros((3, n_t))  # force per unit tangential unknown
+            dirs[0, 0] = dirs[1, 1] = 1.0
+            for k in range(2):
+                A[0:3, c[f"t{i}{k}"]] -= dirs[:, k]
+                A[3:6, c[f"t{i}{k}"]] -= np.cross(a, dirs[:, k])
+            if n_t == 3:  # the drilling torque r* × unknown
+                A[5, c[f"t{i}2"]] -= rs
+            unit = z
+        else:
+            s = float(np.linalg.norm(gam))
+            k = -mu / s if (mu > 0.0 and s > 0.0) else 0.0
+            unit = z + k * np.array([gam[0], gam[1], 0.0])
+            A[5, c[f"l{i + 1}"]] -= k * rs * gam[2]
+        A[0:3, c[f"l{i + 1}"]] -= unit
+        A[3:6, c[f"l{i + 1}"]] -= np.cross(a, unit)
+    rows = 6
+    # contact point acceleration: V̇ + ω̇ × a_i + ω × (ω × l_i 3̂)
+    for i, a in enumerate(arms):
+        li = p[ix.L] + (p[ix.DRY_L_S] if i else 0.0)
+        cen = np.cross(w, np.cross(w, li * e))
+        acc_rows = [2] + ([0, 1] if sticking[i] else [])
+        for comp in acc_rows:
+            unit = np.eye(3)[comp]
+            A[rows, 0:3] = unit  # V̇_comp
+            A[rows, 3:6] = np.cross(a, unit)  # (ω̇ × a)·u = ω̇·(a × u)
+            b[rows] = -cen[comp]
+            rows += 1
+        if sticking[i] and n_t == 3:
+            A[rows, 5] = 1.0  # ω̇_z = 0
+            rows += 1
+    # equilibrated (rows, then columns, to unit max-norm; m and I differ by 1e4): the solve's
+    # rounding is then that of a well-scaled system
+    dr = 1.0 / np.max(np.abs(A), axis=1)
+    dc = 1.0 / np.max(np.abs(A * dr[:, None]), axis=0)
+    x = dc * np.linalg.lstsq(A * dr[:, None] * dc[None, :], b * dr, rcond=None)[0]
+    lam = (float(x[c["l1"]]), float(x[c["l2"]]))
+    Ft, margin = [], []
+    for i in (0, 1):
+        if sticking[i]:
+            f = np.array([x[c[f"t{i}{k}"]] for k in range(n_t)] + [0.0] * (3 - n_t))
+            Ft.append(f)
+            margin.append(mu * lam[i] - float(np.linalg.norm(f)))
+        else:
+            Ft.append(None)
+            margin.append(0.0)
+    return {"lam": lam, "Ft": Ft, "margin": margin}
+
+
 # --- the jumps ---------------------------------------------------------------------------------
 
 
@@ -310,35 +675,435 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray, fl
     return _converted(after, p, dry.from_gliding), P, Q
 
 
-def _contact_changes(switches: Any) -> list[float]:
-    """Times (s) of the changes of contact (impacts) among the run's switches (time, from, to)."""
-    return [t for t, a, b in switches if a.split("-")[0] != b.split("-")[0]]
+def _trailing_impacts(switches: Any) -> list[float]:
+    """Times (s) of the trailing run of impacts (ball ↔ stem changes of contact) among the
+    run's switches (time, from, to); a double contact ends the run of impacts."""
+    out: list[float] = []
+    for t, a, b in reversed(list(switches)):
+        ca, cb = a.split("-")[0], b.split("-")[0]
+        if {ca, cb} != {"ball", "stem"}:
+            break
+        out.append(t)
+    return out[::-1]
+
+
+# --- impulses on both contacts ---------------------------------------------------------------
+
+
+def _gen(rs: float) -> int:
+    """Components per contact of the generalised impulse / velocity: (x, y, z[, r* ω_z])."""
+    return 4 if rs > 0.0 else 3
+
+
+def _delassus2(e: np.ndarray, Iinv: np.ndarray, m: float, arms: list, rs: float) -> np.ndarray:
+    """The generalised Delassus matrix of the two contacts: Δg = W Π with Π = (Π_1, Π_2),
+    Π_i = (P_x, P_y, P_z[, Q_i/r*]) at a_i, g_i = (v_x, v_y, v_z[, r* ω_z]) of contact i."""
+    k = _gen(rs)
+    W = np.zeros((2 * k, 2 * k))
+    for j in range(2 * k):
+        Pi = np.zeros(2 * k)
+        Pi[j] = 1.0
+        dV = (Pi[0:3] + Pi[k : k + 3]) / m
+        dL = np.cross(arms[0], Pi[0:3]) + np.cross(arms[1], Pi[k : k + 3])
+        if k == 4:
+            dL[2] += rs * (Pi[3] + Pi[7])
+        dw = Iinv @ dL
+        for i in range(2):
+            W[i * k : i * k + 3, j] = dV + np.cross(dw, arms[i])
+            if k == 4:
+                W[i * k + 3, j] = rs * dw[2]
+    return W
+
+
+def _gvel(V: np.ndarray, w: np.ndarray, arms: list, rs: float) -> np.ndarray:
+    """The generalised velocities (g_1, g_2) of the two contact points."""
+    out = []
+    for a in arms:
+        v = V + np.cross(w, a)
+        out.extend([v[0], v[1], v[2]] + ([rs * w[2]] if rs > 0.0 else []))
+    return np.array(out)
+
+
+def _apply2(y: np.ndarray, p: tuple, L: np.ndarray, arms: list, Pi: np.ndarray) -> np.ndarray:
+    """State ``y`` (L_z form) with angular momentum ``L`` after the impulses Π of both contacts,
+    on the double-contact manifold (flag 2)."""
+    k = _gen(p[ix.RSTAR])
+    out = np.array(y, dtype=float)
+    P1, P2 = Pi[0:3], Pi[k : k + 3]
+    out[2:4] += (P1[:2] + P2[:2]) / p[ix.M]
+    dL = np.cross(arms[0], P1) + np.cross(arms[1], P2)
+    if k == 4:
+        dL[2] += p[ix.RSTAR] * (Pi[3] + Pi[7])
+    out[4:7] = L + dL
+    out[10] = 2.0
+    return on_both(out, _viscous(p))
+
+
+def _kinetic(y: np.ndarray, p: tuple, V_z: float = 0.0) -> float:
+    """Kinetic energy (J) of an L_z-form state with the vertical CM velocity ``V_z``."""
+    e = np.asarray(y[7:10], dtype=float) / np.linalg.norm(y[7:10])
+    L = np.asarray(y[4:7], dtype=float)
+    w = L / p[ix.I1] + (1.0 / p[ix.I3] - 1.0 / p[ix.I1]) * np.dot(L, e) * e
+    return 0.5 * p[ix.M] * (y[2] ** 2 + y[3] ** 2 + V_z**2) + 0.5 * float(L @ w)
+
+
+def close_both(
+    y: np.ndarray, p: tuple, on: str, tail: bool = False
+) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """The dry closure: the impulse that stops both normal velocities of state ``y`` (on the
+    contact ``on``, this model's λ-form state) with the dry law at each contact in impulse form.
+
+    A sliding contact's impulse is P_n,i (ẑ − μ d_i), d_i the direction of its generalised slip
+    before (with Contensou, −μ P_n,i d_i in the (P_x, P_y, Q/r*) slots); a sticking one's
+    tangential impulse is what brings its generalised slip to 0 and must lie in its cone,
+    |Π_t,i| ≤ μ P_n,i. Candidate modes in the order slide–slide, stick–slide, slide–stick,
+    stick–stick: the first with each normal impulse ≥ 0, each sticking impulse inside its cone,
+    no sliding slip reversed by the impulse (γ_i⁺·d_i ≥ 0, else friction would have stopped it
+    during the impulse) and the kinetic energy not increased.
+
+    ``tail``: the limit of accumulating impacts (:func:`mett.dynamics.stem.accumulation`). The
+    impulse then removes the rocking velocity left at the detecting impact; the double contact
+    runs on from there, its forces standing for the non-impulsive forces over the vanishing
+    tail. A negative normal "impulse" at a contact is that share (gravity and the gyroscopic
+    torque pulling the separating sphere back over the tail), not a contact impulse: it carries
+    no friction and no cone (that contact's column is frictionless, a projection in the
+    metric of the kinetic energy, which loses energy), and the tail's total contact impulse
+    there, P_n,i + λ_i (t_∞ − t_k), is checked ≥ 0 by the caller's reason.
+
+    Returns the state on both contacts (flag 2, L_z form), the impulses Π = (Π_1, Π_2) (N s per
+    contact: (P_x, P_y, P_z[, Q/r*])) and the mode (ball sticks, stem sticks). Raises
+    :class:`JumpFailed` when no mode is consistent (a Painlevé-type inconsistency of the dry
+    impulse law).
+    """
+    m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
+    pv = _viscous(p)
+    yl = _lz(y, p)
+    f = impact_frame(yl, pv, "stem" if on == "ball" else "ball")
+    arms = _arms(f.e, p)
+    W = _delassus2(f.e, f.Iinv, m, arms, rs)
+    g0 = _gvel(f.V, f.w, arms, rs)
+    k = _gen(rs)
+    t = np.array([0, 1, 3] if k == 4 else [0, 1])
+    E0 = _kinetic(yl, p, float(f.V[2]))
+    tol = 1e-9 * max(float(np.max(np.abs(g0))), 1e-300)
+    slow = [float(np.linalg.norm(g0[i * k + t])) <= p[ix.BAND] for i in range(2)]
+    for mode in ((False, False), (True, False), (False, True), (True, True)):
+        if any(slow[i] and not mode[i] and not tail for i in range(2)):
+            continue  # a contact at rest that does not stick must be pulled (tail only)
+        # a tail contact pulled back (or at rest and not sticking): frictionless column
+        free = [slow[i] and not mode[i] for i in range(2)]
+        for _ in range(3):
+            cols, rows = [], []
+            for i in range(2):
+                col = np.zeros(2 * k)
+                col[i * k + 2] = 1.0
+                if not mode[i] and mu > 0.0 and not free[i]:
+                    gt = g0[i * k + t]
+                    col[i * k + t] = -mu * gt / np.linalg.norm(gt)
+                cols.append(col)
+                rows.append(i * k + 2)
+                if mode[i]:
+                    for j in t:
+                        c = np.zeros(2 * k)
+                        c[i * k + j] = 1.0
+                        cols.append(c)
+                        rows.append(i * k + j)
+            U = np.column_stack(cols)
+            Pi = U @ np.linalg.lstsq((W @ U)[rows], -g0[rows], rcond=None)[0]
+            pulled = [tail and not mode[i] and Pi[i * k + 2] < 0.0 for i in range(2)]
+            if pulled == free or not any(pulled):
+                break
+            free = [a or b for a, b in zip(free, pulled, strict=True)]
+        gp = g0 + W @ Pi
+        if np.max(np.abs(gp[rows])) > tol:  # singular and inconsistent: no such impulse
+            continue
+        ok = True
+        for i in range(2):
+            sl = i * k + t
+            if mode[i]:
+                ok &= Pi[i * k + 2] >= 0.0
+                ok &= float(np.linalg.norm(Pi[sl])) <= mu * Pi[i * k + 2] * (1.0 + 1e-12)
+            elif free[i]:  # frictionless: only as the tail's pull
+                ok &= Pi[i * k + 2] <= 0.0
+            else:
+                ok &= Pi[i * k + 2] >= 0.0
+                if mu > 0.0:
+                    ok &= float(gp[sl] @ g0[sl]) >= 0.0
+        if not ok:
+            continue
+        after = _apply2(yl, p, f.L, arms, Pi)
+        if _kinetic(after, p) > E0 * (1.0 + 1e-12):
+            continue
+        return after, Pi, mode
+    raise JumpFailed(
+        "both contacts close, but no impulse satisfies the dry law at both (a Painlevé-type "
+        "inconsistency of the impulse law): the run ends there"
+    )
+
+
+def _normal_velocities(y: np.ndarray, p: tuple) -> tuple[float, float]:
+    """The normal velocities (m/s) of the ball's and the stem's contact points of the λ-form
+    state ``y`` on one contact (V_z from its constraint)."""
+    on_stem = y[10] > 0.5
+    f = impact_frame(_lz(y, p), _viscous(p), "ball" if on_stem else "stem")
+    arms = _arms(f.e, p)
+    v = [float(f.V[2] + np.cross(f.w, a)[2]) for a in arms]
+    return v[0], v[1]
+
+
+def _enter_both(y2: np.ndarray, p: tuple) -> np.ndarray:
+    """The run's state after both contacts closed (``y2`` on the manifold, flag 2): the double
+    contact if both normal forces exceed BOTH_FORCE_MIN m g (a slip within the band settled,
+    :func:`_settle_both`), else the contact with the larger force alone (the other lifts off with
+    zero normal velocity), its slip settled."""
+    lam1, lam2 = (float(v) for v in both_forces(y2, p)[:2])
+    if min(lam1, lam2) > BOTH_FORCE_MIN * p[ix.M] * p[ix.G]:
+        return _settle_both(y2, p)
+    return _lift(y2, p, "ball" if lam1 >= lam2 else "stem")
+
+
+def transition(
+    y: np.ndarray, p: tuple, to: str, switches: Any = ()
+) -> tuple[np.ndarray, str, float]:
+    """The state after the contact ``to`` ("ball" or "stem") closes on state ``y`` (the other
+    contact, λ form), and the reason:
+
+    * the single dry impact (:func:`impact`), its slip settled, if the old contact then
+      separates (normal velocity > 0) and the impacts do not accumulate: "touchdown"/"landing";
+    * else both contacts closed by the dry closure impulse (:func:`close_both`): "accumulation"
+      (the impact times form a geometric sequence, :func:`mett.dynamics.stem.accumulation`) or
+      "closure" (the old contact would not separate); the double contact starts if both normal
+      forces are positive (:func:`_enter_both`).
+
+    The third value is the accumulation point t_∞ (s; NaN if none).
+    """
+    old = "ball" if to == "stem" else "stem"
+    acc = stem.accumulation(_trailing_impacts(switches)) if len(switches) else None
+    after = impact(y, p, to)[0]
+    v_ball, v_stem = _normal_velocities(after, p)
+    v_old = v_ball if old == "ball" else v_stem
+    if acc is None and v_old > 0.0:
+        single = "touchdown" if to == "stem" else "landing"
+        return dry.settle(after, _contact(p, to == "stem")), single, math.nan
+    closed, Pi, _ = close_both(y, p, old, tail=acc is not None)
+    if acc is not None:  # the tail's contact impulses, P_n,i + λ_i (t_∞ − t_k), are ≥ 0
+        k = _gen(p[ix.RSTAR])
+        span = acc.t_limit - _trailing_impacts(switches)[-1]
+        lam = both_forces(closed, p)[:2]
+        if min(Pi[2] + lam[0] * span, Pi[k + 2] + lam[1] * span) < 0.0:
+            raise JumpFailed(
+                f"impacts accumulate (ratio {acc.ratio:.3g}, limit t = {acc.t_limit:.9g} s) "
+                "into a double contact that one contact cannot carry (its tail impulse < 0)"
+            )
+    if acc is None:
+        return _enter_both(closed, p), "closure", math.nan
+    return _enter_both(closed, p), "accumulation", acc.t_limit
 
 
 def _impact_to(to: str) -> Any:
-    """The jump of a change of contact: the impact, then the slip settled on the new contact.
-
-    Impacts that accumulate (:func:`mett.dynamics.stem.accumulation`) would settle the top onto
-    both spheres at once, a double contact that this dry-friction model does not continue: the
-    run ends there with status "failed" and that reason, the trajectory up to it kept (never a
-    "completed" over thousands of chattering impacts).
-    """
+    """The jump of a change of contact (:func:`transition`)."""
 
     def jump(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
-        acc = stem.accumulation(_contact_changes(switches))
-        if acc is not None:
-            raise JumpFailed(
-                f"impacts accumulate (ratio {acc.ratio:.3g}, limit t = {acc.t_limit:.9g} s): the "
-                "top settles onto ball and stem at once, a double contact that the dry-friction "
-                "stemmed model does not continue"
-            )
-        return dry.settle(impact(y, p, to)[0], _contact(p, to == "stem"))
+        return transition(y, p, to, switches)[0]
 
     return jump
 
 
+def _lift(y2: np.ndarray, p: tuple, to: str) -> np.ndarray:
+    """The double-contact state ``y2`` on the contact ``to`` alone (the other lifts off: its
+    normal force 0, its normal velocity 0): λ form, its slip settled."""
+    out = on_both(y2, _viscous(p))
+    out[10] = 1.0 if to == "stem" else 0.0
+    q = _contact(p, to == "stem")
+    return dry.settle(dry.from_gliding(out, q), q)
+
+
+def _ball_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
+    """λ_1 = 0: the ball lifts off, the top on its stem."""
+    return _lift(y, p, "stem")
+
+
+def _stem_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
+    """λ_2 = 0: the stem lifts off, the top on its ball."""
+    return _lift(y, p, "ball")
+
+
+def _restart_both(
+    y2: np.ndarray, p: tuple, i: int, direction: np.ndarray, size: float = 2.0
+) -> np.ndarray:
+    """``y2`` after the impulse at contact ``i`` that sets its generalised slip to ``size`` δ
+    along ``direction`` (0: stopped) while both normal velocities stay 0 (impulses at both
+    normals); the flag kept."""
+    m, rs = p[ix.M], p[ix.RSTAR]
+    e, L, w, V, Iinv = _both_body(y2, p)
+    arms = _arms(e, p)
+    W = _delassus2(e, Iinv, m, arms, rs)
+    g0 = _gvel(V, w, arms, rs)
+    k = _gen(rs)
+    t = [0, 1, 3] if k == 4 else [0, 1]
+    rows = [2, k + 2] + [i * k + j for j in t]
+    target = np.zeros(len(rows))
+    target[2:] = size * p[ix.BAND] * np.asarray(direction, dtype=float)[: len(t)]
+    Wr = W[np.ix_(rows, rows)]
+    x = np.linalg.solve(Wr, target - g0[rows])
+    Pi = np.zeros(2 * k)
+    Pi[rows] = x
+    out = _apply2(y2, p, L, arms, Pi)
+    out[10] = y2[10]
+    return out
+
+
+def _slips(y2: np.ndarray, p: tuple) -> tuple[float, float]:
+    """|γ_1|, |γ_2| (m/s) of a double-contact state (any mode)."""
+    e, L, w, n1, n2, _ = both_kinematics(
+        np.asarray(y2, dtype=float), p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S],
+        p[ix.DRY_L_S],
+    )  # fmt: skip
+    sw = p[ix.RSTAR] * w[2]
+    return math.hypot(n1[0], n1[1], sw), math.hypot(n2[0], n2[1], sw)
+
+
+BOTH_FLAGS = {2.0: "both-sliding", 3.0: "both-ball-rolling", 4.0: "both-stem-rolling"}
+"""The double contact's modes by the state's flag: both contacts sliding, the ball rolling
+(sticking) with the stem sliding, the stem rolling with the ball sliding."""
+
+
+def _slip_acceleration(y2: np.ndarray, p: tuple, i: int, u: np.ndarray) -> np.ndarray:
+    """ν̇_i (m/s², horizontal) of contact ``i`` of the double contact at rest there, sliding
+    with the friction −μ λ_i u (u a horizontal unit vector; Coulomb), the other contact sliding
+    with its own slip: the rates of :func:`both_solve` turned into the contact acceleration
+    V̇ + ω̇ × a_i + ω × (ω × l_i 3̂), ω̇ = I⁻¹(L̇ − ω × L)."""
+    mu = p[ix.MU]
+    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
+    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
+    e, L, w, n1, n2, de = both_kinematics(y2, R, l, I1, I3, r_s, l_s)
+    nu = (n1, n2)
+    f = []
+    for j in range(2):
+        if j == i:
+            f.append((-mu * u[0], -mu * u[1], 0.0))
+        else:
+            sj = math.hypot(nu[j][0], nu[j][1])
+            f.append((-mu * nu[j][0] / sj, -mu * nu[j][1] / sj, 0.0))
+    rates, _, _ = both_solve(y2, p[ix.M], p[ix.G], R, l, r_s, l_s, e, L, de, f[0], f[1])
+    e, L, w = np.array(e), np.array(L), np.array(w)
+    Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
+    wdot = Iinv @ (np.array(rates[4:7]) - np.cross(w, L))
+    li = l + (l_s if i else 0.0)
+    a = li * e - np.array([0.0, 0.0, (R, r_s)[i]])
+    acc = np.array([rates[2], rates[3], 0.0]) + np.cross(wdot, a)
+    acc += np.cross(w, np.cross(w, li * e))
+    return acc[:2]
+
+
+def _excess_both(y2: np.ndarray, p: tuple, i: int) -> np.ndarray | None:
+    """The direction u in which the slip of contact ``i`` (at rest) starts under sliding
+    friction −μ λ_i u: ν̇_i = s u with s > 0, the largest such s (the angle of u scanned and
+    the zeros of (u × ν̇_i)_z refined by Brent's method, as :func:`mett.dynamics.contact.
+    excess_direction` for one contact); None if there is none (Coulomb)."""
+
+    def cross(phi: float) -> float:
+        u = np.array([math.cos(phi), math.sin(phi)])
+        v = _slip_acceleration(y2, p, i, u)
+        return float(u[0] * v[1] - u[1] * v[0])
+
+    grid = np.linspace(0.0, 2.0 * math.pi, 73)
+    cr = np.array([cross(ph) for ph in grid])
+    sign = np.sign(cr)
+    best, best_s = None, 0.0
+    for j in np.flatnonzero(sign[:-1] * sign[1:] <= 0.0):
+        if cr[j] == 0.0:
+            phi = grid[j]
+        elif cr[j + 1] == 0.0:
+            continue
+        else:
+            phi = brentq(cross, grid[j], grid[j + 1], xtol=1e-15)
+        u = np.array([math.cos(phi), math.sin(phi)])
+        sp = float(u @ _slip_acceleration(y2, p, i, u))
+        if sp > best_s:
+            best, best_s = u, sp
+    return best
+
+
+def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
+    """A double-contact state with a contact's slip within the band: the mode of that contact
+    chosen by consistency (Pfeiffer & Glocker 1996; Leine & Glocker 2003: a mode is admissible
+    when its normal forces are ≥ 0 and each sticking contact's force lies in its cone).
+
+    Sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
+    both normal velocities 0) and the mode "both-ball-rolling" / "both-stem-rolling" runs (flag
+    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0) and for both contacts sticking (an
+    indeterminate force under Coulomb) the run ends with :class:`JumpFailed` naming the mode.
+    Not admissible: the slip restarts (2δ) opposite to the force sticking would need (where the
+    excess force drives it; exact at the cone's edge)."""
+    if dry.frictionless(p) or p[ix.LAW] != dry.LAW_COULOMB:
+        return y2
+    flag = float(round(y2[10]))
+    for _ in range(3):
+        slow = [i for i, v in enumerate(_slips(y2, p)) if v <= p[ix.BAND]]
+        if at is not None:  # the stop event's contact: at the band (to rounding), once
+            slow, at = sorted({*slow, at}), None
+        if flag > 2.5:  # the sticking contact is not in question
+            slow = [i for i in slow if i != round(flag) - 3]
+        if not slow:
+            return y2
+        i = slow[0]
+        stuck = (i == 0 or flag == 3.0, i == 1 or flag == 4.0)
+        sol = both_stick_forces(y2, p, stuck)
+        if min(sol["lam"]) >= 0.0 and all(sol["margin"][j] >= 0.0 for j in range(2) if stuck[j]):
+            if all(stuck) or p[ix.RSTAR] > 0.0:
+                which = "both contacts" if all(stuck) else f"the {('ball', 'stem')[i]} contact"
+                raise JumpFailed(
+                    f"{which} stick in the double contact (forces inside the cones, both normal "
+                    "forces ≥ 0): a sticking mode of the dry double contact that is not "
+                    "continued yet"
+                )
+            y2 = _restart_both(y2, p, i, np.zeros(3), 0.0)
+            y2[10] = 3.0 + i
+            return y2
+        Ft = sol["Ft"][i]
+        if p[ix.RSTAR] > 0.0:  # Contensou: opposite the force sticking needs (the cone's edge)
+            u = -Ft / np.linalg.norm(Ft)
+        else:
+            u = _excess_both(y2, p, i) if flag == 2.0 else -Ft[:2] / np.linalg.norm(Ft[:2])
+            if u is None:
+                raise JumpFailed(
+                    f"the {('ball', 'stem')[i]} contact of the double contact can neither stick "
+                    "(its force outside the cone or a normal force < 0) nor slide (no direction "
+                    "in which its slip grows): a Painlevé-type inconsistency of the dry law"
+                )
+        y2 = _restart_both(y2, p, i, u)
+    return y2
+
+
+def _both_stop(y: np.ndarray, p: tuple) -> np.ndarray:
+    """A slip of the double contact reaches the band: the mode selection of :func:`_settle_both`."""
+    y2 = on_both(y, _viscous(p))
+    y2[10] = y[10]
+    slips = _slips(y2, p)
+    if y2[10] > 2.5:  # the sliding contact's stop
+        at = 4 - round(float(y2[10]))
+    else:
+        at = 0 if slips[0] <= slips[1] else 1
+    return _settle_both(y2, p, at)
+
+
+def _both_cone(y: np.ndarray, p: tuple) -> np.ndarray:
+    """The sticking contact's force reaches its cone: its slip starts (2δ) opposite to the
+    tangential force sticking needs, both contacts sliding (flag 2)."""
+    y2 = on_both(y, _viscous(p))
+    i = round(float(y[10])) - 3
+    y2[10] = y[10]
+    F = both_stick_forces(y2, p, (i == 0, i == 1))["Ft"][i]
+    y2[10] = 2.0
+    u = _excess_both(y2, p, i)  # where the slip grows (−F/|F| exactly at the cone's edge)
+    return _restart_both(y2, p, i, -F[:2] / np.linalg.norm(F[:2]) if u is None else u)
+
+
 def _select(y: np.ndarray, p: tuple) -> str:
-    """The phase after an impact: the new contact, rolling if its slip was settled."""
+    """The phase after a jump: the contact by the flag, rolling if its slip was settled."""
+    if y[10] > 1.5:
+        return BOTH_FLAGS[float(round(y[10]))]
     on_stem = y[10] > 0.5
     return ("stem-" if on_stem else "ball-") + dry.start_phase(y, _contact(p, on_stem))
 
@@ -351,10 +1116,12 @@ def _converted(Y: Any, p: tuple, convert: Any) -> np.ndarray:
     each state of ``Y`` (shape (11,) or (11, k)) with the geometry of its own contact."""
     Y = np.asarray(Y, dtype=float)
     if Y.ndim == 1:
+        if Y[10] > 1.5:  # the double contact's state is already in the L_z form
+            return Y.copy()
         return convert(Y, _contact(p, Y[10] > 0.5))
     out = Y.copy()
-    on = Y[10] > 0.5
-    for mask, q in ((~on, _ball(p)), (on, _stem(p))):
+    on = (Y[10] > 0.5) & (Y[10] < 1.5)
+    for mask, q in ((Y[10] < 0.5, _ball(p)), (on, _stem(p))):
         if mask.any():
             out[:, mask] = convert(Y[:, mask], q)
     return out
@@ -379,7 +1146,8 @@ def _initial(state: Any, p: tuple) -> np.ndarray:
 def _rolling(Y: np.ndarray, p: tuple, on_stem: np.ndarray) -> np.ndarray:
     """Where the phase is not stored: rolling where the slip is within the band and the cone holds."""
     out = np.zeros(on_stem.shape, dtype=bool)
-    for mask, q in ((~on_stem, _ball(p)), (on_stem, _stem(p))):
+    single = Y[10] < 1.5  # the double contact slides
+    for mask, q in ((~on_stem & single, _ball(p)), (on_stem & single, _stem(p))):
         if mask.any():
             out[mask] = dry.rolling_guess(Y[:, mask], q)
     return out
@@ -390,14 +1158,62 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
     its own contact: row 6 is that contact's λ)."""
     Y = np.asarray(Y, dtype=float).reshape(11, -1)
     rolling = np.broadcast_to(np.asarray(rolling, dtype=bool), Y.shape[1:])
-    on = Y[10] > 0.5
-    out: dict[str, np.ndarray] = {}
-    for mask, q in ((~on, _ball(p)), (on, _stem(p))):
+    flag = np.round(Y[10])
+    n = Y.shape[1]
+    out: dict[str, np.ndarray] = {
+        k: np.zeros(n) for k in ("gn", "F_x", "F_y", "M_n", "margin", "gn_ball", "gn_stem")
+    }
+    for value, q, name in ((0, _ball(p), "gn_ball"), (1, _stem(p), "gn_stem")):
+        mask = flag == value
         if mask.any():
             part = dry.contact_quantities(Y[:, mask], q, rolling[mask])
             for k, v in part.items():
-                out.setdefault(k, np.empty(Y.shape[1], dtype=np.asarray(v).dtype))[mask] = v
+                out[k][mask] = v
+            out[name][mask] = part["gn"]
+    for value in (3, 4):  # one contact sticking: its force from the constraint, its margin
+        mask = flag == value
+        if mask.any():
+            Ym = Y[:, mask]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                d = _stick_both(Ym, p, float(value - 3))
+            kin = both_kinematics(
+                Ym, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S]
+            )
+            k = 4 - value  # the sliding contact: −μ λ_k ν̂_k
+            nu = np.asarray(kin[3 + k], dtype=float)
+            lam = (np.asarray(d[1], dtype=float), np.asarray(d[2], dtype=float))
+            fk = -p[ix.MU] * lam[k] / np.hypot(nu[0], nu[1])
+            out["gn_ball"][mask], out["gn_stem"][mask] = lam
+            out["gn"][mask] = lam[0] + lam[1]
+            out["F_x"][mask] = d[3][0] + fk * nu[0]
+            out["F_y"][mask] = d[3][1] + fk * nu[1]
+            out["margin"][mask] = p[ix.MU] * d[3][2] - np.hypot(d[3][0], d[3][1])
+    both = flag == 2
+    if both.any():  # both contacts sliding: the sums of their forces, margin 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = _both_contact_forces(Y[:, both], p)
+        out["gn_ball"][both], out["gn_stem"][both] = f["lam"]
+        out["gn"][both] = f["lam"][0] + f["lam"][1]
+        out["F_x"][both] = f["F"][0][0] + f["F"][1][0]
+        out["F_y"][both] = f["F"][0][1] + f["F"][1][1]
+        out["M_n"][both] = f["M"][0] + f["M"][1]
     return out
+
+
+def _both_contact_forces(Y: np.ndarray, p: tuple) -> dict:
+    """λ_i (N), the tangential forces F_i (N) and drilling torques M_i (N m) of both contacts of
+    double-contact states ``Y`` (both sliding: −μ λ_i ν_i/|γ_i|, −μ λ_i r*² ω_z/|γ_i|)."""
+    mu, rs = p[ix.MU], p[ix.RSTAR]
+    e, L, w, n1, n2, de = both_kinematics(
+        Y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S]
+    )
+    _, lam1, lam2, s1, s2 = _slide_both(Y, p)
+    F, M = [], []
+    for lam, nu, s in ((lam1, n1, s1), (lam2, n2, s2)):
+        k = -mu * lam / s if mu > 0.0 else 0.0 * s
+        F.append((k * nu[0], k * nu[1]))
+        M.append(k * rs * rs * w[2])
+    return {"lam": (np.asarray(lam1), np.asarray(lam2)), "F": F, "M": M, "slip": (s1, s2)}
 
 
 def _normal_force(y: np.ndarray, p: tuple) -> Any:
@@ -432,43 +1248,81 @@ _REASONS = {
 
 
 def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """``contact``, ``phase``, the force series, ``touchdowns`` and the switch records
-    (``Model.finish``)."""
+    """``contact`` ("ball"/"stem"/"both"), ``phase``, the force series (with ``gn_ball`` and
+    ``gn_stem``), ``touchdowns`` and the switch records (``Model.finish``): reasons "stop",
+    "cone", "reversal" (also a slip restarted in the double contact), "touchdown", "landing",
+    "accumulation", "closure", "ball lifts off", "stem lifts off"."""
     p = traj.params
     names = np.asarray(traj.phase).astype(str)
-    contact = np.array([n.split("-")[0] for n in names.tolist()], dtype=object).astype(str)
-    phase = np.array([n.split("-")[1] for n in names.tolist()], dtype=object).astype(str)
+    contact = np.array([n.split("-", 1)[0] for n in names.tolist()], dtype=object).astype(str)
+    phase = np.array([n.split("-", 1)[1] for n in names.tolist()], dtype=object).astype(str)
     series = {"contact": contact, "phase": phase}
     series.update(_quantities(traj.states, p, phase == "rolling"))
     records = []
+    seen: list[tuple[float, str, str]] = []
     for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
-        c0, f0 = before.split("-")
-        c1, f1 = after.split("-")
-        q = _contact(p, c1 == "stem")
-        if c0 != c1:
-            why = "touchdown" if c1 == "stem" else "landing"
-            y_imp, P, Q = impact(y_ev, p, c1)
-            Pt = (
-                math.hypot(P[0], P[1], Q / p[ix.RSTAR])
-                if p[ix.RSTAR] > 0.0
-                else math.hypot(P[0], P[1])
+        c0, f0 = before.split("-", 1)
+        c1, f1 = after.split("-", 1)
+        margin, speed, t_sw, t_event = math.nan, math.nan, t, t
+        if c0 == "both" and c1 == "both":  # a mode of the double contact changes
+            why = (
+                "stop"
+                if f0 == "sliding" and f1 != f0
+                else "cone"
+                if f1 == "sliding" and f1 != f0
+                else "reversal"
             )
-            mu_pn = p[ix.MU] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
-            margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
-            speed = float(np.linalg.norm(dry.slip(y_imp, q)))
+        elif c0 == "both":
+            why = _LIFT_REASONS[c1]
+        elif c0 != c1:
+            to = "stem" if c0 == "ball" else "ball"
+            _, why, t_limit = transition(y_ev, p, to, [*seen, (t, before, f"{to}-sliding")])
+            t_event = t_limit if why == "accumulation" else t
+            if why in ("touchdown", "landing"):
+                q = _contact(p, c1 == "stem")
+                y_imp, P, Q = impact(y_ev, p, c1)
+                Pt = (
+                    math.hypot(P[0], P[1], Q / p[ix.RSTAR])
+                    if p[ix.RSTAR] > 0.0
+                    else math.hypot(P[0], P[1])
+                )
+                mu_pn = p[ix.MU] * P[2]  # no cone (NaN) without a normal impulse or at μ = 0
+                margin = (mu_pn - Pt) / mu_pn if mu_pn > 0.0 else math.nan
+                speed = float(np.linalg.norm(dry.slip(y_imp, q)))
         else:
+            q = _contact(p, c1 == "stem")
             why = _REASONS[(f0, f1)]
             y_dec = y_ev if why == "cone" else dry.set_slip(y_ev, q, np.zeros(3))
             gn, _, m = dry.required(y_dec, q)
             margin = float(m / (p[ix.MU] * gn)) if p[ix.MU] > 0.0 else math.nan
             speed = float(np.linalg.norm(dry.slip(y_ev, q)))
-        t_sw = dry.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
-        records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t))
-    touchdowns = np.array([s.t for s in records if s.reason == "touchdown"])
-    return series, {"switches": records, "touchdowns": touchdowns, "stopping_band": p[ix.BAND]}
+            t_sw = dry.stop_time(t, y_ev, q) if why in ("stop", "reversal") else t
+        records.append(stickslip.Switch(t_sw, before, after, why, float(margin), speed, t_event))
+        seen.append((t, before, after))
+    touchdowns = np.array(
+        [s.t for s in records if s.before.startswith("ball") and s.after.split("-")[0] != "ball"]
+    )
+    acc = np.array([s.t for s in records if s.reason == "accumulation"])
+    return series, {
+        "switches": records,
+        "touchdowns": touchdowns,
+        "accumulations": acc,
+        "stopping_band": p[ix.BAND],
+    }
 
 
-PHASES = ("ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling")
+_LIFT_REASONS = {"ball": "stem lifts off", "stem": "ball lifts off"}
+
+
+PHASES = (
+    "ball-sliding",
+    "ball-rolling",
+    "stem-sliding",
+    "stem-rolling",
+    "both-sliding",
+    "both-ball-rolling",
+    "both-stem-rolling",
+)
 
 _TOUCHDOWN = Event(
     _touchdown,
@@ -574,6 +1428,128 @@ MODEL = register(
                         grazing=True,
                     ),
                     _LANDING,
+                ),
+            ),
+            Phase(
+                "both-sliding",
+                _python(_both_sliding_into),
+                _both_sliding_into,
+                (
+                    Event(_both_contact, -1.0, "contact_lost"),
+                    Event(
+                        _both_ball_lift,
+                        -1.0,
+                        "switch",
+                        target="stem-sliding",
+                        jump=_ball_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _both_stem_lift,
+                        -1.0,
+                        "switch",
+                        target="ball-sliding",
+                        jump=_stem_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _both_ball_stop,
+                        -1.0,
+                        "switch",
+                        target="both-sliding",
+                        jump=_both_stop,
+                        select=_select,
+                    ),
+                    Event(
+                        _both_stem_stop,
+                        -1.0,
+                        "switch",
+                        target="both-sliding",
+                        jump=_both_stop,
+                        select=_select,
+                    ),
+                ),
+            ),
+            Phase(
+                "both-ball-rolling",
+                _python(_ball_stick_into),
+                _ball_stick_into,
+                (
+                    Event(_bs_contact, -1.0, "contact_lost"),
+                    Event(
+                        _bs_ball_lift,
+                        -1.0,
+                        "switch",
+                        target="stem-sliding",
+                        jump=_ball_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _bs_stem_lift,
+                        -1.0,
+                        "switch",
+                        target="ball-rolling",
+                        jump=_stem_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _bs_cone,
+                        -1.0,
+                        "switch",
+                        target="both-sliding",
+                        jump=_both_cone,
+                        select=_select,
+                        grazing=True,
+                    ),
+                    Event(
+                        _bs_stop,
+                        -1.0,
+                        "switch",
+                        target="both-ball-rolling",
+                        jump=_both_stop,
+                        select=_select,
+                    ),
+                ),
+            ),
+            Phase(
+                "both-stem-rolling",
+                _python(_stem_stick_into),
+                _stem_stick_into,
+                (
+                    Event(_ss_contact, -1.0, "contact_lost"),
+                    Event(
+                        _ss_ball_lift,
+                        -1.0,
+                        "switch",
+                        target="stem-rolling",
+                        jump=_ball_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _ss_stem_lift,
+                        -1.0,
+                        "switch",
+                        target="ball-sliding",
+                        jump=_stem_lifts,
+                        select=_select,
+                    ),
+                    Event(
+                        _ss_cone,
+                        -1.0,
+                        "switch",
+                        target="both-sliding",
+                        jump=_both_cone,
+                        select=_select,
+                        grazing=True,
+                    ),
+                    Event(
+                        _ss_stop,
+                        -1.0,
+                        "switch",
+                        target="both-stem-rolling",
+                        jump=_both_stop,
+                        select=_select,
+                    ),
                 ),
             ),
         ),
