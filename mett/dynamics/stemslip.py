@@ -534,9 +534,9 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
             unit = z
         else:
             s = float(np.linalg.norm(gam))
-            k = -mu / s if (mu > 0.0 and s > 0.0) else 0.0
-            unit = z + k * np.array([gam[0], gam[1], 0.0])
-            A[5, c[f"l{i + 1}"]] -= k * rs * gam[2]
+            kq = -mu / s if (mu > 0.0 and s > 0.0) else 0.0
+            unit = z + kq * np.array([gam[0], gam[1], 0.0])
+            A[5, c[f"l{i + 1}"]] -= kq * rs * gam[2]
         A[0:3, c[f"l{i + 1}"]] -= unit
         A[3:6, c[f"l{i + 1}"]] -= np.cross(a, unit)
     rows = 6
@@ -560,7 +560,8 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
     dc = 1.0 / np.max(np.abs(A * dr[:, None]), axis=0)
     x = dc * np.linalg.lstsq(A * dr[:, None] * dc[None, :], b * dr, rcond=None)[0]
     lam = (float(x[c["l1"]]), float(x[c["l2"]]))
-    Ft, margin = [], []
+    Ft: list[np.ndarray | None] = []
+    margin: list[float] = []
     for i in (0, 1):
         if sticking[i]:
             f = np.array([x[c[f"t{i}{k}"]] for k in range(n_t)] + [0.0] * (3 - n_t))
@@ -1179,10 +1180,10 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
             kin = both_kinematics(
                 Ym, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S]
             )
-            k = 4 - value  # the sliding contact: −μ λ_k ν̂_k
-            nu = np.asarray(kin[3 + k], dtype=float)
+            ks = 4 - value  # the sliding contact: −μ λ_k ν̂_k
+            nu = np.asarray(kin[3 + ks], dtype=float)
             lam = (np.asarray(d[1], dtype=float), np.asarray(d[2], dtype=float))
-            fk = -p[ix.MU] * lam[k] / np.hypot(nu[0], nu[1])
+            fk = -p[ix.MU] * lam[ks] / np.hypot(nu[0], nu[1])
             out["gn_ball"][mask], out["gn_stem"][mask] = lam
             out["gn"][mask] = lam[0] + lam[1]
             out["F_x"][mask] = d[3][0] + fk * nu[0]

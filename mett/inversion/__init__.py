@@ -290,7 +290,7 @@ def predict_inversion(
             theta0=theta0,
             lam=lam,
         )
-    if contensou and not law.mu > 0.0:
+    if contensou and isinstance(law, Coulomb) and not law.mu > 0.0:
         return empty(
             False,
             "no friction (mu = 0): nothing dissipates, the top keeps its nutation band",
