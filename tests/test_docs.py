@@ -72,6 +72,9 @@ def test_python_blocks_run(path, tmp_path, monkeypatch):
                 continue
             exec(compile(code, f"{path.relative_to(ROOT)}:{line}", "exec"), namespace)
             ran += 1
+            # a page's figures are independent; pyplot keeps each open until closed (and warns
+            # past 20), and a closed figure can still be saved from the page's namespace
+            plt.close("all")
     finally:
         plt.close("all")
     assert ran > 0

@@ -72,7 +72,10 @@ def test_a_format_2_file_of_an_older_mett_loads_with_its_extras_and_records(name
 def test_a_format_2_file_agrees_with_a_run_of_this_mett(stemmed_coulomb, tmp_path):
     old = Trajectory.load(DATA / "format2_stemmed_coulomb.npz")
     new = stemmed_coulomb
-    assert old.extra == new.extra and list(old.records) == list(new.records)
+    # this mett records more (the double contact's gn_ball, gn_stem per sample and its
+    # accumulations); what the older file has is a subset, in the same order
+    assert [k for k in new.extra if k in old.extra] == list(old.extra)
+    assert [k for k in new.records if k in old.records] == list(old.records)
     assert [s.reason for s in old.switches] == [s.reason for s in new.switches]
     # the same run at rtol = 1e-10: event times agree far inside 1e-6 s (10⁴ × rtol × t_end
     # covers the event location and any rounding of another machine)
