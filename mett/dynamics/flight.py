@@ -287,8 +287,19 @@ class Hop:
         h3 = l * W**3 * (uz * s - vz * c)
         return h, h1, h2, h3
 
+    def _gap_args(self) -> tuple[float, ...]:
+        """The gap's constants, as the compiled kernels of :mod:`._hop` take them."""
+        return (self.h0, self.hd0, self.g, self.l, self.Omega, float(self.u[2]), float(self.v[2]))
+
     def gaps(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h, ḣ) at the times ``tau`` (arrays)."""
+        """(h, ḣ) at the times ``tau`` (arrays, flattened): :meth:`gap` compiled."""
+        from . import _hop  # numba's: not imported by ``import mett``
+
+        taus = np.ascontiguousarray(np.ravel(tau), dtype=float)
+        return _hop.gaps(*self._gap_args(), taus)
+
+    def gaps_reference(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`gaps` in Python, one :meth:`gap` per time (the reference of the kernel)."""
         out = np.array([self.gap(float(x))[:2] for x in np.ravel(tau)]).reshape(-1, 2)
         return out[:, 0], out[:, 1]
 
@@ -297,6 +308,16 @@ class Hop:
         return self.vz0 - self.g * np.asarray(tau, dtype=float)
 
     def touchdown(self, tau_max: float) -> float | None:
+        """The first root τ ∈ (0, tau_max] of the gap h (s after t0), None if there is none:
+        :meth:`touchdown_reference`'s march, compiled (:mod:`._hop`)."""
+        from . import _hop  # numba's: not imported by ``import mett``
+
+        tau = _hop.touchdown(*self._gap_args(), self.M4, self.t0, float(tau_max))
+        if tau < 0.0:
+            raise RuntimeError("touchdown search did not converge")  # pragma: no cover
+        return None if math.isnan(tau) else float(tau)
+
+    def touchdown_reference(self, tau_max: float) -> float | None:
         """The first root τ ∈ (0, tau_max] of the gap h (s after t0), None if there is none.
 
         0.0 if the gap cannot open (ḧ ≤ 0 and h⃛ ≤ 0 at a lift-off: a hop of zero length). At a
