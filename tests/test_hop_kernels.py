@@ -85,3 +85,48 @@ def test_the_touchdown_kernel_catches_a_sign_error():
         hop.state(0.0), hop.t0, BODY, gap=hop.h0, gap_rate=-hop.hd0 if hop.hd0 else 0.01
     )
     assert flipped.touchdown(1.0) != pytest.approx(hop.touchdown_reference(1.0), rel=1e-6)
+
+
+def _impact_cases(n: int) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Random impacts: W symmetric positive definite over three decades, v_z from −1 to −1e-4
+    m/s, μ from 1e-3 to 30 s/m (darboux_keller's explicit and its stiff, expm, paths)."""
+    rng = np.random.default_rng(7)
+    cases = []
+    for _ in range(n):
+        A = rng.normal(size=(3, 3))
+        W = (A @ A.T + 0.1 * np.eye(3)) * 10 ** rng.uniform(0.0, 3.0)
+        v0 = rng.normal(size=3)
+        v0[2] = -abs(v0[2]) * 10 ** rng.uniform(-4.0, 0.0)
+        cases.append((v0, W, 10 ** rng.uniform(-3.0, 1.5)))
+    return cases
+
+
+@pytest.mark.parametrize(("v0", "W", "mu"), _impact_cases(30))
+def test_closed_form_viscous_impulse_matches_the_integrated_one(v0, W, mu):
+    """flight.viscous_impulse (closed form, compiled) against stem.darboux_keller (solve_ivp
+    DOP853 at rtol 1e-13, atol 1e-15 (1 + |v_z0|) on the velocities, or expm + brentq): an error
+    δv of the reference maps to δP = W⁻¹ δv, so |ΔP| ≤ 100 (1e-13 |P| + ‖W⁻¹‖ atol); and the
+    end of compression: v_z = 0 after the impulse, to rounding of v0 + W P."""
+    from mett.dynamics import stem
+
+    P = flight.viscous_impulse(v0, W, mu)
+    ref = stem.darboux_keller(v0, W, mu)
+    atol = 1e-15 * (1.0 + abs(v0[2]))
+    tol = 100.0 * (1e-13 * np.linalg.norm(ref) + np.linalg.norm(np.linalg.inv(W), 2) * atol)
+    assert np.linalg.norm(P - ref) <= tol
+    v = v0 + W @ P
+    assert abs(v[2]) <= 64.0 * EPS * (abs(v0[2]) + np.abs(W[2]) @ np.abs(P))
+    assert P[2] > 0.0
+
+
+def test_frictionless_and_sticking_limits_of_the_viscous_impulse():
+    """μ = 0: P = (0, 0, −v_z0/W_zz), exactly the frictionless impact. μ → ∞: the slip stops
+    at once, v = 0 after the impact, P = −W⁻¹ v0 (the sticking plastic impact)."""
+    v0, W, _ = _impact_cases(1)[0]
+    P = flight.viscous_impulse(v0, W, 0.0)
+    assert P[0] == 0.0 and P[1] == 0.0
+    assert P[2] == pytest.approx(-v0[2] / W[2, 2], rel=4 * EPS)
+    stick = flight.viscous_impulse(v0, W, 1e12)
+    ref = np.linalg.solve(W, -v0)
+    # residual slip ~ |W_tz|/(μ λ_min) relative: the relaxation 1/(μ|W|) of the slip
+    assert stick == pytest.approx(ref, rel=1e-6)

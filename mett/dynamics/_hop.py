@@ -20,7 +20,7 @@ from .._numba_cache import install as _check_numba_cache
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
 
-__all__ = ["first_root", "gap", "gaps", "touchdown"]
+__all__ = ["first_root", "gap", "gaps", "touchdown", "viscous_impulse"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -153,3 +153,85 @@ def touchdown(
             return tau + s
         tau += s
     return -1.0
+
+
+@numba.njit(cache=True)
+def _phi_psi(x: float) -> tuple[float, float]:
+    """φ(x) = (1 − e^{−x})/x and ψ(x) = (x − 1 + e^{−x})/x² for x ≥ 0 (φ(0) = 1, ψ(0) = 1/2):
+    their series Σ (−x)ⁿ/(n+1)!, Σ (−x)ⁿ/(n+2)! below x = 1/2 (22 terms: truncation below
+    (1/2)²²/22! ≈ 2e-28), where the closed forms cancel."""
+    if x < 0.5:
+        phi, psi, term = 0.0, 0.0, 1.0
+        for n in range(22):  # term = (−x)ⁿ/n!
+            phi += term / (n + 1)
+            psi += term / ((n + 1) * (n + 2))
+            term = term * -x / (n + 1)
+        return phi, psi
+    em = -math.expm1(-x)  # 1 − e^{−x}
+    return em / x, (x - em) / (x * x)
+
+
+@numba.njit(cache=True)
+def _impulse_at(p: float, mu: float, k0: float, k1: float, a0: float, a1: float, b0: float,
+                b1: float) -> tuple[float, float]:  # fmt: skip
+    """P_t(p) in the eigenbasis of W_tt (:func:`viscous_impulse`)."""
+    f0, s0 = _phi_psi(k0 * p)
+    f1, s1 = _phi_psi(k1 * p)
+    return -mu * (p * f0 * a0 + p * p * s0 * b0), -mu * (p * f1 * a1 + p * p * s1 * b1)
+
+
+@numba.njit(cache=True)
+def viscous_impulse(v0: np.ndarray, W: np.ndarray, mu: float, scan_points: int) -> np.ndarray:
+    """The closed-form Darboux–Keller impulse of the viscous law (the formulas and the scan are
+    :func:`mett.dynamics.flight.viscous_impulse`'s docstring): P (N s), or NaNs if no end of
+    compression is found."""
+    # eigenbasis of the symmetric 2×2 W_tt: Q = [[c, −s], [s, c]]
+    A, B, C = W[0, 0], W[0, 1], W[1, 1]
+    th = 0.5 * math.atan2(2.0 * B, A - C)
+    c, s = math.cos(th), math.sin(th)
+    l0 = c * c * A + 2.0 * c * s * B + s * s * C
+    l1 = s * s * A - 2.0 * c * s * B + c * c * C
+    k0, k1 = mu * max(l0, 0.0), mu * max(l1, 0.0)
+    a0, a1 = c * v0[0] + s * v0[1], -s * v0[0] + c * v0[1]
+    b0, b1 = c * W[0, 2] + s * W[1, 2], -s * W[0, 2] + c * W[1, 2]
+    w0, w1 = W[2, 0] * c + W[2, 1] * s, -W[2, 0] * s + W[2, 1] * c
+    out = np.full(3, math.nan)
+
+    def vz(p: float) -> float:  # a closure: numba inlines it
+        q0, q1 = _impulse_at(p, mu, k0, k1, a0, a1, b0, b1)
+        return v0[2] + w0 * q0 + w1 * q1 + W[2, 2] * p
+
+    p_hi = 10.0 * -v0[2] / W[2, 2]
+    found = False
+    for _ in range(40):  # v_z grows once the slip has relaxed: an upper end where v_z > 0
+        if vz(p_hi) > 0.0:
+            found = True
+            break
+        p_hi *= 10.0
+    if not found:
+        return out
+    k_max, k_min = max(k0, k1), min(k0, k1)
+    p_relax = min(p_hi, 40.0 / k_min) if k_min > 0.0 else p_hi
+    n = 2
+    if k_max > 0.0:
+        n = int(min(scan_points, max(2.0, math.ceil(4.0 * k_max * p_relax))))
+    lo, hi = p_relax, p_hi
+    prev = 0.0
+    for j in range(1, n + 1):  # the first step of the scan where v_z is > 0
+        pj = p_relax * j / n
+        if vz(pj) > 0.0:
+            lo, hi = prev, pj
+            break
+        prev = pj
+    # bisection to the last bit: v_z(lo) ≤ 0 < v_z(hi)
+    for _ in range(2000):
+        mid = 0.5 * (lo + hi)
+        if not lo < mid < hi:
+            break
+        if vz(mid) > 0.0:
+            hi = mid
+        else:
+            lo = mid
+    q0, q1 = _impulse_at(hi, mu, k0, k1, a0, a1, b0, b1)
+    out[0], out[1], out[2] = c * q0 - s * q1, s * q0 + c * q1, hi
+    return out
