@@ -548,7 +548,8 @@ class _Piece:
     states: np.ndarray
     sol: Any
     phase_name: str
-    series: dict
+    series: dict | None
+    """The model's series at the samples; None for a contact piece: derived in :func:`_assemble`."""
     extras: dict
     flight: bool
     gap: np.ndarray
@@ -631,9 +632,9 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             t_lo = float(traj.t_contact_lost or 0.0) if lost else float(traj.t[-1])
             keep = traj.t < t_lo if lost else np.ones(traj.t.size, dtype=bool)
             n = int(keep.sum())
+            # the series are derived from the states once for all contact pieces (_assemble)
             pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol,
-                                 mdl.phase,
-                                 {k: getattr(traj, k)[keep] for k in SERIES},
+                                 mdl.phase, None,
                                  {k: v[keep] for k, v in traj.extras.items()}, False,
                                  np.zeros(n), np.zeros(n)))  # fmt: skip
             for name, value in traj.records.items():
@@ -863,6 +864,17 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
     t = np.concatenate([pc.t for pc in pieces])
     states = np.hstack([pc.states for pc in pieces])
     flight = np.concatenate([np.full(pc.t.size, pc.flight) for pc in pieces])
+    # the contact pieces' series, derived in one call (the model's derive is per sample: the
+    # same numbers as one call per piece, without its fixed cost at every landing)
+    later = [pc for pc in pieces if not pc.flight and pc.series is None]
+    if later:
+        d_c = mdl.derive(np.hstack([pc.states for pc in later]), p)
+        ends = np.cumsum([pc.t.size for pc in later])[:-1]
+        for k in SERIES:
+            for pc, part in zip(later, np.split(np.asarray(d_c[k], dtype=float), ends),
+                                strict=True):  # fmt: skip
+                pc.series = pc.series or {}
+                pc.series[k] = part
     series: dict[str, np.ndarray] = {}
     for k in SERIES:
         parts = []
@@ -870,7 +882,7 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
             if pc.flight:
                 parts.append(np.full(pc.t.size, np.nan))
             else:
-                parts.append(np.asarray(pc.series[k], dtype=float))
+                parts.append(np.asarray(pc.series[k], dtype=float).reshape(pc.t.size))
         series[k] = np.concatenate(parts)
     if flight.any():  # flight samples: derived from the states, g_n = 0, E with the true height
         Yf = states[:, flight]
