@@ -98,12 +98,16 @@ def _beyond_double(hop: Hop, g: np.ndarray) -> str | None:
     Taylor coefficients) or whose touchdown bound M4 = l Ω⁴ |…| overflow."""
     if not np.isfinite(g).all():
         return "the state at the lift-off is not finite"
-    if not (hop.Omega < np.finfo(float).max ** (1.0 / ORDER) and math.isfinite(hop.M4)):
+    if not (hop.Omega < _OMEGA_MAX and math.isfinite(hop.M4)):
         return (
             f"the rotation rate Ω = {hop.Omega:.3g} rad/s is beyond what the flight's "
             "double-precision Taylor coefficients can hold"
         )
     return None
+
+
+_OMEGA_MAX = float(np.finfo(float).max ** (1.0 / ORDER))
+"""The rotation rate whose powers up to :data:`ORDER` still fit in a double."""
 
 
 VISCOUS_ARTEFACT = 1.0
@@ -252,8 +256,8 @@ class Hop:
         self.Omega = Lm / self.I1
         Lh = self.L / Lm if Lm > 0.0 else np.array([0.0, 0.0, 1.0])
         self.e_par = float(Lh @ e) * Lh
-        self.u = e - self.e_par
-        self.v = np.cross(Lh, self.u)
+        self.u = u = e - self.e_par
+        self.v = _cross(Lh, u)
         # vertical CM velocity: the contact value −l 3̂̇_z plus the gap rate (3̂̇ = Ω v at τ = 0)
         self.vz0 = -self.l * self.Omega * self.v[2] + self.hd0
         self.M4 = self.l * self.Omega**4 * math.hypot(self.u[2], self.v[2])
@@ -366,14 +370,11 @@ class Hop:
         n_steps = max(1, math.ceil(8.0 * self.Omega * tau_end))
         taus = np.linspace(0.0, tau_end, n_steps + 1)
         Y = convert(self.state(taus))  # breakpoint states in the model layout
-        K = ORDER + 1
-        k = np.arange(K)
-        fact = np.array([math.factorial(j) for j in k], dtype=float)
-        pw = self.Omega**k / fact
-        cos_c = np.where(k % 2 == 0, pw * (-1.0) ** (k // 2), 0.0)
-        sin_c = np.where(k % 2 == 1, pw * (-1.0) ** ((k - 1) // 2), 0.0)
+        pw = self.Omega**_K / _FACT
+        cos_c = np.where(_EVEN, pw * _COS_SIGN, 0.0)
+        sin_c = np.where(_EVEN, 0.0, pw * _SIN_SIGN)
         n = Y.shape[0]
-        C = np.zeros((n_steps, n, K))
+        C = np.zeros((n_steps, n, ORDER + 1))
         C[:, :, 0] = Y[:, :-1].T
         C[:, 0, 1], C[:, 1, 1] = self.V[0], self.V[1]
         # 3̂⊥ at each step's start, u_i = u cos w_i + v sin w_i, and its quarter turn v_i (all steps
@@ -384,6 +385,15 @@ class Hop:
         vi = -self.u * sw + self.v * cw
         C[:, 7:10, 1:] = ui[:, :, None] * cos_c[1:] + vi[:, :, None] * sin_c[1:]
         return TaylorDense(self.t0 + taus, Y.T, C)
+
+
+# the Taylor coefficients of cos and sin of :meth:`Hop.dense`: Ωᵏ/k! with the signs of the
+# derivatives of cos (k even) and sin (k odd)
+_K = np.arange(ORDER + 1)
+_FACT = np.array([math.factorial(j) for j in _K], dtype=float)
+_EVEN = _K % 2 == 0
+_COS_SIGN = (-1.0) ** (_K // 2)
+_SIN_SIGN = (-1.0) ** ((_K - 1) // 2)
 
 
 def _first_root(coeffs: list[float]) -> float | None:
@@ -438,7 +448,7 @@ def land(
     Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
     A = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
     W = np.eye(3) / m - A @ Iinv @ A
-    f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + np.cross(w, a))
+    f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + _cross(w, a))
     P, Q, margin = np.zeros(3), 0.0, math.nan
     if f.v[2] < 0.0:
         if dry and p[ix.LAW] == contact.LAW_REGULARISED:
@@ -451,9 +461,18 @@ def land(
                 margin = (mu * P[2] - Pt) / (mu * P[2])
         else:
             P = viscous_impulse(f.v, f.W, mu)
-    # Δ(m ṙ) = P, ΔL = a × P + Q ẑ (stem.apply_impulse, on the ten components of this state)
-    after = stem.apply_impulse(np.append(y, 0.0), f, m, P, "ball", Q)[:10]
+    # Δ(m ṙ) = P, ΔL = a × P + Q ẑ (stem.apply_impulse's arithmetic, on this state's ten
+    # components)
+    after = np.array(y, dtype=float)
+    after[2:4] = f.V[:2] + np.asarray(P[:2]) / m
+    after[4:7] = f.L + _cross(f.a, P) + np.array([0.0, 0.0, Q])
     return after, P, float(Q), margin
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of two 3-vectors: np.cross's arithmetic without its set-up (a few µs a call)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])  # fmt: skip
 
 
 _SCAN_POINTS = 4096
