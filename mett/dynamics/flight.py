@@ -567,8 +567,6 @@ class _Piece:
     states: np.ndarray
     sol: Any
     phase_name: str
-    series: dict | None
-    """The model's series at the samples; None for a contact piece: derived in :func:`_assemble`."""
     extras: dict
     flight: bool
     gap: np.ndarray
@@ -652,8 +650,7 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             keep = traj.t < t_lo if lost else np.ones(traj.t.size, dtype=bool)
             n = int(keep.sum())
             # the series are derived from the states once for all contact pieces (_assemble)
-            pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol,
-                                 mdl.phase, None,
+            pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol, mdl.phase,
                                  {k: v[keep] for k, v in traj.extras.items()}, False,
                                  np.zeros(n), np.zeros(n)))  # fmt: skip
             for name, value in traj.records.items():
@@ -838,7 +835,7 @@ def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any
 
         y0 = _layout(flier, hop.state(0.0).reshape(10, 1), p, flag)[:, 0]
         return _Piece(np.array([hop.t0]), y0.reshape(-1, 1), ConstantSolution(hop.t0, y0),
-                      "flight", {}, {}, True, np.zeros(1), np.zeros(1))  # fmt: skip
+                      "flight", {}, True, np.zeros(1), np.zeros(1))  # fmt: skip
     sol = hop.dense(tau_end, lambda G: _layout(flier, G, p, flag))
     if t_eval is None:
         t = sol.t if last else sol.t[:-1]
@@ -850,10 +847,10 @@ def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any
     states = np.asarray(sol(t), dtype=float).reshape(-1, t.size)
     gap, rate = hop.gaps(t - hop.t0)
     if other is None:
-        return _Piece(t, states, sol, "flight", {}, {}, True, gap, rate)
+        return _Piece(t, states, sol, "flight", {}, True, gap, rate)
     gap_o, rate_o = other.gaps(t - hop.t0)
     lower = gap_o < gap
-    return _Piece(t, states, sol, "flight", {}, {}, True, np.where(lower, gap_o, gap),
+    return _Piece(t, states, sol, "flight", {}, True, np.where(lower, gap_o, gap),
                   np.where(lower, rate_o, rate), gap, rate)  # fmt: skip
 
 
@@ -869,10 +866,8 @@ def _contact_end(y: np.ndarray, t: float, phase: Any, p: tuple, mdl: Any) -> _Pi
     """A one-sample contact piece: the state a stopped run ends in."""
     from .dense import ConstantSolution
 
-    series = mdl.derive(y.reshape(-1, 1), p)
-    return _Piece(np.array([t]), y.reshape(-1, 1), ConstantSolution(t, y),
-                  phase.name, {k: np.atleast_1d(series[k]) for k in SERIES},
-                  {}, False, np.zeros(1), np.zeros(1))  # fmt: skip
+    return _Piece(np.array([t]), y.reshape(-1, 1), ConstantSolution(t, y), phase.name, {},
+                  False, np.zeros(1), np.zeros(1))  # fmt: skip
 
 
 def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, records: dict,
@@ -883,26 +878,13 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
     t = np.concatenate([pc.t for pc in pieces])
     states = np.hstack([pc.states for pc in pieces])
     flight = np.concatenate([np.full(pc.t.size, pc.flight) for pc in pieces])
-    # the contact pieces' series, derived in one call (the model's derive is per sample: the
-    # same numbers as one call per piece, without its fixed cost at every landing)
-    later = [pc for pc in pieces if not pc.flight and pc.series is None]
-    if later:
-        d_c = mdl.derive(np.hstack([pc.states for pc in later]), p)
-        ends = np.cumsum([pc.t.size for pc in later])[:-1]
+    # the contact samples' series, derived in one call (the model's derive is per sample: the
+    # same numbers as one call per contact piece, without its fixed cost at every landing)
+    series: dict[str, np.ndarray] = {k: np.full(t.size, np.nan) for k in SERIES}
+    if not flight.all():
+        d_c = mdl.derive(states[:, ~flight], p)
         for k in SERIES:
-            for pc, part in zip(later, np.split(np.asarray(d_c[k], dtype=float), ends),
-                                strict=True):  # fmt: skip
-                pc.series = pc.series or {}
-                pc.series[k] = part
-    series: dict[str, np.ndarray] = {}
-    for k in SERIES:
-        parts = []
-        for pc in pieces:
-            if pc.flight:
-                parts.append(np.full(pc.t.size, np.nan))
-            else:
-                parts.append(np.asarray(pc.series[k], dtype=float).reshape(pc.t.size))
-        series[k] = np.concatenate(parts)
+            series[k][~flight] = np.asarray(d_c[k], dtype=float)
     if flight.any():  # flight samples: derived from the states, g_n = 0, E with the true height
         Yf = states[:, flight]
         d = mdl.derive(Yf, p)
