@@ -76,36 +76,81 @@ def _polyval(c: np.ndarray, x: float) -> float:
 
 
 @numba.njit(cache=True)
+def _bisect(c: np.ndarray, a: float, b: float) -> float:
+    """The root of the polynomial ``c`` in (a, b], where it is monotone with c(a) ≠ 0 and
+    c(b) of the other sign or 0: bisection to the last bit."""
+    fa = _polyval(c, a)
+    if _polyval(c, b) == 0.0:
+        return b
+    for _ in range(2100):
+        m = 0.5 * (a + b)
+        if not a < m < b:
+            break
+        fm = _polyval(c, m)
+        if fm == 0.0:
+            return m
+        if (fm > 0.0) == (fa > 0.0):
+            a, fa = m, fm
+        else:
+            b = m
+    return b
+
+
+@numba.njit(cache=True)
+def _roots_in(c: np.ndarray, hi: float) -> np.ndarray:
+    """The real roots of the polynomial ``c`` (highest degree first, c[0] ≠ 0) in (0, hi],
+    ascending: those of its derivatives first, lowest degree up (each derivative's roots split
+    (0, hi] into pieces where the polynomial above it is monotone: one bisection per piece whose
+    ends differ in sign). No eigenvalues: a few µs, and quick to compile."""
+    n = c.size - 1
+    roots = np.empty(0)
+    for deg in range(1, n + 1):  # the (n − deg)-th derivative of c, of degree deg
+        d = np.empty(deg + 1)
+        for i in range(deg + 1):
+            f = 1.0
+            for r in range(n - deg):
+                f *= n - i - r
+            d[i] = c[i] * f
+        ends = np.empty(roots.size + 2)
+        ends[0] = 0.0
+        ends[1 : roots.size + 1] = roots
+        ends[-1] = hi
+        found = np.empty(roots.size + 1)
+        k = 0
+        for j in range(ends.size - 1):
+            a, b = ends[j], ends[j + 1]
+            if not b > a:
+                continue
+            fa, fb = _polyval(d, a), _polyval(d, b)
+            if fb == 0.0 or (fa != 0.0 and (fa > 0.0) != (fb > 0.0)):
+                x = _bisect(d, a, b) if fa != 0.0 else b
+                if x > 0.0 and (k == 0 or x > found[k - 1]):
+                    found[k] = x
+                    k += 1
+        roots = found[:k].copy()
+    return roots
+
+
+@numba.njit(cache=True)
 def first_root(coeffs: np.ndarray) -> float:
     """The smallest positive real root of the polynomial ``coeffs`` (highest degree first, its
-    constant term > 0), Newton-polished and taken from below; NaN if it has none (as
-    :func:`mett.dynamics.flight._first_root`, which returns None)."""
+    constant term > 0), taken from below; NaN if it has none (as
+    :func:`mett.dynamics.flight._first_root`, which returns None and finds it with np.roots:
+    here the roots are isolated between those of the derivatives, :func:`_roots_in`)."""
     k = 0
     while k < coeffs.size and coeffs[k] == 0.0:
         k += 1
     c = coeffs[k:]
     if c.size <= 1:
         return math.nan
-    roots = np.roots(c.astype(np.complex128))  # complex: numba's real eigvals refuses complex roots
-    s = math.inf
-    for r in roots:
-        if abs(r.imag) <= 1e-9 * abs(r) and r.real > 0.0 and r.real < s:
-            s = r.real
-    if s == math.inf:
+    # Cauchy's bound: every root has |x| < 1 + max |c_i / c_0|
+    bound = 0.0
+    for i in range(1, c.size):
+        bound = max(bound, abs(c[i] / c[0]))
+    roots = _roots_in(c, 1.0 + bound)
+    if roots.size == 0:
         return math.nan
-    n = c.size - 1
-    dc = np.empty(n)
-    for j in range(n):
-        dc[j] = c[j] * (n - j)
-    for _ in range(3):
-        d = _polyval(dc, s)
-        if d == 0.0:
-            break
-        s_new = s - _polyval(c, s) / d
-        if not 0.0 < s_new < 2.0 * s:
-            break
-        s = s_new
-    return s * (1.0 - 64.0 * _EPS)  # from below: the bound stays positive on [0, s)
+    return roots[0] * (1.0 - 64.0 * _EPS)  # from below: the bound stays positive on [0, s)
 
 
 @numba.njit(cache=True)
