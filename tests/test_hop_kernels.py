@@ -130,3 +130,23 @@ def test_frictionless_and_sticking_limits_of_the_viscous_impulse():
     ref = np.linalg.solve(W, -v0)
     # residual slip ~ |W_tz|/(μ λ_min) relative: the relaxation 1/(μ|W|) of the slip
     assert stick == pytest.approx(ref, rel=1e-6)
+
+
+def test_first_root_of_the_bound_equals_numpys():
+    """The compiled first positive root (isolated between the derivatives' roots) against
+    np.roots' (flight._first_root, the Python reference): the same root to its conditioning,
+    |Δs| ≤ 256 eps (s + Σ|c_i| s^i / |p'(s)|) (rounding of p near s over its slope), and the
+    same "no root" answers. Polynomials of degree 1 to 4 with p(0) > 0, as the march builds."""
+    from mett.dynamics import _hop
+
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        c = rng.normal(size=rng.integers(2, 6)) * 10.0 ** rng.uniform(-3, 3, 1)
+        c[-1] = abs(c[-1])
+        got, ref = _hop.first_root(c), flight._first_root(list(c))
+        assert math.isnan(got) == (ref is None)
+        if ref is None:
+            continue
+        slope = abs(np.polyval(np.polyder(c), ref))
+        scale = np.polyval(np.abs(c), ref)
+        assert abs(got - ref) <= 256.0 * EPS * (ref + scale / slope)
