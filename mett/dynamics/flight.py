@@ -23,8 +23,9 @@ so h > 0 between the points; the march converges to the first root (quadraticall
 simple) and stops when its step falls below the time resolution.
 
 The landing is the impact of the stem page (docs/theory/stem.md): perfectly inelastic in the
-normal direction, the friction law in impulse form: the viscous law's
-:func:`mett.dynamics.stem.darboux_keller`, Coulomb's and Coulomb–Contensou's
+normal direction, the friction law in impulse form: the viscous law's Darboux–Keller impulse
+(:func:`mett.dynamics.stem.darboux_keller`'s equations, solved in closed form by
+:func:`viscous_impulse`), Coulomb's and Coulomb–Contensou's
 :func:`mett.dynamics.stemslip.dry_impulse`, the regularised law's :func:`regularised_impulse`
 (the same Darboux–Keller integration with its force). After it the contact model resumes; if
 the force it needs is again ≤ 0 the top flies again at once.
@@ -39,6 +40,11 @@ A flight piece is stored in the contact model's own state layout (``traj.states`
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
 :data:`ORDER` on steps of Ω h ≤ 1/8: truncation below 1e-30), so that a trajectory with flights
 saves and reloads as any other (:class:`mett.dynamics.taylor.TaylorDense`).
+
+A run at high spin makes hundreds of hops, so the per-hop work is compiled or vectorised: the
+touchdown march and the gap samples (:mod:`._hop`, numba; :meth:`Hop.touchdown_reference` and
+:meth:`Hop.gaps_reference` keep the Python they replace), the viscous landing impulse in closed
+form (:func:`viscous_impulse`), the dense output for all steps of a flight at once.
 """
 
 from __future__ import annotations
@@ -76,6 +82,7 @@ __all__ = [
     "regularised_impulse",
     "run_with_flight",
     "viscous_impulse",
+    "warm_kernels",
     "warn_if_artefact",
 ]
 
@@ -205,6 +212,33 @@ _VISCOUS = frozenset(name for name, flier in _FLIERS.items() if not flier.dry)
 """The viscous models that fly, whose losses of contact :func:`warn_if_artefact` judges."""
 
 
+def warm_kernels() -> str:
+    """Compile (or load from numba's cache) the flight kernels of :mod:`._hop`: the touchdown
+    march, the gap samples and the viscous landing impulse, by one call of each. Called by the
+    first flight of a process (a notice on a terminal if it compiles) and by
+    :func:`mett.dynamics.warmup.warmup`; returns "numba"."""
+    _hop_kernels()
+    return "numba"
+
+
+_HOP: list[Any] = []
+
+
+def _hop_kernels() -> Any:
+    """The module :mod:`._hop`, its kernels compiled or loaded on the first call of a process."""
+    if _HOP:
+        return _HOP[0]
+    from .._numba_cache import first_use
+    from . import _hop  # numba's: not imported by ``import mett``
+
+    with first_use("flight", "the flight and landing kernels"):
+        _hop.touchdown(0.0, 0.0, 9.81, 0.01, 10.0, 0.1, 0.1, 1.0, 0.0, 1.0)
+        _hop.gaps(0.0, 0.0, 9.81, 0.01, 10.0, 0.1, 0.1, np.zeros(1))
+        _hop.viscous_impulse(np.array([0.1, 0.0, -0.1]), np.eye(3), 0.3, _SCAN_POINTS)
+    _HOP.append(_hop)
+    return _hop
+
+
 def flies(model: Any) -> bool:
     """True if runs of ``model`` (a registered :class:`~mett.dynamics.registry.Model`) continue
     through a loss of contact by flight and landing; the others stop with "contact_lost"."""
@@ -298,8 +332,7 @@ class Hop:
 
     def gaps(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(h, ḣ) at the times ``tau`` (arrays, flattened): :meth:`gap` compiled."""
-        from . import _hop  # numba's: not imported by ``import mett``
-
+        _hop = _hop_kernels()
         taus = np.ascontiguousarray(np.ravel(tau), dtype=float)
         return _hop.gaps(*self._gap_args(), taus)
 
@@ -315,8 +348,7 @@ class Hop:
     def touchdown(self, tau_max: float) -> float | None:
         """The first root τ ∈ (0, tau_max] of the gap h (s after t0), None if there is none:
         :meth:`touchdown_reference`'s march, compiled (:mod:`._hop`)."""
-        from . import _hop  # numba's: not imported by ``import mett``
-
+        _hop = _hop_kernels()
         tau = _hop.touchdown(*self._gap_args(), self.M4, self.t0, float(tau_max))
         if tau < 0.0:
             raise RuntimeError("touchdown search did not converge")  # pragma: no cover
@@ -433,7 +465,8 @@ def land(
     ``y`` is the gliding-layout state at touchdown and ``vz`` the vertical velocity of the
     centre of mass (m/s); ``p`` the contact model's parameters (m, R, l, I1, I3, mu, g, ...).
     Perfectly inelastic Darboux–Keller impact (docs/theory/stem.md): viscous law
-    (:func:`mett.dynamics.stem.darboux_keller`) or Coulomb (–Contensou)
+    (:func:`viscous_impulse`, :func:`mett.dynamics.stem.darboux_keller` in closed form) or
+    Coulomb (–Contensou)
     (:func:`mett.dynamics.stemslip.dry_impulse`) in impulse form. ``sphere`` = (radius, distance
     from G to its centre) of the sphere that lands (m); default the ball's (R, l).
     """
@@ -501,8 +534,7 @@ def viscous_impulse(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     matrix at the contact (1/kg), ``mu`` the viscous coefficient (s/m). Raises
     :class:`JumpFailed` if no end of compression is found.
     """
-    from . import _hop  # numba's: not imported by ``import mett``
-
+    _hop = _hop_kernels()
     v0 = np.ascontiguousarray(v0, dtype=float)
     W = np.ascontiguousarray(W, dtype=float)
     P = _hop.viscous_impulse(v0, W, float(mu), _SCAN_POINTS)
