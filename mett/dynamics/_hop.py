@@ -20,7 +20,7 @@ from .._numba_cache import install as _check_numba_cache
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
 
-__all__ = ["first_root", "gap", "gaps", "touchdown", "viscous_impulse"]
+__all__ = ["first_root", "flight_steps", "gap", "gaps", "touchdown", "viscous_impulse"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -280,3 +280,43 @@ def viscous_impulse(v0: np.ndarray, W: np.ndarray, mu: float, scan_points: int) 
     q0, q1 = _impulse_at(hi, mu, k0, k1, a0, a1, b0, b1)
     out[0], out[1], out[2] = c * q0 - s * q1, s * q0 + c * q1, hi
     return out
+
+
+@numba.njit(cache=True)
+def flight_steps(
+    taus: np.ndarray,
+    r0: np.ndarray,
+    V: np.ndarray,
+    L: np.ndarray,
+    e_par: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    Omega: float,
+    cos_c: np.ndarray,
+    sin_c: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The gliding-layout states G (10, n + 1) of a flight at the breakpoints ``taus`` (s after
+    its start) and the Taylor coefficients of degree ≥ 1 of its axis on each step, A (n, 3, K−1):
+    3̂(τ_i + s) = e∥ + u_i cos Ωs + v_i sin Ωs with u_i = u cos Ωτ_i + v sin Ωτ_i and v_i its
+    quarter turn, whose coefficients are u_i cos_c[k] + v_i sin_c[k] (:meth:`Hop.dense`)."""
+    n = taus.size - 1
+    K = cos_c.size
+    G = np.empty((10, n + 1))
+    A = np.empty((max(n, 0), 3, K - 1))
+    for i in range(n + 1):
+        tau = taus[i]
+        w = Omega * tau
+        c, s = math.cos(w), math.sin(w)
+        G[0, i] = r0[0] + V[0] * tau
+        G[1, i] = r0[1] + V[1] * tau
+        G[2, i], G[3, i] = V[0], V[1]
+        for j in range(3):
+            G[4 + j, i] = L[j]
+            G[7 + j, i] = e_par[j] * 1.0 + u[j] * c + v[j] * s
+        if i < n:
+            for j in range(3):
+                ui = u[j] * c + v[j] * s
+                vi = -u[j] * s + v[j] * c
+                for k in range(1, K):
+                    A[i, j, k - 1] = ui * cos_c[k] + vi * sin_c[k]
+    return G, A

@@ -235,6 +235,8 @@ def _hop_kernels() -> Any:
         _hop.touchdown(0.0, 0.0, 9.81, 0.01, 10.0, 0.1, 0.1, 1.0, 0.0, 1.0)
         _hop.gaps(0.0, 0.0, 9.81, 0.01, 10.0, 0.1, 0.1, np.zeros(1))
         _hop.viscous_impulse(np.array([0.1, 0.0, -0.1]), np.eye(3), 0.3, _SCAN_POINTS)
+        x, c = np.ones(3), np.ones(ORDER + 1)
+        _hop.flight_steps(np.zeros(2), x, x, x, x, x, x, 1.0, c, c)
     _HOP.append(_hop)
     return _hop
 
@@ -401,21 +403,18 @@ class Hop:
 
         n_steps = max(1, math.ceil(8.0 * self.Omega * tau_end))
         taus = np.linspace(0.0, tau_end, n_steps + 1)
-        Y = convert(self.state(taus))  # breakpoint states in the model layout
         pw = self.Omega**_K / _FACT
         cos_c = np.where(_EVEN, pw * _COS_SIGN, 0.0)
         sin_c = np.where(_EVEN, 0.0, pw * _SIN_SIGN)
-        n = Y.shape[0]
-        C = np.zeros((n_steps, n, ORDER + 1))
+        # the breakpoint states and the axis' coefficients on every step, in one compiled loop
+        # (numpy's outer products per flight cost more than the rest of a hop)
+        G, A = _hop_kernels().flight_steps(taus, self.r0, self.V, self.L, self.e_par, self.u,
+                                           self.v, self.Omega, cos_c, sin_c)  # fmt: skip
+        Y = convert(G)  # breakpoint states in the model layout
+        C = np.zeros((n_steps, Y.shape[0], ORDER + 1))
         C[:, :, 0] = Y[:, :-1].T
         C[:, 0, 1], C[:, 1, 1] = self.V[0], self.V[1]
-        # 3̂⊥ at each step's start, u_i = u cos w_i + v sin w_i, and its quarter turn v_i (all steps
-        # at once: a Python loop over the steps cost more than the rest of a hop)
-        w = self.Omega * taus[:-1]
-        cw, sw = np.cos(w)[:, None], np.sin(w)[:, None]
-        ui = self.u * cw + self.v * sw
-        vi = -self.u * sw + self.v * cw
-        C[:, 7:10, 1:] = ui[:, :, None] * cos_c[1:] + vi[:, :, None] * sin_c[1:]
+        C[:, 7:10, 1:] = A
         return TaylorDense(self.t0 + taus, Y.T, C)
 
 
