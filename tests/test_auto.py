@@ -162,9 +162,10 @@ def test_warmup_builds_what_the_first_runs_use_and_reports_each_task():
     assert [(label, backend) for label, backend, _ in done] == [
         ("gliding top, simulate", "taylor"),
         ("gliding top, sweep lanes", "taylor (SIMD lanes)"),
+        ("flight and landing kernels", "numba"),
     ]
     assert all(seconds >= 0.0 for *_, seconds in done)
-    assert lines[0] == "[1/2] gliding top, simulate ..." and lines[-1].startswith("[2/2] gliding")
+    assert lines[0] == "[1/3] gliding top, simulate ..." and lines[-1].startswith("[3/3] flight")
     with pytest.raises(ValueError, match="models must be names of"):
         warmup(("nope",))
     assert "coulomb" in WARMUP_MODELS
@@ -176,7 +177,7 @@ def test_mett_warmup_prints_its_progress(capsys):
     assert main(["warmup", "--model", "gliding"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("mett warmup: building gliding at rtol 1e-10")
-    assert out[-1].startswith("mett warmup: done, 2 tasks in")
+    assert out[-1].startswith("mett warmup: done, 3 tasks in")
 
 
 _FIRST_RUN = """

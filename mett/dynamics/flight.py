@@ -23,8 +23,9 @@ so h > 0 between the points; the march converges to the first root (quadraticall
 simple) and stops when its step falls below the time resolution.
 
 The landing is the impact of the stem page (docs/theory/stem.md): perfectly inelastic in the
-normal direction, the friction law in impulse form: the viscous law's
-:func:`mett.dynamics.stem.darboux_keller`, Coulomb's and Coulomb–Contensou's
+normal direction, the friction law in impulse form: the viscous law's Darboux–Keller impulse
+(:func:`mett.dynamics.stem.darboux_keller`'s equations, solved in closed form by
+:func:`viscous_impulse`), Coulomb's and Coulomb–Contensou's
 :func:`mett.dynamics.stemslip.dry_impulse`, the regularised law's :func:`regularised_impulse`
 (the same Darboux–Keller integration with its force). After it the contact model resumes; if
 the force it needs is again ≤ 0 the top flies again at once.
@@ -39,6 +40,11 @@ A flight piece is stored in the contact model's own state layout (``traj.states`
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
 :data:`ORDER` on steps of Ω h ≤ 1/8: truncation below 1e-30), so that a trajectory with flights
 saves and reloads as any other (:class:`mett.dynamics.taylor.TaylorDense`).
+
+A run at high spin makes hundreds of hops, so the per-hop work is compiled or vectorised: the
+touchdown march and the gap samples (:mod:`._hop`, numba; :meth:`Hop.touchdown_reference` and
+:meth:`Hop.gaps_reference` keep the Python they replace), the viscous landing impulse in closed
+form (:func:`viscous_impulse`), the dense output for all steps of a flight at once.
 """
 
 from __future__ import annotations
@@ -75,6 +81,8 @@ __all__ = [
     "land",
     "regularised_impulse",
     "run_with_flight",
+    "viscous_impulse",
+    "warm_kernels",
     "warn_if_artefact",
 ]
 
@@ -97,12 +105,16 @@ def _beyond_double(hop: Hop, g: np.ndarray) -> str | None:
     Taylor coefficients) or whose touchdown bound M4 = l Ω⁴ |…| overflow."""
     if not np.isfinite(g).all():
         return "the state at the lift-off is not finite"
-    if not (hop.Omega < np.finfo(float).max ** (1.0 / ORDER) and math.isfinite(hop.M4)):
+    if not (hop.Omega < _OMEGA_MAX and math.isfinite(hop.M4)):
         return (
             f"the rotation rate Ω = {hop.Omega:.3g} rad/s is beyond what the flight's "
             "double-precision Taylor coefficients can hold"
         )
     return None
+
+
+_OMEGA_MAX = float(np.finfo(float).max ** (1.0 / ORDER))
+"""The rotation rate whose powers up to :data:`ORDER` still fit in a double."""
 
 
 VISCOUS_ARTEFACT = 1.0
@@ -200,6 +212,35 @@ _VISCOUS = frozenset(name for name, flier in _FLIERS.items() if not flier.dry)
 """The viscous models that fly, whose losses of contact :func:`warn_if_artefact` judges."""
 
 
+def warm_kernels() -> str:
+    """Compile (or load from numba's cache) the flight kernels of :mod:`._hop`: the touchdown
+    march, the gap samples and the viscous landing impulse, by one call of each. Called by the
+    first flight of a process (a notice on a terminal if it compiles) and by
+    :func:`mett.dynamics.warmup.warmup`; returns "numba"."""
+    _hop_kernels()
+    return "numba"
+
+
+_HOP: list[Any] = []
+
+
+def _hop_kernels() -> Any:
+    """The module :mod:`._hop`, its kernels compiled or loaded on the first call of a process."""
+    if _HOP:
+        return _HOP[0]
+    from .._numba_cache import first_use
+    from . import _hop  # numba's: not imported by ``import mett``
+
+    with first_use("flight", "the flight and landing kernels"):
+        _hop.touchdown(0.0, 0.0, 9.81, 0.01, 10.0, 0.1, 0.1, 1.0, 0.0, 1.0)
+        _hop.gaps(0.0, 0.0, 9.81, 0.01, 10.0, 0.1, 0.1, np.zeros(1))
+        _hop.viscous_impulse(np.array([0.1, 0.0, -0.1]), np.eye(3), 0.3, _SCAN_POINTS)
+        x, c = np.ones(3), np.ones(ORDER + 1)
+        _hop.flight_steps(np.zeros(2), x, x, x, x, x, x, 1.0, c, c)
+    _HOP.append(_hop)
+    return _hop
+
+
 def flies(model: Any) -> bool:
     """True if runs of ``model`` (a registered :class:`~mett.dynamics.registry.Model`) continue
     through a loss of contact by flight and landing; the others stop with "contact_lost"."""
@@ -251,8 +292,8 @@ class Hop:
         self.Omega = Lm / self.I1
         Lh = self.L / Lm if Lm > 0.0 else np.array([0.0, 0.0, 1.0])
         self.e_par = float(Lh @ e) * Lh
-        self.u = e - self.e_par
-        self.v = np.cross(Lh, self.u)
+        self.u = u = e - self.e_par
+        self.v = _cross(Lh, u)
         # vertical CM velocity: the contact value −l 3̂̇_z plus the gap rate (3̂̇ = Ω v at τ = 0)
         self.vz0 = -self.l * self.Omega * self.v[2] + self.hd0
         self.M4 = self.l * self.Omega**4 * math.hypot(self.u[2], self.v[2])
@@ -287,8 +328,18 @@ class Hop:
         h3 = l * W**3 * (uz * s - vz * c)
         return h, h1, h2, h3
 
+    def _gap_args(self) -> tuple[float, ...]:
+        """The gap's constants, as the compiled kernels of :mod:`._hop` take them."""
+        return (self.h0, self.hd0, self.g, self.l, self.Omega, float(self.u[2]), float(self.v[2]))
+
     def gaps(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h, ḣ) at the times ``tau`` (arrays)."""
+        """(h, ḣ) at the times ``tau`` (arrays, flattened): :meth:`gap` compiled."""
+        _hop = _hop_kernels()
+        taus = np.ascontiguousarray(np.ravel(tau), dtype=float)
+        return _hop.gaps(*self._gap_args(), taus)
+
+    def gaps_reference(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`gaps` in Python, one :meth:`gap` per time (the reference of the kernel)."""
         out = np.array([self.gap(float(x))[:2] for x in np.ravel(tau)]).reshape(-1, 2)
         return out[:, 0], out[:, 1]
 
@@ -297,6 +348,15 @@ class Hop:
         return self.vz0 - self.g * np.asarray(tau, dtype=float)
 
     def touchdown(self, tau_max: float) -> float | None:
+        """The first root τ ∈ (0, tau_max] of the gap h (s after t0), None if there is none:
+        :meth:`touchdown_reference`'s march, compiled (:mod:`._hop`)."""
+        _hop = _hop_kernels()
+        tau = _hop.touchdown(*self._gap_args(), self.M4, self.t0, float(tau_max))
+        if tau < 0.0:
+            raise RuntimeError("touchdown search did not converge")  # pragma: no cover
+        return None if math.isnan(tau) else float(tau)
+
+    def touchdown_reference(self, tau_max: float) -> float | None:
         """The first root τ ∈ (0, tau_max] of the gap h (s after t0), None if there is none.
 
         0.0 if the gap cannot open (ḧ ≤ 0 and h⃛ ≤ 0 at a lift-off: a hop of zero length). At a
@@ -343,24 +403,28 @@ class Hop:
 
         n_steps = max(1, math.ceil(8.0 * self.Omega * tau_end))
         taus = np.linspace(0.0, tau_end, n_steps + 1)
-        Y = convert(self.state(taus))  # breakpoint states in the model layout
-        K = ORDER + 1
-        k = np.arange(K)
-        fact = np.array([math.factorial(j) for j in k], dtype=float)
-        pw = self.Omega**k / fact
-        cos_c = np.where(k % 2 == 0, pw * (-1.0) ** (k // 2), 0.0)
-        sin_c = np.where(k % 2 == 1, pw * (-1.0) ** ((k - 1) // 2), 0.0)
-        n = Y.shape[0]
-        C = np.zeros((n_steps, n, K))
+        pw = self.Omega**_K / _FACT
+        cos_c = np.where(_EVEN, pw * _COS_SIGN, 0.0)
+        sin_c = np.where(_EVEN, 0.0, pw * _SIN_SIGN)
+        # the breakpoint states and the axis' coefficients on every step, in one compiled loop
+        # (numpy's outer products per flight cost more than the rest of a hop)
+        G, A = _hop_kernels().flight_steps(taus, self.r0, self.V, self.L, self.e_par, self.u,
+                                           self.v, self.Omega, cos_c, sin_c)  # fmt: skip
+        Y = convert(G)  # breakpoint states in the model layout
+        C = np.zeros((n_steps, Y.shape[0], ORDER + 1))
         C[:, :, 0] = Y[:, :-1].T
         C[:, 0, 1], C[:, 1, 1] = self.V[0], self.V[1]
-        for i in range(n_steps):
-            w = self.Omega * taus[i]
-            ui = self.u * math.cos(w) + self.v * math.sin(w)  # 3̂⊥ at the step's start
-            vi = -self.u * math.sin(w) + self.v * math.cos(w)
-            for c in range(3):
-                C[i, 7 + c, 1:] = ui[c] * cos_c[1:] + vi[c] * sin_c[1:]
+        C[:, 7:10, 1:] = A
         return TaylorDense(self.t0 + taus, Y.T, C)
+
+
+# the Taylor coefficients of cos and sin of :meth:`Hop.dense`: Ωᵏ/k! with the signs of the
+# derivatives of cos (k even) and sin (k odd)
+_K = np.arange(ORDER + 1)
+_FACT = np.array([math.factorial(j) for j in _K], dtype=float)
+_EVEN = _K % 2 == 0
+_COS_SIGN = (-1.0) ** (_K // 2)
+_SIN_SIGN = (-1.0) ** ((_K - 1) // 2)
 
 
 def _first_root(coeffs: list[float]) -> float | None:
@@ -400,7 +464,8 @@ def land(
     ``y`` is the gliding-layout state at touchdown and ``vz`` the vertical velocity of the
     centre of mass (m/s); ``p`` the contact model's parameters (m, R, l, I1, I3, mu, g, ...).
     Perfectly inelastic Darboux–Keller impact (docs/theory/stem.md): viscous law
-    (:func:`mett.dynamics.stem.darboux_keller`) or Coulomb (–Contensou)
+    (:func:`viscous_impulse`, :func:`mett.dynamics.stem.darboux_keller` in closed form) or
+    Coulomb (–Contensou)
     (:func:`mett.dynamics.stemslip.dry_impulse`) in impulse form. ``sphere`` = (radius, distance
     from G to its centre) of the sphere that lands (m); default the ball's (R, l).
     """
@@ -415,7 +480,7 @@ def land(
     Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
     A = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
     W = np.eye(3) / m - A @ Iinv @ A
-    f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + np.cross(w, a))
+    f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + _cross(w, a))
     P, Q, margin = np.zeros(3), 0.0, math.nan
     if f.v[2] < 0.0:
         if dry and p[ix.LAW] == contact.LAW_REGULARISED:
@@ -427,10 +492,55 @@ def land(
             if mu * P[2] > 0.0:
                 margin = (mu * P[2] - Pt) / (mu * P[2])
         else:
-            P = stem.darboux_keller(f.v, f.W, mu)
-    # Δ(m ṙ) = P, ΔL = a × P + Q ẑ (stem.apply_impulse, on the ten components of this state)
-    after = stem.apply_impulse(np.append(y, 0.0), f, m, P, "ball", Q)[:10]
+            P = viscous_impulse(f.v, f.W, mu)
+    # Δ(m ṙ) = P, ΔL = a × P + Q ẑ (stem.apply_impulse's arithmetic, on this state's ten
+    # components)
+    after = np.array(y, dtype=float)
+    after[2:4] = f.V[:2] + np.asarray(P[:2]) / m
+    after[4:7] = f.L + _cross(f.a, P) + np.array([0.0, 0.0, Q])
     return after, P, float(Q), margin
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of two 3-vectors: np.cross's arithmetic without its set-up (a few µs a call)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])  # fmt: skip
+
+
+_SCAN_POINTS = 4096
+"""Most points of the scan for the first end of compression in :func:`viscous_impulse`."""
+
+
+def viscous_impulse(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
+    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact under the viscous
+    law, in closed form: the equations of :func:`mett.dynamics.stem.darboux_keller` (which
+    integrates them with solve_ivp, ~3 ms a landing) solved exactly.
+
+    With the normal impulse p as the variable, dP = (−μ v_t, 1) dp and dv = W dP are linear
+    with constant coefficients (Keller 1986, *J. Appl. Mech.* 53, 1): the slip obeys
+    dv_t/dp = −μ W_tt v_t + W_tz, so in the eigenbasis W_tt = Q diag(λ) Qᵀ, with k = μλ,
+
+        ∫₀ᵖ v_t = Q [p φ(kp) ∘ Qᵀv_t0 + p² ψ(kp) ∘ QᵀW_tz],   φ(x) = (1 − e^{−x})/x,
+                                                             ψ(x) = (x − 1 + e^{−x})/x²,
+
+    P_t = −μ ∫₀ᵖ v_t, P_z = p, and v_z(p) = v_z0 + W_zt P_t + W_zz p. Compression ends at the
+    first zero of v_z (v_z0 < 0), found by a scan of v_z on steps ≤ 1/(4 k_max) over the
+    relaxation of the slip (p ≤ 40/k_min; beyond it v_z grows at the rate (W⁻¹)_zz⁻¹ > 0, the
+    argument of darboux_keller) and bisection of the first bracket to the last bit; compiled
+    (numba, :mod:`._hop`), some 10 µs a landing. Agrees with darboux_keller to its tolerance.
+
+    ``v0`` the contact velocity before the impact (m/s, v0_z < 0), ``W`` the 3×3 inverse mass
+    matrix at the contact (1/kg), ``mu`` the viscous coefficient (s/m). Raises
+    :class:`JumpFailed` if no end of compression is found.
+    """
+    _hop = _hop_kernels()
+    v0 = np.ascontiguousarray(v0, dtype=float)
+    W = np.ascontiguousarray(W, dtype=float)
+    P = _hop.viscous_impulse(v0, W, float(mu), _SCAN_POINTS)
+    if not np.isfinite(P).all():
+        raise JumpFailed("impact: the impulse equations could not be solved (no end of "
+                         "compression)")  # fmt: skip
+    return P
 
 
 def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) -> np.ndarray:
@@ -488,7 +598,6 @@ class _Piece:
     states: np.ndarray
     sol: Any
     phase_name: str
-    series: dict
     extras: dict
     flight: bool
     gap: np.ndarray
@@ -571,9 +680,8 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             t_lo = float(traj.t_contact_lost or 0.0) if lost else float(traj.t[-1])
             keep = traj.t < t_lo if lost else np.ones(traj.t.size, dtype=bool)
             n = int(keep.sum())
-            pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol,
-                                 mdl.phase,
-                                 {k: getattr(traj, k)[keep] for k in SERIES},
+            # the series are derived from the states once for all contact pieces (_assemble)
+            pieces.append(_Piece(traj.t[keep], traj.states[:, keep], traj._sol, mdl.phase,
                                  {k: v[keep] for k, v in traj.extras.items()}, False,
                                  np.zeros(n), np.zeros(n)))  # fmt: skip
             for name, value in traj.records.items():
@@ -758,7 +866,7 @@ def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any
 
         y0 = _layout(flier, hop.state(0.0).reshape(10, 1), p, flag)[:, 0]
         return _Piece(np.array([hop.t0]), y0.reshape(-1, 1), ConstantSolution(hop.t0, y0),
-                      "flight", {}, {}, True, np.zeros(1), np.zeros(1))  # fmt: skip
+                      "flight", {}, True, np.zeros(1), np.zeros(1))  # fmt: skip
     sol = hop.dense(tau_end, lambda G: _layout(flier, G, p, flag))
     if t_eval is None:
         t = sol.t if last else sol.t[:-1]
@@ -770,10 +878,10 @@ def _flight_piece(hop: Hop, tau_end: float, flier: _Flier, p: tuple, t_eval: Any
     states = np.asarray(sol(t), dtype=float).reshape(-1, t.size)
     gap, rate = hop.gaps(t - hop.t0)
     if other is None:
-        return _Piece(t, states, sol, "flight", {}, {}, True, gap, rate)
+        return _Piece(t, states, sol, "flight", {}, True, gap, rate)
     gap_o, rate_o = other.gaps(t - hop.t0)
     lower = gap_o < gap
-    return _Piece(t, states, sol, "flight", {}, {}, True, np.where(lower, gap_o, gap),
+    return _Piece(t, states, sol, "flight", {}, True, np.where(lower, gap_o, gap),
                   np.where(lower, rate_o, rate), gap, rate)  # fmt: skip
 
 
@@ -789,10 +897,8 @@ def _contact_end(y: np.ndarray, t: float, phase: Any, p: tuple, mdl: Any) -> _Pi
     """A one-sample contact piece: the state a stopped run ends in."""
     from .dense import ConstantSolution
 
-    series = mdl.derive(y.reshape(-1, 1), p)
-    return _Piece(np.array([t]), y.reshape(-1, 1), ConstantSolution(t, y),
-                  phase.name, {k: np.atleast_1d(series[k]) for k in SERIES},
-                  {}, False, np.zeros(1), np.zeros(1))  # fmt: skip
+    return _Piece(np.array([t]), y.reshape(-1, 1), ConstantSolution(t, y), phase.name, {},
+                  False, np.zeros(1), np.zeros(1))  # fmt: skip
 
 
 def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, records: dict,
@@ -803,15 +909,13 @@ def _assemble(run: Run, pieces: list[_Piece], switches: list, jumps: list, recor
     t = np.concatenate([pc.t for pc in pieces])
     states = np.hstack([pc.states for pc in pieces])
     flight = np.concatenate([np.full(pc.t.size, pc.flight) for pc in pieces])
-    series: dict[str, np.ndarray] = {}
-    for k in SERIES:
-        parts = []
-        for pc in pieces:
-            if pc.flight:
-                parts.append(np.full(pc.t.size, np.nan))
-            else:
-                parts.append(np.asarray(pc.series[k], dtype=float))
-        series[k] = np.concatenate(parts)
+    # the contact samples' series, derived in one call (the model's derive is per sample: the
+    # same numbers as one call per contact piece, without its fixed cost at every landing)
+    series: dict[str, np.ndarray] = {k: np.full(t.size, np.nan) for k in SERIES}
+    if not flight.all():
+        d_c = mdl.derive(states[:, ~flight], p)
+        for k in SERIES:
+            series[k][~flight] = np.asarray(d_c[k], dtype=float)
     if flight.any():  # flight samples: derived from the states, g_n = 0, E with the true height
         Yf = states[:, flight]
         d = mdl.derive(Yf, p)

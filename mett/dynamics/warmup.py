@@ -16,6 +16,7 @@ from .. import presets
 from ..friction import Coulomb
 from ..state import State
 from ..top import TippeTop
+from . import flight
 from .batch import LANES, run_ends
 from .simulation import simulate
 
@@ -60,7 +61,11 @@ def _warmup_tasks(models: Any, rtol: float) -> list[tuple[str, Callable[[], str]
         return "taylor (SIMD lanes)"
 
     table: dict[str, list[tuple[str, Callable[[], str]]]] = {
-        "gliding": [("gliding top, simulate", run), ("gliding top, sweep lanes", lanes)],
+        "gliding": [
+            ("gliding top, simulate", run),
+            ("gliding top, sweep lanes", lanes),
+            ("flight and landing kernels", flight.warm_kernels),
+        ],
         "rolling": [("rolling top, simulate", lambda: run(model="rolling"))],
         "gliding-hst": [("gliding HST, simulate", lambda: run(model="gliding-hst"))],
         "stemmed": [("stemmed top, simulate", stemmed)],
