@@ -112,15 +112,14 @@ def classify_end(theta_end: float, status: str, *, settled: bool = True) -> str:
 def _settled(end: Any) -> bool:
     """Whether θ and the energy were steady over the last quarter of the run (see above), from
     its :class:`~mett.dynamics.batch.RunEnd`."""
-    import numpy as np
-
     if end.window.size == 0 or not end.window[-1] > end.window[0]:
         return False
     lost = abs(end.E0 - end.E_window[-1])
     late = abs(end.E_window[0] - end.E_window[-1])
     # a conservative run (nothing lost, to rounding) is judged by θ alone
     share = late / lost if lost > 1e-9 * abs(end.E0) else 0.0
-    return bool(np.ptp(end.theta_window) < _SETTLE_THETA and share < _SETTLE_ENERGY)
+    th = end.theta_window  # its range max − min (np.ptp, without its per-call overhead)
+    return bool(th.max() - th.min() < _SETTLE_THETA and share < _SETTLE_ENERGY)
 
 
 def _point_setup(base: dict, point: dict) -> tuple[TippeTop, dict]:

@@ -21,7 +21,7 @@ import numpy as np
 from ._run import PreparedRun
 from .backends import REGISTRY, TaylorBackend
 from .registry import lookup
-from .simulation import SIMULATE_DEFAULTS, prepare_run, run_prepared
+from .simulation import SIMULATE_DEFAULTS, plan_runs, prepare_planned, prepare_run, run_prepared
 from .trajectory import Trajectory
 
 __all__ = ["LANES", "RunEnd", "end_of", "run_ends"]
@@ -120,9 +120,21 @@ def run_ends(
     kw = {**SIMULATE_DEFAULTS, **simulate_kw, "stop_on_contact_loss": True}
     out: list[Any] = [None] * len(jobs)
     fast: dict[Any, list[tuple[int, PreparedRun]]] = {}
+    # The options common to the jobs are checked once (a job's own friction law is applied to
+    # its top, so such a job is prepared whole); options simulate would refuse are left to
+    # prepare_run, which reports them for each job as simulate does
+    try:
+        plan = plan_runs(t_end, **kw) if kw.get("friction") is None else None
+    except _NOT_A_POINT:
+        raise
+    except Exception:
+        plan = None
     for j, (top, state, *own) in enumerate(jobs):
         try:
-            prep = prepare_run(top, state, t_end, **{**kw, **(own[0] if own else {})})
+            if plan is not None and not (own and own[0]):
+                prep = prepare_planned(plan, top, state)
+            else:
+                prep = prepare_run(top, state, t_end, **{**kw, **(own[0] if own else {})})
             if isinstance(prep, Trajectory):  # decided at t = 0
                 out[j] = end_of(prep, window=window, n_window=n_window)
             elif _TAYLOR.batchable(prep):
