@@ -177,12 +177,12 @@ def _describe(exc: BaseException) -> str:
 def _law(base: dict, point: dict, top: TippeTop) -> Any:
     """The friction law of a point (None: simulate's default), from the grid's ``friction`` name
     or the sweep's ``friction=`` (a name, whose coefficient is the point's ``mu``, or a law)."""
-    from . import friction
-
     fixed = base["simulate_kw"].get("friction")
     law = point.get("friction", fixed)
     if law is None:
         return None
+    from . import friction
+
     if isinstance(law, dict):  # a law given whole: friction=Coulomb(0.3), …
         fields = {k: v for k, v in law.items() if k != "law"}
         classes = {cls.__name__: cls for cls in friction.registered()}  # also laws of other modules
