@@ -231,6 +231,36 @@ def test_taylor_sweep_runs_points_side_by_side_with_the_results_of_one_at_a_time
             assert np.isnan(row["t_invert"])
 
 
+def test_the_default_sweep_table_is_that_of_each_point_simulated_alone():
+    # the default sweep (no backend option: auto, the batched Taylor lanes, the options checked
+    # once, the ends of a batch derived together) against mett.simulate of each point by itself
+    # with the sweep's options: the same jet, step rule and event location, so the same end
+    # values to the last bit (SIMD lanes round as a single run does); the label from θ_end and
+    # the prediction from mett.asymptotic_state of the point's λ
+    grid = {"mu": [0.02, 0.3], "omega3": [-40.0, 155.0], "theta0": [0.1, 2.9]}
+    table = sweep(TOP, grid, t_end=3.0, rtol=1e-11, progress=False)
+    assert table.attrs["mett_sweep"]["backend"] == "taylor"
+    for _, row in table.iterrows():
+        top = TOP.replace(mu=row["mu"])
+        start = mett.State(theta=row["theta0"], omega3=row["omega3"])
+        traj = mett.simulate(top, start, 3.0, rtol=1e-11, stop_on_contact_loss=True)
+        assert traj.backend == "taylor"
+        assert row["status"] == traj.status and row["message"].startswith(traj.message)
+        assert row["theta_end"] == float(traj.theta[-1])
+        assert row["omega3_end"] == float(traj.omega3[-1])
+        cross = traj.crossings(np.pi / 2)
+        # the crossing: a root of cos θ located on the step polynomial, to its tolerance
+        assert (
+            (abs(row["t_invert"] - cross[0]) < 1e-12) if cross.size else np.isnan(row["t_invert"])
+        )
+        lam = float(mett.jellett(top, start))
+        assert row["lam"] == lam
+        if lam > 0:
+            assert row["predicted"] == mett.asymptotic_state(top, lam).kind
+        if row["status"] == "completed" and row["simulated"] != "not settled":
+            assert row["simulated"] == mett.sweeps.classify_end(row["theta_end"], "completed")
+
+
 def test_run_ends_sends_what_cannot_be_batched_through_simulate():
     from mett.dynamics import batch
     from mett.friction import Coulomb
