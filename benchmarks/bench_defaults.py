@@ -31,7 +31,9 @@ printed per round and as a range (on a shared machine the absolute times move wi
 ratios much less). Targets of the issue:
 default trajectory <= 0.8x heyoka's time, default sweep >= 1.2x heyoka's throughput per core.
 
-Run ``python benchmarks/bench_defaults.py [--rounds N] [--quick]``; it prints and asserts nothing.
+Run ``python benchmarks/bench_defaults.py [--rounds N] [--quick] [--sections 2]``
+(``--sections``: which of the sections above, e.g. ``2`` for the sweep alone); it prints and
+asserts nothing.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -127,11 +130,31 @@ def growth(omega3: float, t_end: float, repeat: int, tol: float = 1e-10) -> dict
     }  # fmt: skip
 
 
+def sweep_round(rep: int, note: Callable[[str, float], str]) -> None:
+    """Section 2, once: the default mett.sweep against heyoka's batch sweep, alternating."""
+    print("2. sweep of 64 friction values, 4 s runs, rtol 1e-12, one core (runs/s)")
+    top, start, mdl, p, y0 = _setup()
+    mus = np.linspace(0.05, 0.5, 64)
+
+    def sweep(top=top, mus=mus):
+        return mett.sweep(top, {"mu": mus}, t_end=4.0, rtol=1e-12, progress=False)
+
+    sweep()
+    hsweep = heyoka_sweep(top, mdl, p, y0, mus)
+    hsweep()
+    m_sec, h_sec = alternating_best([sweep, hsweep], max(rep // 2, 3))
+    print(f"   default mett.sweep {64 / m_sec:5.0f} | heyoka batch sweep {64 / h_sec:5.0f} | "
+          f"throughput ratio {note('sweep', h_sec / m_sec)} (target >= 1.2)")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3, help="repeat every row this many times")
     ap.add_argument("--quick", action="store_true", help="fewer calls per timing (noisier)")
+    ap.add_argument("--sections", default="123", help="the sections to run, e.g. 2 (default 123)")
     args = ap.parse_args()
+    if not args.sections or set(args.sections) - set("123"):
+        ap.error(f"--sections takes digits of 123; got {args.sections!r}")
     try:
         import heyoka  # noqa: F401
     except ImportError:
@@ -145,29 +168,22 @@ def main() -> None:
 
     for rnd in range(args.rounds):
         print(f"--- round {rnd + 1} of {args.rounds}")
-        print(
-            "1. thesis run, 8 s, default mett.simulate vs heyoka (CPU ms; error of t(θ = π/2), s)"
-        )
-        for tol in (1e-10, 1e-12):
+        if "1" in args.sections:
+            print(
+                "1. thesis run, 8 s, default mett.simulate vs heyoka "
+                "(CPU ms; error of t(θ = π/2), s)"
+            )
+        for tol in (1e-10, 1e-12) if "1" in args.sections else ():
             row = trajectory(tol, rep)
             base = row["heyoka, matched"][0]
             for name, (sec, err, what) in row.items():
                 print(f"   tol {tol:g}  {name:17s} {sec * 1e3:6.2f} ms  error {err:+.1e}  ({what})")
             print(f"   tol {tol:g}  mett / heyoka at matched accuracy: "
                   f"{note(f'trajectory {tol:g}', row['mett'][0] / base)} (target <= 0.8)")  # fmt: skip
-        print("2. sweep of 64 friction values, 4 s runs, rtol 1e-12, one core (runs/s)")
-        top, start, mdl, p, y0 = _setup()
-        mus = np.linspace(0.05, 0.5, 64)
-
-        def sweep(top=top, mus=mus):
-            return mett.sweep(top, {"mu": mus}, t_end=4.0, rtol=1e-12, progress=False)
-
-        sweep()
-        hsweep = heyoka_sweep(top, mdl, p, y0, mus)
-        hsweep()
-        m_sec, h_sec = alternating_best([sweep, hsweep], max(rep // 2, 3))
-        print(f"   default mett.sweep {64 / m_sec:5.0f} | heyoka batch sweep {64 / h_sec:5.0f} | "
-              f"throughput ratio {note('sweep', h_sec / m_sec)} (target >= 1.2)")  # fmt: skip
+        if "2" in args.sections:
+            sweep_round(rep, note)
+        if "3" not in args.sections:
+            continue
         print("3. growth, rtol 1e-10, default mett.simulate vs heyoka (CPU ms)")
         for omega3, t_end in ((155.0, 2.0), (1550.0, 2.0), (15500.0, 2.0), (155.0, 8.0),
                               (155.0, 32.0)):  # fmt: skip

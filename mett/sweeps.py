@@ -112,15 +112,14 @@ def classify_end(theta_end: float, status: str, *, settled: bool = True) -> str:
 def _settled(end: Any) -> bool:
     """Whether θ and the energy were steady over the last quarter of the run (see above), from
     its :class:`~mett.dynamics.batch.RunEnd`."""
-    import numpy as np
-
     if end.window.size == 0 or not end.window[-1] > end.window[0]:
         return False
     lost = abs(end.E0 - end.E_window[-1])
     late = abs(end.E_window[0] - end.E_window[-1])
     # a conservative run (nothing lost, to rounding) is judged by θ alone
     share = late / lost if lost > 1e-9 * abs(end.E0) else 0.0
-    return bool(np.ptp(end.theta_window) < _SETTLE_THETA and share < _SETTLE_ENERGY)
+    th = end.theta_window  # its range max − min (np.ptp, without its per-call overhead)
+    return bool(th.max() - th.min() < _SETTLE_THETA and share < _SETTLE_ENERGY)
 
 
 def _point_setup(base: dict, point: dict) -> tuple[TippeTop, dict]:
@@ -178,12 +177,12 @@ def _describe(exc: BaseException) -> str:
 def _law(base: dict, point: dict, top: TippeTop) -> Any:
     """The friction law of a point (None: simulate's default), from the grid's ``friction`` name
     or the sweep's ``friction=`` (a name, whose coefficient is the point's ``mu``, or a law)."""
-    from . import friction
-
     fixed = base["simulate_kw"].get("friction")
     law = point.get("friction", fixed)
     if law is None:
         return None
+    from . import friction
+
     if isinstance(law, dict):  # a law given whole: friction=Coulomb(0.3), …
         fields = {k: v for k, v in law.items() if k != "law"}
         classes = {cls.__name__: cls for cls in friction.registered()}  # also laws of other modules

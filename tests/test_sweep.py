@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -230,6 +231,36 @@ def test_taylor_sweep_runs_points_side_by_side_with_the_results_of_one_at_a_time
             assert np.isnan(row["t_invert"])
 
 
+def test_the_default_sweep_table_is_that_of_each_point_simulated_alone():
+    # the default sweep (no backend option: auto, the batched Taylor lanes, the options checked
+    # once, the ends of a batch derived together) against mett.simulate of each point by itself
+    # with the sweep's options: the same jet, step rule and event location, so the same end
+    # values to the last bit (SIMD lanes round as a single run does); the label from θ_end and
+    # the prediction from mett.asymptotic_state of the point's λ
+    grid = {"mu": [0.02, 0.3], "omega3": [-40.0, 155.0], "theta0": [0.1, 2.9]}
+    table = sweep(TOP, grid, t_end=3.0, rtol=1e-11, progress=False)
+    assert table.attrs["mett_sweep"]["backend"] == "taylor"
+    for _, row in table.iterrows():
+        top = TOP.replace(mu=row["mu"])
+        start = mett.State(theta=row["theta0"], omega3=row["omega3"])
+        traj = mett.simulate(top, start, 3.0, rtol=1e-11, stop_on_contact_loss=True)
+        assert traj.backend == "taylor"
+        assert row["status"] == traj.status and row["message"].startswith(traj.message)
+        assert row["theta_end"] == float(traj.theta[-1])
+        assert row["omega3_end"] == float(traj.omega3[-1])
+        cross = traj.crossings(np.pi / 2)
+        # the crossing: a root of cos θ located on the step polynomial, to its tolerance
+        assert (
+            (abs(row["t_invert"] - cross[0]) < 1e-12) if cross.size else np.isnan(row["t_invert"])
+        )
+        lam = float(mett.jellett(top, start))
+        assert row["lam"] == lam
+        if lam > 0:
+            assert row["predicted"] == mett.asymptotic_state(top, lam).kind
+        if row["status"] == "completed" and row["simulated"] != "not settled":
+            assert row["simulated"] == mett.sweeps.classify_end(row["theta_end"], "completed")
+
+
 def test_run_ends_sends_what_cannot_be_batched_through_simulate():
     from mett.dynamics import batch
     from mett.friction import Coulomb
@@ -253,6 +284,46 @@ def test_run_ends_sends_what_cannot_be_batched_through_simulate():
         assert end.theta_end == r.theta_end and end.omega3_end == r.omega3_end
         np.testing.assert_allclose(end.theta_window, r.theta_window, rtol=0, atol=1e-14)
         np.testing.assert_allclose(end.E_window, r.E_window, rtol=1e-14)
+
+
+@pytest.mark.parametrize(
+    ("model", "top", "state"),
+    [
+        ("gliding", TOP.replace(mu=0.07), mett.State(theta=0.1, omega3=155.0)),
+        ("rolling", TOP, mett.State(theta=0.4, phidot=3.0, omega3=80.0)),
+        ("gliding-hst", TOP.replace(mu=0.2), mett.State(theta=1.0, omega3=-40.0, nu_x=0.01)),
+        ("gliding", TOP, mett.State(theta=0.0, omega3=0.0)),  # a pole, no spin
+        ("gliding", TOP, mett.State(theta=math.pi, omega3=0.0)),  # falls: contact lost at 0
+    ],
+)
+def test_runs_prepared_from_one_plan_are_those_of_prepare_run(model, top, state):
+    # run_ends checks the options once (plan_runs) and each (top, state) on its own
+    # (prepare_planned): every field of the prepared run is prepare_run's, bit for bit
+    from mett.dynamics import simulation
+
+    kw = {**simulation.SIMULATE_DEFAULTS, "model": model, "rtol": 1e-11,
+          "stop_on_contact_loss": True}  # fmt: skip
+    plan = simulation.plan_runs(2.0, **kw)
+    got = simulation.prepare_planned(plan, top, state)
+    ref = simulation.prepare_run(top, state, 2.0, **kw)
+    assert type(got) is type(ref)
+    if isinstance(ref, mett.Trajectory):  # decided at t = 0
+        assert (got.status, got.message) == (ref.status, ref.message)
+        np.testing.assert_array_equal(got.y, ref.y)
+        return
+    assert got.run.backend == ref.run.backend and got.model is ref.model
+    assert got.params == ref.params and got.phase == ref.phase and got.table == ref.table
+    for a, b in ((got.y0, ref.y0), (got.atol_arr, ref.atol_arr)):
+        np.testing.assert_array_equal(a, b)
+    assert got[2:4] == ref[2:4] and got[6:] == ref[6:]  # t_end, rtol; max_step, method, events
+    assert got.run.options == ref.run.options and got.run.options is not plan.model_options
+    # a point the plan's checks would refuse: prepare_run's error
+    with pytest.raises(TypeError, match=r"top must be a mett\.TippeTop"):
+        simulation.prepare_planned(plan, "top", state)
+    with pytest.raises(ValueError, match=r"state\.omega3"):
+        simulation.prepare_planned(plan, top, mett.State(theta=0.1, omega3=1e40))
+    with pytest.raises(ValueError, match="friction law"):
+        simulation.plan_runs(2.0, friction=mett.friction.Viscous(0.1))
 
 
 def test_the_predicted_end_state_does_not_depend_on_friction():

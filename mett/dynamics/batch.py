@@ -21,7 +21,7 @@ import numpy as np
 from ._run import PreparedRun
 from .backends import REGISTRY, TaylorBackend
 from .registry import lookup
-from .simulation import SIMULATE_DEFAULTS, prepare_run, run_prepared
+from .simulation import SIMULATE_DEFAULTS, plan_runs, prepare_planned, prepare_run, run_prepared
 from .trajectory import Trajectory
 
 __all__ = ["LANES", "RunEnd", "end_of", "run_ends"]
@@ -120,9 +120,21 @@ def run_ends(
     kw = {**SIMULATE_DEFAULTS, **simulate_kw, "stop_on_contact_loss": True}
     out: list[Any] = [None] * len(jobs)
     fast: dict[Any, list[tuple[int, PreparedRun]]] = {}
+    # The options common to the jobs are checked once (a job's own friction law is applied to
+    # its top, so such a job is prepared whole); options simulate would refuse are left to
+    # prepare_run, which reports them for each job as simulate does
+    try:
+        plan = plan_runs(t_end, **kw) if kw.get("friction") is None else None
+    except _NOT_A_POINT:
+        raise
+    except Exception:
+        plan = None
     for j, (top, state, *own) in enumerate(jobs):
         try:
-            prep = prepare_run(top, state, t_end, **{**kw, **(own[0] if own else {})})
+            if plan is not None and not (own and own[0]):
+                prep = prepare_planned(plan, top, state)
+            else:
+                prep = prepare_run(top, state, t_end, **{**kw, **(own[0] if own else {})})
             if isinstance(prep, Trajectory):  # decided at t = 0
                 out[j] = end_of(prep, window=window, n_window=n_window)
             elif _TAYLOR.batchable(prep):
@@ -158,42 +170,47 @@ def _propagate_group(
     tw = _window(0.0, t_end, window, n_window)
     P = np.array([prep.params for prep in preps], dtype=float)
     res = _TAYLOR.propagate(k, preps, t_end, max_step, tw)
+    status, message, t_stop, y_stop, samples, t_cross = zip(*res, strict=True)
+    m, n, n_w = len(preps), preps[0].y0.size, tw.size
+    # a run that stopped early has no window (only a completed run is judged settled)
+    judged = np.array([s == "completed" for s in status]) & (n_w > 0)
+    S = np.array(samples, dtype=float).reshape(m, n_w, n)
     # One derive for the whole group (Model.derive takes one parameter set per column): of each
     # run's start, its end and the two ends of its window (E there is all the settled test
-    # compares); θ over the window from the model's cheap theta, also in one call
-    cols, windows, ends = [], [], []
-    for prep, (status, message, t_stop, y_stop, samples, t_cross) in zip(preps, res, strict=True):
-        # a run that stopped early has no window (only a completed run is judged settled)
-        samples = samples if status == "completed" else np.empty((0, prep.y0.size))
-        cols.append(np.column_stack([prep.y0, y_stop, samples[[0, -1]].T if samples.size
-                                     else samples.T]))  # fmt: skip
-        windows.append(samples.T)
-        ends.append((status, message, t_stop, samples.shape[0], t_cross))
+    # compares), run after run; θ over the windows from the model's cheap theta, also in one
+    # call. Built for all runs at once, in the columns (and memory order) of one run at a time.
+    blocks = np.empty((m, 4, n))
+    blocks[:, 0] = [prep.y0 for prep in preps]
+    blocks[:, 1] = y_stop
+    if n_w:
+        blocks[:, 2], blocks[:, 3] = S[:, 0], S[:, -1]
+    keep = np.ones((m, 4), dtype=bool)
+    keep[:, 2:] = judged[:, None]
+    width = keep.sum(axis=1)
     mdl = preps[0].model
-    series = mdl.derive(np.concatenate(cols, axis=1), _column_params(P, [c.shape[1] for c in cols]))
-    theta_w = np.asarray(
-        mdl.theta(
-            np.concatenate(windows, axis=1), _column_params(P, [w.shape[1] for w in windows])
-        ),
-        dtype=float,
-    )
-    theta = np.asarray(series["theta"], dtype=float)
-    omega3 = np.asarray(series["omega3"], dtype=float)
+    series = mdl.derive(np.ascontiguousarray(blocks[keep].T), _column_params(P, width))
+    windows = np.ascontiguousarray(S[judged].transpose(2, 0, 1).reshape(n, -1))
+    theta_w = np.asarray(mdl.theta(windows, _column_params(P, judged * n_w)), dtype=float)
+    at = np.concatenate(([0], np.cumsum(width)[:-1]))  # each run's first column
+    theta_end = np.asarray(series["theta"], dtype=float)[at + 1].tolist()
+    omega3_end = np.asarray(series["omega3"], dtype=float)[at + 1].tolist()
     energy = np.asarray(series["E"], dtype=float)
-    at = at_w = 0
-    for row, ((j, _), (status, message, t_stop, n_w, t_cross)) in enumerate(
-        zip(items, ends, strict=True)
-    ):
+    e0 = energy[at].tolist()
+    at_w = 0
+    for row, (j, _) in enumerate(items):
+        if judged[row]:
+            a = int(at[row])
+            tw_r, th_r, e_r = tw, theta_w[at_w : at_w + n_w], energy[a + 2 : a + 4]
+            at_w += n_w
+        else:
+            tw_r, th_r, e_r = tw[:0], theta_w[:0], energy[:0]
         out[j] = RunEnd(
-            status, message, t_stop, float(theta[at + 1]), float(omega3[at + 1]),
-            t_cross if t_cross <= t_stop else math.nan, tw[:n_w], theta_w[at_w : at_w + n_w],
-            energy[at + 2 : at + 4] if n_w else energy[:0], float(energy[at]),
+            status[row], message[row], t_stop[row], theta_end[row], omega3_end[row],
+            t_cross[row] if t_cross[row] <= t_stop[row] else math.nan, tw_r, th_r, e_r, e0[row],
         )  # fmt: skip
-        at += cols[row].shape[1]
-        at_w += n_w
 
 
-def _column_params(P: np.ndarray, sizes: list[int]) -> tuple:
+def _column_params(P: np.ndarray, sizes: Any) -> tuple:
     """The parameters of runs (rows of ``P``) for their columns (``sizes[i]`` of run i): one
     tuple if all runs share them, else one array per parameter, a value per column."""
     if bool(np.all(P == P[0])):

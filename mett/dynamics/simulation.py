@@ -34,7 +34,7 @@ import functools
 import inspect
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -58,7 +58,10 @@ __all__ = [
     "MODELS",
     "RATE_MAX",
     "SIMULATE_DEFAULTS",
+    "RunPlan",
     "check_run",
+    "plan_runs",
+    "prepare_planned",
     "simulate",
 ]
 
@@ -447,10 +450,69 @@ def prepare_run(
     even from a start without contact force (its run begins with a flight)."""  # fmt: skip
     mdl = lookup(model)
     stop_on_contact_loss = boolean("stop_on_contact_loss", stop_on_contact_loss)
+    top, state = _check_point(top, state)
+    t_end, rtol, t_eval_arr, max_step = _check_times(t_end, rtol, t_eval, max_step, method, backend)
+    if friction is not None:  # the law decides the top and the model, before anything runs
+        friction = _friction.check_law(friction)
+        check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
+        top, law = friction.applied(top)  # Viscous(mu): the top with that mu, no law left
+        if law is not None:
+            runs = law.model_for(mdl.name)  # the model given (also an unregistered one), or
+            mdl = mdl if runs == mdl.name else lookup(runs)  # the registered one the law names
+            options = {**options, "friction": law}
+    plan = _plan(mdl, options, events, method, backend, stop_on_contact_loss, t_end, rtol, atol,
+                 t_eval_arr, max_step)  # fmt: skip
+    return _prepare_checked(plan, top, state)
+
+
+class RunPlan(NamedTuple):
+    """The options of runs, checked once (:func:`plan_runs`): what :func:`prepare_run` decides
+    before it looks at the top and the state."""
+
+    mdl: Model
+    model_options: dict
+    phases: list
+    user: list
+    stop_on_contact_loss: bool
+    t_end: float
+    rtol: float
+    atol: Any
+    t_eval_arr: np.ndarray | None
+    max_step: float
+    method: str
+    backend: str
+
+
+def plan_runs(t_end: float, **simulate_kw: Any) -> RunPlan:
+    """Every check of :func:`prepare_run` that does not involve the top or the state, made once
+    for many runs with the same options (``simulate_kw``: simulate's keywords, its defaults
+    where missing; no ``friction`` law, which is applied to each top). Bad options raise what
+    ``prepare_run`` would raise, but in another order when the top or state is bad too: a
+    caller that must report an option's error exactly as ``prepare_run`` does calls that on an
+    error here. Runs from it: :func:`prepare_planned`."""
+    kw = {**SIMULATE_DEFAULTS, **simulate_kw}
+    if kw.pop("friction") is not None:
+        raise ValueError("plan_runs takes no friction law (prepare_run applies it to the top)")
+    model, rtol, atol, t_eval, events = (kw.pop(k) for k in ("model", "rtol", "atol", "t_eval",
+                                                              "events"))  # fmt: skip
+    method, backend, max_step = kw.pop("method"), kw.pop("backend"), kw.pop("max_step")
+    mdl = lookup(model)
+    stop = boolean("stop_on_contact_loss", kw.pop("stop_on_contact_loss"))
+    t_end, rtol, t_eval_arr, max_step = _check_times(t_end, rtol, t_eval, max_step, method, backend)
+    return _plan(mdl, kw, events, method, backend, stop, t_end, rtol, atol, t_eval_arr, max_step)
+
+
+def _check_point(top: Any, state: Any) -> tuple[TippeTop, State]:
     if not isinstance(top, TippeTop):
         raise TypeError(f"top must be a mett.TippeTop; got {type(top).__name__}")
     state = _check_state(state)
     _check_magnitudes(top, state)
+    return top, state
+
+
+def _check_times(
+    t_end: Any, rtol: Any, t_eval: Any, max_step: Any, method: Any, backend: Any
+) -> tuple[float, float, np.ndarray | None, float]:
     t_end = _validate.positive_scalar("t_end", t_end)
     rtol = _check_rtol(rtol)
     t_eval_arr = _check_t_eval(t_eval, t_end)
@@ -470,23 +532,18 @@ def prepare_run(
     known = ("auto", *backends.REGISTRY)  # BACKENDS, and any backend registered since
     if backend not in known:
         raise ValueError(f"unknown backend {backend!r}; known backends: {', '.join(known)}")
-    if friction is not None:  # the law decides the top and the model, before anything runs
-        friction = _friction.check_law(friction)
-        check_friction(mdl, friction)  # a law the model does not run (None: validate_options)
-        top, law = friction.applied(top)  # Viscous(mu): the top with that mu, no law left
-        if law is not None:
-            runs = law.model_for(mdl.name)  # the model given (also an unregistered one), or
-            mdl = mdl if runs == mdl.name else lookup(runs)  # the registered one the law names
-            options = {**options, "friction": law}
+    return t_end, rtol, t_eval_arr, max_step
+
+
+def _plan(
+    mdl: Model, options: dict, events: Any, method: str, backend: str, stop: bool,
+    t_end: float, rtol: float, atol: Any, t_eval_arr: np.ndarray | None, max_step: float,
+) -> RunPlan:  # fmt: skip
     model_options = validate_options(mdl, options)
     if mdl.variant is not None:  # an option may select another model (e.g. a friction law)
         alt = mdl.variant(model_options)
         if alt is not None and alt is not mdl:
             mdl, model_options = alt, validate_options(alt, options)
-    if _declares(mdl, "stopping_band") and model_options["stopping_band"] is None:
-        from .stickslip import stopping_band  # tied to rtol, as the integration error is
-
-        model_options["stopping_band"] = stopping_band(top, state, rtol)
     phases = mdl.phase_table()
     if backend != "auto":
         refused = backends.REGISTRY[backend].refusal(mdl, method)
@@ -497,13 +554,32 @@ def prepare_run(
         if not callable(ev):
             raise TypeError(f"events[{k}] must be a callable event(t, state) -> float; got {ev!r}")
     user = [(ev, _event_terminal(k, ev), _event_direction(k, ev)) for k, ev in enumerate(events)]
+    return RunPlan(mdl, model_options, phases, user, stop, t_end, rtol, atol, t_eval_arr,
+                   max_step, method, backend)  # fmt: skip
+
+
+def prepare_planned(plan: RunPlan, top: Any, state: Any) -> PreparedRun | Trajectory:
+    """:func:`prepare_run` of ``top`` and ``state`` with the options of ``plan``
+    (:func:`plan_runs`): the top and state checks, then the same run, bit for bit."""
+    top, state = _check_point(top, state)
+    return _prepare_checked(plan, top, state)
+
+
+def _prepare_checked(plan: RunPlan, top: TippeTop, state: State) -> PreparedRun | Trajectory:
+    # each run its own options dict (a run's options are its own, as with prepare_run)
+    mdl, model_options, phases, user = plan.mdl, dict(plan.model_options), plan.phases, plan.user
+    rtol, backend = plan.rtol, plan.backend
+    if _declares(mdl, "stopping_band") and model_options["stopping_band"] is None:
+        from .stickslip import stopping_band  # tied to rtol, as the integration error is
+
+        model_options["stopping_band"] = stopping_band(top, state, rtol)
 
     params = mdl.params(top, model_options)
     y0 = np.asarray(mdl.initial(state, params), dtype=float)
     scales = np.asarray(mdl.scales(y0, params), dtype=float)
     if backend == "auto":  # the fastest exact backend for this model, law and method
-        backend = backends.choose(mdl, method, params, model_options, y0.size, bool(user))
-    atol_arr = _check_atol(atol, y0.size, scales)
+        backend = backends.choose(mdl, plan.method, params, model_options, y0.size, bool(user))
+    atol_arr = _check_atol(plan.atol, y0.size, scales)
     if atol_arr is None:
         atol_arr = rtol * scales
 
@@ -515,17 +591,18 @@ def prepare_run(
             raise ValueError(f"model {mdl.name!r}: start_phase gave unknown phase {name!r}")
         phase = table[name]
     run = Run(mdl, top, params, y0, backend, phase, state=state, options=model_options)
-    run.tolerances = {"rtol": rtol, "atol": atol_arr, "t_end": t_end}  # kept on the Trajectory
+    run.tolerances = {"rtol": rtol, "atol": atol_arr, "t_end": plan.t_end}  # on the Trajectory
     gn0 = float(mdl.normal_force(y0, params))
     if not math.isfinite(gn0):
         return run.at_start("failed", f"normal force at t = 0 is {gn0!r}")
     for ev in phase.events:  # a start already past a guard (e.g. a pole)
         if ev.action == "fail" and float(ev.fn(0.0, y0, params)) <= 0.0:
             return run.at_start("failed", ev.message)
-    if gn0 <= 0.0 and (stop_on_contact_loss or not flight.flies(mdl)):
+    if gn0 <= 0.0 and (plan.stop_on_contact_loss or not flight.flies(mdl)):
         msg = f"contact lost at t = 0: the initial normal force g_n = {gn0:.6g} N is not positive"
         return run.at_start("contact_lost", msg, t_contact_lost=0.0)
-    return PreparedRun(run, table, t_end, rtol, atol_arr, t_eval_arr, max_step, method, user)
+    return PreparedRun(run, table, plan.t_end, rtol, atol_arr, plan.t_eval_arr, plan.max_step,
+                       plan.method, user)  # fmt: skip
 
 
 def run_prepared(prep: PreparedRun) -> Trajectory:
