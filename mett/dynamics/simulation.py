@@ -471,7 +471,7 @@ class RunPlan(NamedTuple):
 
     mdl: Model
     model_options: dict
-    phases: list
+    phases: Sequence[Any]
     user: list
     stop_on_contact_loss: bool
     t_end: float
