@@ -259,6 +259,16 @@ def _families(ctx: _Context):
     return plot_tumbling_families()
 
 
+_CONTACT_COLOURS = {"ball": "tab:blue", "stem": "tab:orange", "both": "tab:red"}
+
+
+def _contact_bands(ax, traj, lo, hi):
+    """Shade each stretch of a stemmed run by the contact it is on (ball, stem or both)."""
+    for name, c in _CONTACT_COLOURS.items():
+        on = traj.contact == name
+        ax.fill_between(traj.t, lo, hi, where=on, color=c, alpha=0.15, lw=0, label=name)
+
+
 def _stem_life(ctx: _Context):
     """Two stemmed tops under the viscous law: friedl1997 with its stem (CM at rest, θ0 = 0.1,
     ω3 = 180 rad/s), θ(t) with the contact of each stretch and its normal forces at the
@@ -274,13 +284,9 @@ def _stem_life(ctx: _Context):
     run_f = mett.simulate(friedl, s, t_end=8.0)
     thesis = mett.presets.get("rutstam2013").with_stem(radius=0.004, distance=0.026)
     run_t = mett.simulate(thesis, mett.State(theta=0.1, omega3=155.0), t_end=8.0)
-    colours = {"ball": "tab:blue", "stem": "tab:orange", "both": "tab:red"}
+    colours = _CONTACT_COLOURS
+    bands = _contact_bands
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(6.4, 7.2))
-
-    def bands(ax, traj, lo, hi):
-        for name, c in colours.items():  # one band per stretch on one contact
-            on = traj.contact == name
-            ax.fill_between(traj.t, lo, hi, where=on, color=c, alpha=0.15, lw=0, label=name)
 
     a1.plot(run_f.t, run_f.theta, color="k", label="θ")
     a1.axhline(friedl.touchdown_angle, color="0.6", ls=":", lw=0.8)
@@ -302,6 +308,57 @@ def _stem_life(ctx: _Context):
         ax.set_xlim(traj.t[w][0], traj.t[w][-1])
         ax.set_title(title, fontsize="medium")
     a2.legend(loc="upper right", fontsize="small", ncol=2)
+    fig.tight_layout()
+    return fig
+
+
+DRY_WINDOW = (4.10, 5.15)
+"""The stretch (s) of figure ``stem_dry_friction`` shown in detail: the re-landing on the ball,
+the impacts that accumulate, the double contact and the stem's lift-off."""
+
+
+def _stem_dry(ctx: _Context):
+    """friedl1997 with its stem under Leine & Glocker's law, Coulomb–Contensou friction (μ = 0.3,
+    contact radius 0.5 mm; CM at rest, θ0 = 0.1, ω3 = 180 rad/s): θ(t) with the contact of each
+    stretch; over :data:`DRY_WINDOW` the two normal forces; the energy, which never rises."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import mett
+    from mett.friction import Coulomb
+
+    top = mett.presets.stemmed("friedl1997")
+    s = mett.State.with_cm_at_rest(top.ball, theta=0.1, omega3=180.0)
+    t0, t1 = DRY_WINDOW
+    t_eval = np.union1d(np.linspace(0.0, 8.0, 3201), np.linspace(t0, t1, 2101))
+    run = mett.simulate(top, s, t_end=8.0, friction=Coulomb(0.3, contensou_radius=5e-4),
+                        t_eval=t_eval)  # fmt: skip
+    colours = _CONTACT_COLOURS
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(6.4, 7.2))
+    a1.plot(run.t, run.theta, color="k", label="θ")
+    a1.axhline(top.touchdown_angle, color="0.6", ls=":", lw=0.8)
+    _contact_bands(a1, run, 0.0, np.pi)
+    a1.axvspan(t0, t1, color="0.5", alpha=0.25, lw=0, label="detail below")
+    a1.set(ylabel="θ (rad)", ylim=(0, np.pi), xlim=(0, 8.0), xlabel="t (s)")
+    a1.legend(loc="lower center", bbox_to_anchor=(0.42, 0.04), fontsize="small", ncol=2)
+    a1.set_title(
+        "friedl1997 with its stem, Coulomb–Contensou (μ = 0.3, r = 0.5 mm): θ(t), contact",
+        fontsize="medium",
+    )
+    w = (run.t >= t0) & (run.t <= t1)
+    a2.plot(run.t[w], 1e3 * run.gn_ball[w], color=colours["ball"], label="g_n ball")
+    a2.plot(run.t[w], 1e3 * run.gn_stem[w], color=colours["stem"], label="g_n stem")
+    a2.axhline(1e3 * top.ball.m * top.ball.g, color="0.3", ls=":", lw=0.8, label="m g")
+    hi = 1e3 * max(run.gn_ball[w].max(), run.gn_stem[w].max()) * 1.5  # room for the legend
+    _contact_bands(a2, run, 0.0, hi)
+    a2.set(ylabel="normal force (mN)", xlabel="t (s)", xlim=(t0, t1), ylim=(0, hi))
+    a2.legend(loc="upper center", fontsize="small", ncol=3)
+    a2.set_title("re-landing, impacts accumulating, double contact, stem lifts off",
+                 fontsize="medium")  # fmt: skip
+    a3.plot(run.t, 1e3 * run.E, color="k")
+    _contact_bands(a3, run, 0.0, 1e3 * run.E.max() * 1.05)
+    a3.set(ylabel="E (mJ)", xlabel="t (s)", xlim=(0, 8.0), ylim=(0, 1e3 * run.E.max() * 1.05))
+    a3.set_title("energy: never rises", fontsize="medium")
     fig.tight_layout()
     return fig
 
@@ -412,6 +469,11 @@ FIGURES: dict[str, tuple[str, Callable[[_Context], Any]]] = {
         "a hopping ball top: θ(t), the height of its lowest point and the normal force",
         _flights,
     ),
+    "stem_dry_friction": (
+        "the real top with its stem under Coulomb–Contensou friction: θ(t), the contact, the "
+        "normal forces through the double contact and the energy",
+        _stem_dry,
+    ),
 }
 """Name → (description, maker). Each maker returns a matplotlib Figure."""
 
@@ -447,6 +509,8 @@ def skipped(top: TippeTop | None = None) -> dict[str, str]:
         "stem_double_contact": "the figure shows the friedl1997 preset with its stem, "
         "not the given top",
         "ball_flights": "the figure shows the hops of the thesis body (rutstam2013), "
+        "not the given top",
+        "stem_dry_friction": "the figure shows the friedl1997 preset with its stem, "
         "not the given top",
     }
     if top.group == "II":

@@ -405,3 +405,22 @@ def test_scipy_and_compiled_backends_agree_on_the_switches(run):
     assert [(sw.before, sw.after, sw.reason) for sw in ref.switches] == got
     for a, b in zip(ref.switches, comp.switches, strict=True):
         assert abs(a.t - b.t) < 1e-9 and abs(a.t_event - b.t_event) < 1e-9
+
+
+def test_the_gallery_figure_of_the_dry_life_cycle_shows_what_its_caption_says(tmp_path):
+    """`mett figures` draws stem_dry_friction (a PNG), skips it for another top (it shows
+    friedl1997), and its detail window holds what the caption names: the re-landing on the
+    ball, the accumulation into the double contact and the stem's lift-off."""
+    from mett import gallery
+    from mett.friction import Coulomb
+
+    (path,) = gallery.generate(tmp_path, names=["stem_dry_friction"], animation=False, dpi=30)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "stem_dry_friction" in gallery.skipped(mett.presets.get("cohen1977"))
+    top = mett.presets.stemmed("friedl1997")
+    s = mett.State.with_cm_at_rest(top.ball, theta=0.1, omega3=180.0)
+    run = mett.simulate(top, s, 8.0, friction=Coulomb(0.3, contensou_radius=5e-4))
+    t0, t1 = gallery.DRY_WINDOW
+    inside = [sw.reason for sw in run.switches if t0 < sw.t < t1]
+    assert inside[0] == "landing" and "accumulation" in inside
+    assert inside[-1] == "stem lifts off" and set(run.contact) == {"ball", "stem", "both"}
