@@ -7,6 +7,8 @@ makes ~840 hops (flight, touchdown, landing impact, a short contact phase) to t 
 
 * the CPU time of the whole run (the least of ``--repeat`` runs: the machine may be shared),
   the number of hops (each followed by a contact phase) and the CPU time per hop;
+* the fixed cost of one short call of the Taylor backend (a 5 ms contact phase of 5 steps, as
+  between two hops): CPU time per ``taylor.solve`` and per ``mett.simulate`` of it;
 * where the time goes, from one more run with timers around the pieces of a hop: the contact
   phases on their backend (a kernel call and a Trajectory per phase), the free flight's dense
   output and samples, the touchdown search, the landing impact, and the rest (the driver's
@@ -79,6 +81,26 @@ class _Timers:
                 setattr(owner, attr, old)
 
 
+def per_call(repeat: int = 2000) -> tuple[float, float]:
+    """CPU seconds per ``taylor.solve`` and per ``mett.simulate`` of a 5 ms contact phase."""
+    from mett.dynamics import taylor
+
+    top, state = mett.presets.get("rutstam2013"), mett.State(theta=THETA0, omega3=1550.0)
+    calls: list[tuple[Any, Any]] = []
+    solve = taylor.solve
+    taylor.solve = lambda *a, **kw: calls.append((a, kw)) or solve(*a, **kw)  # type: ignore[misc]
+    try:
+        mett.simulate(top, state, t_end=0.005, backend="taylor")
+    finally:
+        taylor.solve = solve
+    a, kw = calls[0]
+    t_solve, _ = _cpu(lambda: [solve(*a, **kw) for _ in range(repeat)], 3)
+    t_sim, _ = _cpu(
+        lambda: [mett.simulate(top, state, t_end=0.005, backend="taylor") for _ in range(200)], 3
+    )
+    return t_solve / repeat, t_sim / 200
+
+
 def profile(omega3: float, t_end: float) -> dict[str, float]:
     """CPU seconds per piece of the hops of one run (one instrumented run)."""
     with _Timers() as tm:
@@ -113,6 +135,10 @@ def main() -> None:
         hops = sum(1 for s in tr.records.get("switches", []) if s.reason == "lift-off")
         per = f"{1e3 * cpu / hops:8.3f}" if hops else f"{'-':>8}"
         print(f"{w:11.0f} {cpu:9.3f} {hops:6d} {per}  {tr.status}")
+    solve_s, sim_s = per_call()
+    print(
+        f"\none short Taylor call (5 ms): solve {1e6 * solve_s:.0f} µs, simulate {1e6 * sim_s:.0f} µs"
+    )
     for w in spins[1:]:
         parts = profile(w, args.t_end)
         total = parts.pop("total")

@@ -543,3 +543,21 @@ def test_non_finite_taylor_runs_in_a_batch_stop_before_t_end():
     bad, good = ends
     assert bad.status == "failed" and bad.t_stop < 0.5 and math.isfinite(bad.theta_end)
     assert good.status == "completed" and good.t_stop == 0.5
+
+
+def test_output_buffers_reused_across_calls_never_alias_a_result():
+    # solve() lends its output buffers to the next call of the same shape (a hopping run's
+    # short contact phases): a reused buffer must give the same run bit for bit, and a buffer a
+    # result still views (a long run's coefficients) must never be written by a later call.
+    k = taylor.kernel(_pendulum_into, [], 2, 1, 20, "pendulum")
+    cap = 9973  # a step budget of its own: the buffers' shape, fresh for the first call
+    runs = [taylor.solve(k, (0.0, 0.5), [2.5, 0.0], [9.81], max_steps=cap)[0] for _ in range(2)]
+    a, b = (r.dense for r in runs)
+    for x, y in ((a.t, b.t), (a.y, b.y), (a.C, b.C)):
+        np.testing.assert_array_equal(x, y)
+        assert not np.shares_memory(x, y)
+    long = taylor.solve(k, (0.0, 1e6), [2.5, 0.0], [9.81], max_steps=cap)[0]
+    assert long.status == taylor.MAX_STEPS and long.n_steps == cap
+    before = long.dense.C.copy()
+    taylor.solve(k, (0.0, 0.5), [0.3, 1.0], [9.81], max_steps=cap)
+    np.testing.assert_array_equal(long.dense.C, before)

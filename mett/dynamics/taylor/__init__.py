@@ -113,11 +113,18 @@ class TaylorKernel:
         self.address = _native(ir, self.name)
         self.function = _JetAddress(self.address[0], _JET_SIG)
         self.update = _JetAddress(self.address[1], _UPDATE_SIG)
+        # every event terminal, for :func:`solve` (the loop only reads it)
+        self.all_terminal = np.ones(self.n_events)
 
 
 _KERNELS: dict[tuple, list[TaylorKernel]] = {}
 
 _NO_TIMES = np.empty(0)
+# Spare output buffers of :func:`solve` by shape, (T, Y, C) taken and given back: a short run
+# (the contact phase between two hops) would otherwise ask the system for a fresh multi-MiB
+# buffer per call and give it back, its pages faulted in anew each time. A buffer a result still
+# views (a long run's coefficients) is not given back. pop/setdefault keep it safe across threads.
+_SPARE: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 _HUGE = 4 << 20  # numpy asks for transparent huge pages for arrays of this many bytes and more
 
 
@@ -290,8 +297,11 @@ def _batch_inputs(k: TaylorKernel, t_span, y0, params, scales, direction) -> tup
     Y0 = np.atleast_2d(np.asarray(y0, dtype=float))
     m, n = Y0.shape
     P = np.asarray(params, dtype=float)
-    P = np.broadcast_to(P, (m, P.shape[-1]))
-    SC = np.broadcast_to(np.ones(n) if scales is None else np.asarray(scales, dtype=float), (m, n))
+    SC = np.ones(n) if scales is None else np.asarray(scales, dtype=float)
+    # one run with vectors (the short contact phases of a hopping run): a reshape, not the
+    # slower broadcast_to, for the same values
+    P = P.reshape(1, -1) if m == 1 and P.ndim == 1 else np.broadcast_to(P, (m, P.shape[-1]))
+    SC = SC.reshape(1, n) if m == 1 and SC.shape == (n,) else np.broadcast_to(SC, (m, n))
     ev_dir = np.zeros(k.n_events) if direction is None else np.array(direction, dtype=float)
     if ev_dir.size != k.n_events:
         raise ValueError(f"direction needs one entry per event ({k.n_events}); got {ev_dir.size}")
@@ -328,6 +338,7 @@ def solve(
     """
     t0, t_end, Y0, P, SC, ev_dir = _batch_inputs(k, t_span, y0, params, scales, direction)
     m, n = Y0.shape
+    max_step = float(max_step)
     if tol is None:
         tol_scale, fac = 1.0, _step_factor(k.order)
     else:
@@ -335,7 +346,7 @@ def solve(
     W, width, rows = k.lanes, k.order + 1, n + k.n_events
     parts: list[list[tuple]] = [[] for _ in range(m)]
     t_now, y_now = np.full(m, t0), Y0.copy()
-    done = np.zeros(m, dtype=np.int64)
+    done = [0] * m
     result: list[tuple[int, int] | None] = [None] * m
     # The coefficients are the dense output, written once and kept: the first buffer is at least
     # _HUGE bytes, which numpy backs with transparent huge pages where the system has them (one
@@ -344,29 +355,36 @@ def solve(
     step_bytes = rows * width * W * 8
     pending, room = list(range(m)), max(1024, -(-_HUGE // step_bytes))
     stop = _signals.new_stop()
+    buffers: list[tuple] = []  # (shape, T, Y, C) of each group, for _SPARE
     while pending:
         resume = []
         for g in range(0, len(pending), W):
             group = pending[g : g + W]
             lanes = group + [group[0]] * (W - len(group))  # pad with a copy of the first
-            rm = int(max(1, min(room, max_steps - done[group].min())))
-            T, Yb = np.empty((rm + 1, W)), np.empty((rm + 1, n, W))
-            C = np.empty((rm, rows, width, W))
+            rm = int(max(1, min(room, max_steps - min(done[j] for j in group))))
+            shape = (rm, n, rows, width, W)
+            spare = _SPARE.pop(shape, None)
+            if spare is None:
+                T, Yb = np.empty((rm + 1, W)), np.empty((rm + 1, n, W))
+                C = np.empty((rm, rows, width, W))
+            else:
+                T, Yb, C = spare
+            buffers.append((shape, T, Yb, C))
             info = np.zeros((W, 3), dtype=np.int64)
+            sig = np.empty((n + 1, W))  # the scales of the norm, then the events' (tol_scale)
+            np.multiply(tol_scale, SC[lanes].T, out=sig[:n])
+            sig[n] = tol_scale
             # a Ctrl-C stops the loop within _POLL_EVERY steps and is raised here
             with _signals.deferred_sigint(stop):
                 _integrate(
-                    k.function, k.update, np.ascontiguousarray(t_now[lanes]), t_end,
-                    np.ascontiguousarray(y_now[lanes].T), np.ascontiguousarray(P[lanes].T),
-                    np.ascontiguousarray(
-                        np.vstack([tol_scale * SC[lanes].T, np.full(W, tol_scale)])
-                    ),
-                    fac, k.order, float(max_step), ev_dir, np.ones(k.n_events), n_sub, rm, T,
-                    Yb, C, np.empty((W, k.n_events)), _NO_TIMES, np.empty((0, n, W)), info, stop,
+                    k.function, k.update, t_now[lanes], t_end, y_now[lanes].T.copy(),
+                    P[lanes].T.copy(), sig, fac, k.order, max_step, ev_dir, k.all_terminal,
+                    n_sub, rm, T, Yb, C, np.empty((W, k.n_events)), _NO_TIMES,
+                    np.empty((0, n, W)), info, stop,
                 )  # fmt: skip
             _signals.raise_pending(stop)
-            for lane, j in enumerate(group):
-                steps, hit, status = (int(x) for x in info[lane])
+            rows_info = info.tolist()[: len(group)]  # Python ints; the padding lanes dropped
+            for lane, (j, (steps, hit, status)) in enumerate(zip(group, rows_info, strict=True)):
                 parts[j].append(
                     (T[1 : steps + 1, lane], Yb[1 : steps + 1, :, lane], C[:steps, :, :, lane])
                 )
@@ -378,6 +396,7 @@ def solve(
                     result[j] = (status, hit)
         pending, room = resume, room * 4
     out = []
+    kept = False  # a result views a buffer's coefficients
     for j in range(m):
         done_j = result[j]
         assert done_j is not None  # every run left the loop with a status
@@ -388,6 +407,8 @@ def solve(
             C = parts[j][0][2]
             if C.nbytes * W < _HUGE // 4:  # a short run does not keep a large buffer alive
                 C = C.copy()
+            else:
+                kept = True
         else:
             t = np.concatenate([[t0], *(q[0] for q in parts[j])])
             y = np.concatenate([Y0[j][None, :], *(q[1] for q in parts[j])])
@@ -395,6 +416,9 @@ def solve(
         out.append(
             TaylorSolution(TaylorDense(t, y, C), status, STATUS_MESSAGES[status], hit, k.order)
         )
+    if not kept:  # t and y above are copies: every buffer is free again
+        for shape, T, Yb, C in buffers:
+            _SPARE.setdefault(shape, (T, Yb, C))
     return out
 
 

@@ -10,6 +10,7 @@ from typing import Any
 import numba
 import numpy as np
 from numba import types
+from numba.extending import typeof_impl
 
 from ..._numba_cache import install as _check_numba_cache
 from .. import _codes, _signals
@@ -34,6 +35,19 @@ class _JetAddress(types.WrapperAddressProtocol):
 
     def signature(self) -> Any:
         return self._sig
+
+
+@typeof_impl.register(_JetAddress)
+def _typeof_jet_address(val: _JetAddress, c: Any) -> types.FunctionType:
+    """The numba type of a jet or update: the module's own instance, not a new FunctionType per
+    call (numba's generic typing of a WrapperAddressProtocol rebuilds and re-hashes it on every
+    call of the loop, a fixed cost that dominated short runs)."""
+    sig = val._sig
+    if sig is _JET_SIG:
+        return _JET_TYPE
+    if sig is _UPDATE_SIG:
+        return _UPDATE_TYPE
+    return types.FunctionType(sig)
 
 
 # the codes shared with DOP853 (:mod:`._codes`)
