@@ -418,7 +418,10 @@ def solve(
         )
     if not kept:  # t and y above are copies: every buffer is free again
         for shape, T, Yb, C in buffers:
-            _SPARE.setdefault(shape, (T, Yb, C))
+            # only first-size buffers are kept for the next call: a long run's grown ones (×4 per
+            # resume) would stay allocated for the life of the process
+            if C.nbytes <= 2 * _HUGE:
+                _SPARE.setdefault(shape, (T, Yb, C))
     return out
 
 
