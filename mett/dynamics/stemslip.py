@@ -1334,6 +1334,14 @@ _TOUCHDOWN = Event(
     select=_select,
     history=True,
 )
+
+
+def _both_switch(fn: Any, target: str, jump: Any, grazing: bool = False) -> Event:
+    """A switch out of a double-contact phase (lift-off, stop, cone): the phase after the jump is
+    picked by :func:`_select` from the state it leaves."""
+    return Event(fn, -1.0, "switch", target=target, jump=jump, select=_select, grazing=grazing)
+
+
 _LANDING = Event(
     _landing,
     -1.0,
@@ -1437,38 +1445,10 @@ MODEL = register(
                 _both_sliding_into,
                 (
                     Event(_both_contact, -1.0, "contact_lost"),
-                    Event(
-                        _both_ball_lift,
-                        -1.0,
-                        "switch",
-                        target="stem-sliding",
-                        jump=_ball_lifts,
-                        select=_select,
-                    ),
-                    Event(
-                        _both_stem_lift,
-                        -1.0,
-                        "switch",
-                        target="ball-sliding",
-                        jump=_stem_lifts,
-                        select=_select,
-                    ),
-                    Event(
-                        _both_ball_stop,
-                        -1.0,
-                        "switch",
-                        target="both-sliding",
-                        jump=_both_stop,
-                        select=_select,
-                    ),
-                    Event(
-                        _both_stem_stop,
-                        -1.0,
-                        "switch",
-                        target="both-sliding",
-                        jump=_both_stop,
-                        select=_select,
-                    ),
+                    _both_switch(_both_ball_lift, "stem-sliding", _ball_lifts),
+                    _both_switch(_both_stem_lift, "ball-sliding", _stem_lifts),
+                    _both_switch(_both_ball_stop, "both-sliding", _both_stop),
+                    _both_switch(_both_stem_stop, "both-sliding", _both_stop),
                 ),
             ),
             Phase(
@@ -1477,39 +1457,10 @@ MODEL = register(
                 _ball_stick_into,
                 (
                     Event(_bs_contact, -1.0, "contact_lost"),
-                    Event(
-                        _bs_ball_lift,
-                        -1.0,
-                        "switch",
-                        target="stem-sliding",
-                        jump=_ball_lifts,
-                        select=_select,
-                    ),
-                    Event(
-                        _bs_stem_lift,
-                        -1.0,
-                        "switch",
-                        target="ball-rolling",
-                        jump=_stem_lifts,
-                        select=_select,
-                    ),
-                    Event(
-                        _bs_cone,
-                        -1.0,
-                        "switch",
-                        target="both-sliding",
-                        jump=_both_cone,
-                        select=_select,
-                        grazing=True,
-                    ),
-                    Event(
-                        _bs_stop,
-                        -1.0,
-                        "switch",
-                        target="both-ball-rolling",
-                        jump=_both_stop,
-                        select=_select,
-                    ),
+                    _both_switch(_bs_ball_lift, "stem-sliding", _ball_lifts),
+                    _both_switch(_bs_stem_lift, "ball-rolling", _stem_lifts),
+                    _both_switch(_bs_cone, "both-sliding", _both_cone, grazing=True),
+                    _both_switch(_bs_stop, "both-ball-rolling", _both_stop),
                 ),
             ),
             Phase(
@@ -1518,39 +1469,10 @@ MODEL = register(
                 _stem_stick_into,
                 (
                     Event(_ss_contact, -1.0, "contact_lost"),
-                    Event(
-                        _ss_ball_lift,
-                        -1.0,
-                        "switch",
-                        target="stem-rolling",
-                        jump=_ball_lifts,
-                        select=_select,
-                    ),
-                    Event(
-                        _ss_stem_lift,
-                        -1.0,
-                        "switch",
-                        target="ball-sliding",
-                        jump=_stem_lifts,
-                        select=_select,
-                    ),
-                    Event(
-                        _ss_cone,
-                        -1.0,
-                        "switch",
-                        target="both-sliding",
-                        jump=_both_cone,
-                        select=_select,
-                        grazing=True,
-                    ),
-                    Event(
-                        _ss_stop,
-                        -1.0,
-                        "switch",
-                        target="both-stem-rolling",
-                        jump=_both_stop,
-                        select=_select,
-                    ),
+                    _both_switch(_ss_ball_lift, "stem-rolling", _ball_lifts),
+                    _both_switch(_ss_stem_lift, "ball-sliding", _stem_lifts),
+                    _both_switch(_ss_cone, "both-sliding", _both_cone, grazing=True),
+                    _both_switch(_ss_stop, "both-stem-rolling", _both_stop),
                 ),
             ),
         ),
