@@ -32,6 +32,7 @@ import numba
 from numba.core.dispatcher import Dispatcher
 
 from .._numba_cache import install as _check_numba_cache
+from .dop853 import FUNCTION_SIGNATURE
 from .registry import Model, lookup
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
@@ -170,7 +171,15 @@ def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable
                 )
             rhs = _jit(rhs)
         name = model.name if not ph.name else f"{model.name}_{ph.name}"
-        _COMPILED[key] = (rhs, _events_kernel(name, ph.events))
+        events = _events_kernel(name, ph.events)
+        # Compiled (or loaded) here under the driver's signature, the key of numba's disk cache.
+        # The driver passes the kernels as first-class functions of FUNCTION_SIGNATURE, a call
+        # from Python compiles for the argument types alone: two cache keys, so a fresh process
+        # that called a kernel from Python first compiled it a second time (the largest event
+        # kernels twice on every cold machine). A Python call now finds this overload.
+        rhs.compile(FUNCTION_SIGNATURE)
+        events.compile(FUNCTION_SIGNATURE)
+        _COMPILED[key] = (rhs, events)
     return _COMPILED[key]
 
 
