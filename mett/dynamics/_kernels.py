@@ -26,7 +26,7 @@ from __future__ import annotations
 import hashlib
 import types
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numba
 from numba.core.dispatcher import Dispatcher
@@ -177,8 +177,8 @@ def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable
         # from Python compiles for the argument types alone: two cache keys, so a fresh process
         # that called a kernel from Python first compiled it a second time (the largest event
         # kernels twice on every cold machine). A Python call now finds this overload.
-        rhs.compile(FUNCTION_SIGNATURE)
-        events.compile(FUNCTION_SIGNATURE)
+        for kernel in (rhs, events):
+            cast(Dispatcher, kernel).compile(FUNCTION_SIGNATURE)
         _COMPILED[key] = (rhs, events)
     return _COMPILED[key]
 
