@@ -70,11 +70,13 @@ VERIFIED: _Verified = {
 }
 
 
-# Coulomb–Contensou: the top is said to invert only if the drilling torque leaves λ at least this
-# many λ_thres when θ̄ arrives within tol of π. Set from the 78 simulated cases of
-# docs/theory/inversion.md#coulombcontensou: below it the simulated tops were split between
-# complete inversion and falling back (the spin consumed first); the answer there is None.
-CONTENSOU_MARGIN = 1.5
+# Coulomb–Contensou: where the balance flow reaches π − tol with λ below this many λ_thres the
+# answer is None: the top arrives, but its inverted spin is unstable there (λ < λ_thres,
+# docs/theory/thresholds.md) and the drilling torque keeps lowering λ. It was 1.5 (an undecided
+# band fitted to simulations) while the flow ignored the contact point's response to the
+# friction force (mett.inversion._gyroscopic.cm_slip2); with it, the flow's own end decides
+# (docs/theory/inversion.md#coulombcontensou: right in 68 of the 69 simulated cases it decides).
+CONTENSOU_MARGIN = 1.0
 
 
 def _law_name(law: Viscous | Coulomb | RegularisedCoulomb) -> str:
@@ -157,9 +159,9 @@ def predict_inversion(
         :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
         or :class:`~mett.friction.Coulomb`. Without a Contensou radius: whether the slip stops
         (then the top rolls and does not invert). With one: the balance flow in (θ, λ), λ lowered
-        by the drilling torque (method "gyroscopic" only; declared accuracy 10 % of ``t_half`` +
-        one nutation period for ε ≤ 0.03, ``inverts=None`` where λ arrives below
-        ``CONTENSOU_MARGIN`` λ_thres).
+        by the drilling torque (method "gyroscopic" only; declared accuracy of ``t_half``: 6 % +
+        one nutation period for θ0 ≤ 0.03, 12 % + one nutation period for θ0 ≤ 0.1;
+        ``inverts=None`` where λ arrives below ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the flow of (D̄, Ẽ̄) averaged over the
@@ -464,7 +466,7 @@ def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
             (
                 f"undecided: the mean inclination reaches pi - tol, but the drilling torque has "
                 f"lowered lam to {margin:.3g} lam_thres (below {CONTENSOU_MARGIN} lam_thres the "
-                "simulated tops of the check often fall back before they invert)"
+                "inverted spin is unstable: the top may leave it again)"
             ),
         )
     elif path.stop == "end":
