@@ -230,7 +230,8 @@ def cm_slip2(w2, b, k2):
     Coulomb) x = max(w² − k², 0): the slip stops where |w| φ̇ < μ g K, the exact-Coulomb stick
     criterion of :func:`mett.predict_inversion`. The power lost is c x. At the upright spin this
     factor turns the balance flow's growth rate into the linear growth rate of the full gliding
-    model (spin eigenvalues) to 12 % for κ K up to 7, where the flow without it is 2–40× too fast
+    model (spin eigenvalues) to 10 % for κ K ≤ 2.5 and 13 % up to 7, where the flow without it is
+    1.2–40× too fast
     (docs/theory/inversion.md#coulombcontensou).
     """
     B = b + k2 - w2
