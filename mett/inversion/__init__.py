@@ -75,7 +75,7 @@ VERIFIED: _Verified = {
 # docs/theory/thresholds.md) and the drilling torque keeps lowering λ. It was 1.5 (an undecided
 # band fitted to simulations) while the flow ignored the contact point's response to the
 # friction force (mett.inversion._gyroscopic.cm_slip2); with it, the flow's own end decides
-# (docs/theory/inversion.md#coulombcontensou: right in 68 of the 69 simulated cases it decides).
+# (docs/theory/inversion.md#coulombcontensou: right in 77 of the 78 simulated cases).
 CONTENSOU_MARGIN = 1.0
 
 
@@ -626,7 +626,7 @@ def atlas(
     -------
     dict
         law → {"t_half", "t_inv" (s, inf where it does not invert), "inverts" (1, 0, or -1 where
-        the reduction cannot tell, e.g. Contensou's undecided band), "outside" (the
+        the reduction cannot tell, e.g. Contensou arriving below λ_thres), "outside" (the
         verified-range flag), "lam_end" (λ at the end of the slow path over λ(0): below 1 only
         under Coulomb–Contensou, whose drilling torque lowers λ; nan without a path)}, arrays of
         shape (len(mu), len(omega3)).
