@@ -70,11 +70,13 @@ VERIFIED: _Verified = {
 }
 
 
-# Coulomb–Contensou: the top is said to invert only if the drilling torque leaves λ at least this
-# many λ_thres when θ̄ arrives within tol of π. Set from the 78 simulated cases of
-# docs/theory/inversion.md#coulombcontensou: below it the simulated tops were split between
-# complete inversion and falling back (the spin consumed first); the answer there is None.
-CONTENSOU_MARGIN = 1.5
+# Coulomb–Contensou: where the balance flow reaches π − tol with λ below this many λ_thres the
+# answer is None: the top arrives, but its inverted spin is unstable there (λ < λ_thres,
+# docs/theory/thresholds.md) and the drilling torque keeps lowering λ. It was 1.5 (an undecided
+# band fitted to simulations) while the flow ignored the contact point's response to the
+# friction force (mett.inversion._gyroscopic.cm_slip2); with it, the flow's own end decides
+# (docs/theory/inversion.md#coulombcontensou: right in 77 of the 78 simulated cases).
+CONTENSOU_MARGIN = 1.0
 
 
 def _law_name(law: Viscous | Coulomb | RegularisedCoulomb) -> str:
@@ -157,9 +159,9 @@ def predict_inversion(
         :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
         or :class:`~mett.friction.Coulomb`. Without a Contensou radius: whether the slip stops
         (then the top rolls and does not invert). With one: the balance flow in (θ, λ), λ lowered
-        by the drilling torque (method "gyroscopic" only; declared accuracy 10 % of ``t_half`` +
-        one nutation period for ε ≤ 0.03, ``inverts=None`` where λ arrives below
-        ``CONTENSOU_MARGIN`` λ_thres).
+        by the drilling torque (method "gyroscopic" only; declared accuracy of ``t_half``: 6 % +
+        one nutation period for θ0 ≤ 0.03, 12 % + one nutation period for θ0 ≤ 0.1;
+        ``inverts=None`` where λ arrives below ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the flow of (D̄, Ẽ̄) averaged over the
@@ -464,7 +466,7 @@ def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
             (
                 f"undecided: the mean inclination reaches pi - tol, but the drilling torque has "
                 f"lowered lam to {margin:.3g} lam_thres (below {CONTENSOU_MARGIN} lam_thres the "
-                "simulated tops of the check often fall back before they invert)"
+                "inverted spin is unstable: the top may leave it again)"
             ),
         )
     elif path.stop == "end":
@@ -597,6 +599,7 @@ def atlas(
     theta0: float = 0.1,
     cm_at_rest: bool = True,
     eps: float = 0.01,
+    contensou_radius: float = 5e-4,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Predicted inversion times over a grid of friction coefficients and spins, per law.
 
@@ -606,41 +609,63 @@ def atlas(
     mu, omega3 : array_like
         1-D grids: friction coefficients (s/m for "viscous", dimensionless for the Coulomb laws)
         and initial spins (rad/s, > 0).
-    laws : sequence of {"viscous", "regularised-coulomb", "coulomb"}
-        The laws; "regularised-coulomb" uses the regularisation velocity ``eps`` (m/s).
+    laws : sequence of {"viscous", "regularised-coulomb", "coulomb", "coulomb-contensou"}
+        The laws; "regularised-coulomb" uses the regularisation velocity ``eps`` (m/s),
+        "coulomb-contensou" the contact-disc radius ``contensou_radius`` (m) with uniform pressure
+        (r* = 2/3 r, :class:`~mett.friction.Coulomb`).
     theta0 : float, default 0.1
         Initial inclination (rad).
     cm_at_rest : bool, default True
         Start with the centre of mass at rest (else the contact point at rest).
+    eps : float, default 0.01
+        Regularisation velocity (m/s) of "regularised-coulomb", > 0.
+    contensou_radius : float, default 5e-4
+        Contact-disc radius r (m) of "coulomb-contensou", > 0.
 
     Returns
     -------
     dict
         law → {"t_half", "t_inv" (s, inf where it does not invert), "inverts" (1, 0, or -1 where
-        the reduction cannot tell), "outside" (the verified-range flag)}, arrays of shape
-        (len(mu), len(omega3)).
+        the reduction cannot tell, e.g. Contensou arriving below λ_thres), "outside" (the
+        verified-range flag), "lam_end" (λ at the end of the slow path over λ(0): below 1 only
+        under Coulomb–Contensou, whose drilling torque lowers λ; nan without a path)}, arrays of
+        shape (len(mu), len(omega3)).
+
+    Notes
+    -----
+    Each point is one :func:`predict_inversion` (about 2 ms for the viscous law, 20–100 ms for
+    Coulomb–Contensou, whose slow flow is an ODE in (θ, λ)). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
+    reads the atlas of the thesis top.
     """
     mus = np.atleast_1d(np.asarray(mu, dtype=float))
     spins = np.atleast_1d(np.asarray(omega3, dtype=float))
     if mus.ndim != 1 or spins.ndim != 1 or not (mus.size and spins.size):
         raise ValueError("mu and omega3 must be non-empty 1-D grids")
-    known = ("viscous", "regularised-coulomb", "coulomb")
-    out = {}
+    known = ("viscous", "regularised-coulomb", "coulomb", "coulomb-contensou")
     for name in laws:
         if name not in known:
             raise ValueError(f"laws must be among {known}; got {name!r}")
+    if "regularised-coulomb" in laws:
+        eps = _validate.positive_scalar("eps", eps)
+    if "coulomb-contensou" in laws:
+        contensou_radius = _validate.positive_scalar("contensou_radius", contensou_radius)
+    out = {}
+    for name in laws:
         shape = (mus.size, spins.size)
         res = {k: np.full(shape, np.inf) for k in ("t_half", "t_inv")}
         res["inverts"] = np.zeros(shape)
         res["outside"] = np.zeros(shape, dtype=bool)
+        res["lam_end"] = np.full(shape, np.nan)
         for i, m in enumerate(mus):
             law: FrictionLaw
             if name == "viscous":
                 law = Viscous(m)
             elif name == "regularised-coulomb":
                 law = RegularisedCoulomb(m, eps)
-            else:
+            elif name == "coulomb":
                 law = Coulomb(m)
+            else:
+                law = Coulomb(m, contensou_radius=contensou_radius)
             for j, w in enumerate(spins):
                 if cm_at_rest:
                     st = State.with_cm_at_rest(top, theta=theta0, omega3=w)
@@ -651,5 +676,7 @@ def atlas(
                 res["t_inv"][i, j] = p.t_inv if p.inverts else math.inf
                 res["inverts"][i, j] = -1 if p.inverts is None else float(p.inverts)
                 res["outside"][i, j] = p.validity.outside_verified_range
+                if len(p.lam):
+                    res["lam_end"][i, j] = float(p.lam[-1]) / float(p.lam[0])
         out[name] = res
     return out
