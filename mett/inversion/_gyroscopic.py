@@ -1,16 +1,20 @@
 """Gyroscopic-balance reduction of the gliding tippe top (Moffatt & Shimomura 2002; Ueda, Sasaki &
 Watanabe 2005) with the Jellett integral, as a one-dimensional slow flow of the mean inclination.
 
-The derivation is on docs/theory/inversion.md. In short: on the slow time scale the centre of mass
-is horizontally at rest and the axis precesses steadily at the fast rate, so the state at each
-inclination θ is the fast steady precession of the frictionless top with the given λ:
+The derivation is on docs/theory/inversion.md. In short: on the slow time scale the axis
+precesses steadily at the fast rate, so the state at each inclination θ is the fast steady
+precession of the frictionless top with the given λ:
 
     R I1 (1 − α cos θ) φ̇² − λ φ̇ + m g R² α (α − cos θ) = 0   (fast root),
     I3 ω3 = I1 φ̇ cos θ − m g R α / φ̇,
 
-(the θ̈ = 0 condition of the Euler-angle equations with θ̇ = 0, g_n = m g, and λ = −L·a). Friction
-dissipates the energy E(θ) of that state at the rate P = −F_t·v_A, v_A = R sin θ (ω3 + φ̇ (α −
-cos θ)) ŷ, while λ is conserved (any force at the contact point), so
+(the θ̈ = 0 condition of the Euler-angle equations with θ̇ = 0, g_n = m g, and λ = −L·a). With
+the centre of mass at rest its contact point slips with w = R sin θ (ω3 + φ̇ (α − cos θ)) ŷ. The
+friction force turns with the precession, and the contact point answers it with the steady slip
+v_A of :func:`cm_slip2` (|v_A|² = w²/(1 + (κ K)²) for the viscous law; the root of a quadratic
+for the regularised Coulomb and Coulomb–Contensou laws). Friction dissipates the energy E(θ) of
+the balance state at the rate P = −F_t·v_A while λ is conserved (any force at the contact
+point), so
 
     dθ/dt = −P(θ) / E'(θ).
 
@@ -78,12 +82,45 @@ def friction_rates(law, top: TippeTop, nu, omega_n):
     raise TypeError(f"friction law {law!r} is not covered by the gyroscopic-balance flow")
 
 
-def flow_rate(top: TippeTop, lam: float, law, theta):
-    """dθ/dt = −P(θ)/E'(θ) of the balance flow (1/s), vectorised; NaN where no balance exists."""
-    return _flow_rate_and_state(top, lam, law, np.asarray(theta, dtype=float))[0]
+def drag_form(law, top: TippeTop, omega_n=0.0):
+    """(μ_c, a, b) with the law's drag c = μ_c g_n/√(a |v_A|² + b): F_t = −c v_A (SI units).
+
+    Viscous: (μ, 0, 1) (μ in s/m); regularised Coulomb: (μ, 1, ε²); Coulomb–Contensou:
+    (μ, 1, (r* ω_n)²), whose b is zero for exact Coulomb (r* = 0). Vectorised over ``omega_n``.
+    """
+    if isinstance(law, Viscous):
+        return (top.mu if law.mu is None else law.mu), 0.0, 1.0
+    if isinstance(law, RegularisedCoulomb):
+        return law.mu, 1.0, law.eps**2
+    if isinstance(law, Coulomb):
+        return law.mu, 1.0, (law.r_star * np.asarray(omega_n, dtype=float)) ** 2
+    raise TypeError(f"friction law {law!r} is not covered by the gyroscopic-balance flow")
 
 
-def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray):
+def contact_slip2(top: TippeTop, law, theta, state):
+    """Squared slip |v_A|² (m²/s²) of the contact point answering the law's force (:func:`cm_slip2`).
+
+    ``state`` is :func:`balance_state` at ``theta``: its slip w (centre of mass at rest), fast
+    precession φ̇ and spin ω_n. Vectorised.
+    """
+    phidot, nu, omega_n = state[0], state[3], state[4]
+    mu_c, a, b = drag_form(law, top, omega_n)
+    K = 1.0 + top.m * top.R**2 * (1.0 - top.alpha * np.cos(theta)) ** 2 / top.I1
+    return cm_slip2(nu * nu, b, (mu_c * top.g * K / phidot) ** 2, a)
+
+
+def flow_rate(top: TippeTop, lam: float, law, theta, cm_response: bool = True):
+    """dθ/dt = −P(θ)/E'(θ) of the balance flow (1/s), vectorised; NaN where no balance exists.
+
+    ``cm_response``: the slip is the contact point's steady answer to the friction force
+    (:func:`contact_slip2`, the default) or, if False, the balance state's own (centre of mass at
+    rest). Exact Coulomb sliding always takes the balance state's slip (see :func:`cm_slip2`).
+    """
+    return _flow_rate_and_state(top, lam, law, np.asarray(theta, dtype=float), cm_response)[0]
+
+
+def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray,
+                         cm_response: bool = True):  # fmt: skip
     """(dθ/dt, the balance state at θ): the state is reused for D and Ẽ along the path."""
     h = 1e-30
     # Complex step: E'(θ) to machine precision, no cancellation near θ = 0 or π. The real parts
@@ -91,7 +128,12 @@ def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray):
     cstate = balance_state(top, lam, theta + 1j * h)
     E_th = cstate[2].imag / h
     state = tuple(np.real(x) for x in cstate)
-    P, _ = friction_rates(law, top, state[3], 0.0)
+    nu = state[3]
+    if cm_response and isinstance(law, Viscous | RegularisedCoulomb):
+        # The power the rotation loses is c |v_A|² at the answering slip: the force is ⟂ ṙ, so
+        # the centre of mass's kinetic energy is constant (cm_slip2).
+        nu = np.sqrt(contact_slip2(top, law, theta, state))
+    P, _ = friction_rates(law, top, nu, 0.0)
     return -P / E_th, state
 
 
@@ -118,7 +160,7 @@ def _cumulative_simpson(f: np.ndarray, h: float) -> np.ndarray:
 
 def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float,
               marks: tuple[float, ...] = (), h: float = PATH_STEP,
-              fixed_point: float | None = None):  # fmt: skip
+              fixed_point: float | None = None, cm_response: bool = True):  # fmt: skip
     """Times t(θ) along the balance flow from ``theta_from`` to ``theta_to`` (quadrature).
 
     With λ conserved the flow is autonomous in θ alone, so t(θ) = ∫ dθ / θ̇(θ), written in
@@ -130,7 +172,8 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
     are quadrature values, not interpolations. With ``fixed_point`` (a tumbling angle θ_t
     beyond ``theta_to``: the flow slows like θ_t − θ there, on the scale |θ_t − theta_to| that
     s does not stretch) the grid is graded towards it: nodes at θ_t ∓ |θ_t − theta_to| 2^k, and
-    at least 16 steps (at the default ``h``) between two of them.
+    at least 16 steps (at the default ``h``) between two of them. ``cm_response``: as for
+    :func:`flow_rate`.
     Returns (t, θ, the balance state along θ: see :func:`balance_state`, {mark: t or inf});
     raises NoBalance at the first θ where the fast precession does not exist, ValueError if the
     flow runs backwards (the top does not move towards ``theta_to``).
@@ -160,7 +203,7 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
     sizes = [len(g) for g in grids]
     s = np.concatenate(grids)
     theta = 2.0 * np.arctan(np.exp(s))
-    rate, state = _flow_rate_and_state(top, lam, law, theta)
+    rate, state = _flow_rate_and_state(top, lam, law, theta, cm_response)
     bad = ~np.isfinite(rate)
     if bad.any():
         raise NoBalance(float(theta[np.argmax(bad)]))
@@ -212,32 +255,35 @@ def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
 # vanish (v_A = 0 and E_λ = ω3/(R (1 − α)) = ω_n/(R (1 − α))): the flow stays linear in θ there.
 
 
-def cm_slip2(w2, b, k2):
+def cm_slip2(w2, b, k2, a=1.0):
     """Squared slip |v_A|² (m²/s²) of the gliding top whose centre of mass follows the friction.
 
     In the balance state the slip w of the contact point (CM at rest) rotates with the fast
-    precession φ̇, and so does the friction force F = −c v_A, c = μ g_n/√(|v_A|² + b). The contact
-    point answers with the steady solution of its slip equation in the precessing frame,
+    precession φ̇, and so does the friction force F = −c v_A, c = μ g_n/√(a |v_A|² + b). The
+    contact point answers with the steady solution of its slip equation in the precessing frame,
     v̇_A + i φ̇ v_A = K F/m + i φ̇ w, where K = 1 + m R² (1 − α cos θ)²/I1 is the contact point's
     inverse mass in units of 1/m (the centre of mass and the rotation both give way; the κ of the
     exact-Coulomb stop time, docs/theory/equations.md): v_A = w/(1 − i κ K), κ = c/(m φ̇) (complex
     notation in the horizontal plane), and |v_A|² = w²/(1 + (κ K)²). With k = μ g_n K/(m φ̇) and
-    x = |v_A|²: x (x + b) = w² (x + b) − k² x, the positive root of
+    x = |v_A|²: x (a x + b) = w² (a x + b) − k² x, the non-negative root of
 
-        x² + (b + k² − w²) x − w² b = 0.
+        a x² + (b + k² − a w²) x − w² b = 0.
 
-    b = (r* ω_n)² for Coulomb–Contensou, ε² for the regularised Coulomb law; at b = 0 (exact
-    Coulomb) x = max(w² − k², 0): the slip stops where |w| φ̇ < μ g K, the exact-Coulomb stick
-    criterion of :func:`mett.predict_inversion`. The power lost is c x. At the upright spin this
-    factor turns the balance flow's growth rate into the linear growth rate of the full gliding
-    model (spin eigenvalues) to 10 % for κ K ≤ 2.5 and 13 % up to 7, where the flow without it is
-    1.2–40× too fast
-    (docs/theory/inversion.md#coulombcontensou).
+    The laws (:func:`drag_form`): viscous a = 0, b = 1, μ in s/m, so x = w²/(1 + k²), linear in
+    w²; regularised Coulomb a = 1, b = ε²; Coulomb–Contensou a = 1, b = (r* ω_n)². At a = 1,
+    b = 0 (exact Coulomb) x = max(w² − k², 0): the slip stops where |w| φ̇ < μ g K, the
+    exact-Coulomb stick criterion of :func:`mett.predict_inversion` (the sliding flow does not use
+    it: near the upright spin w → 0 and it would stick). The power lost is c x, and the force is
+    ⟂ ṙ = i κ K v_A, so the centre of mass's kinetic energy is constant. The neglected term is
+    v̇_A: w grows at the flow's rate σ while the slip relaxes at φ̇ |1 − i κ K|, so the relative
+    error is O(σ/φ̇) (docs/theory/inversion.md#two-stages).
     """
-    B = b + k2 - w2
-    root = np.sqrt(B * B + 4.0 * w2 * b)
-    # the two forms of the root, each without cancellation on its side of B = 0
-    return np.where(B > 0.0, 2.0 * w2 * b / np.where(B > 0.0, B + root, 1.0), 0.5 * (root - B))
+    B = b + k2 - a * w2
+    root = np.sqrt(B * B + 4.0 * a * w2 * b)
+    # the two forms of the root, each without cancellation on its side of B = 0 (B > 0 at a = 0)
+    big = np.where(B > 0.0, B + root, 1.0)
+    small = np.where(B > 0.0, 1.0, 2.0 * a)
+    return np.where(B > 0.0, 2.0 * w2 * b / big, (root - B) / small)
 
 
 def contensou_rates(top: TippeTop, law, lam, theta, cm_response: bool = True):
@@ -258,15 +304,11 @@ def contensou_rates(top: TippeTop, law, lam, theta, cm_response: bool = True):
     E_th = cstate[2].imag / h
     E_lam = balance_state(top, lam + 1j * h * lam, theta)[2].imag / (h * lam)
     state = tuple(np.real(x) for x in cstate)  # O(h²) = 1e-60 from the state at θ
-    phidot, nu, omega_n = state[0], state[3], state[4]
+    nu, omega_n = state[3], state[4]
     rs = law.r_star
     gn = top.m * top.g
     b = (rs * omega_n) ** 2
-    if cm_response:
-        K = 1.0 + top.m * top.R**2 * (1.0 - top.alpha * np.cos(theta)) ** 2 / top.I1
-        nu2 = cm_slip2(nu * nu, b, (law.mu * top.g * K / phidot) ** 2)
-    else:
-        nu2 = nu * nu
+    nu2 = contact_slip2(top, law, theta, state) if cm_response else nu * nu
     gam = np.sqrt(nu2 + b)
     arm = top.R * (1.0 - top.alpha * np.cos(theta))
     k = law.mu * gn / gam
