@@ -23,9 +23,11 @@ class Validity:
     outside_verified_range : bool
         True when the case lies outside the parameter box of the verification table
         (docs/theory/inversion.md#verification): another law than the viscous one, θ0 or
-        λ/λ_thres outside the table's ranges, ε above its largest verified value, or a viscous
+        λ/λ_thres outside the table's ranges, ε above its largest verified value, a viscous
         law whose coefficient μ|v_A| on the balance path exceeds 1 before π/2 (a friction no
-        real contact has, which lifts the top off: docs/theory/flight.md).
+        real contact has, which lifts the top off: docs/theory/flight.md), or a lift-off
+        predicted before π/2 (``InversionPrediction.t_lift``: the reductions assume a top on the
+        table, and a hopping top inverts later).
     notes : tuple of str
         Why the flag is set, one phrase per reason.
     """
