@@ -268,9 +268,10 @@ def figure(rows: list[dict]) -> pathlib.Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True, sharey=True)
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
     colours = {"contact": "tab:blue", "hops": "tab:orange", "artefact": "tab:red"}
-    for ax, m in zip(axes, METHODS, strict=True):
+    axes[1].sharey(axes[0])
+    for ax, m in zip(axes, METHODS, strict=False):
         lo, hi = 0.1, 200.0
         for r in rows:
             kind = _kind(r)
@@ -304,6 +305,40 @@ def figure(rows: list[dict]) -> pathlib.Path:
         Line2D([], [], ls="", marker="o", mfc="none", color="grey", label="open: flagged outside"),
     ]  # fmt: skip
     axes[1].legend(handles=handles, loc="upper left", fontsize=8)
+    # the lift-off criterion: predicted t_lift against the simulated first lift-off, where both
+    # come before π/2 (hits); misses and false alarms on the frame's edges
+    ax = axes[2]
+    lo, hi = 0.01, 200.0
+    for r in rows:
+        if _kind(r) == "none":
+            continue
+        p, ref = r["pred"]["gyroscopic"], r["ref"]
+        if math.isnan(p["t_lift"]):
+            continue
+        pred = p["t_lift"] if p["t_lift"] < p["t_half"] else math.inf
+        sim = ref["t_contact_lost"] if ref["hops"] > 0 else math.inf
+        if math.isinf(pred) and math.isinf(sim):
+            continue
+        key = "artefact" if ref["artefact"] > 1.0 else "hops"
+        x = min(max(pred, lo), hi) if math.isfinite(pred) else hi
+        y = min(max(sim, lo), hi) if math.isfinite(sim) else hi
+        face = colours[key] if not p["outside"] or _only_hop_flag(r) else "none"
+        ax.scatter(x, y, s=36, marker="o" if math.isfinite(pred) and math.isfinite(sim) else "s",
+                   facecolors=face, edgecolors=colours[key], linewidths=1.2, clip_on=False)  # fmt: skip
+    ax.plot([lo, hi], [lo, hi], "k-", lw=0.8)
+    for f in (0.9, 1.1):
+        ax.plot([lo, hi], [lo / f, hi / f], "k:", lw=0.6)
+    ax.set(xscale="log", yscale="log", xlim=(lo, hi), ylim=(lo, hi),
+           xlabel="predicted lift-off t_lift (s; right edge: none before π/2)",
+           ylabel="simulated first lift-off (s; top edge: none before π/2)",
+           title="lift-off criterion (gyroscopic)")  # fmt: skip
+    ax.legend(handles=[
+        Line2D([], [], ls="", marker="o", color="grey", label="both before π/2"),
+        Line2D([], [], ls="", marker="s", color="grey", label="false alarm / miss (edge)"),
+        Line2D([], [], ls="", marker="o", mfc="grey", color="grey",
+               label="filled: no other flag than the hop"),
+        Line2D([], [], ls="", marker="o", color=colours["artefact"], label="viscous artefact"),
+    ], loc="upper left", fontsize=8)  # fmt: skip
     out = ROOT / "docs" / "figures" / "inversion_verification.png"
     fig.savefig(out, dpi=100)
     return out
