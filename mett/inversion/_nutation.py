@@ -186,8 +186,10 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
         ([0.0], np.cumsum(0.5 * (lam_n.real[1:] + lam_n.real[:-1]) * np.diff(t)))
     )
     # in logarithms: a growing nutation may pass any float range long after it lifts the top
-    amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
-    ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
+    # (then inf: the ratio is past 1 there anyway)
+    with np.errstate(over="ignore", invalid="ignore"):
+        amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
+        ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
     over = np.flatnonzero(ratio >= 1.0)
     if not len(over):
         t_lift = math.inf
