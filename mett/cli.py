@@ -778,6 +778,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         "t_half": p.t_half,
         "t_inv": p.t_inv,
         "tol": p.tol,
+        "t_lift": p.t_lift,
         "epsilon": v.epsilon,
         "lambda_over_lambda_thres": v.spin_ratio,
         "outside_verified_range": v.outside_verified_range,
@@ -787,7 +788,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         out: dict[str, Any] = {
             k: (_json_number(x) if isinstance(x, float) else x) for k, x in values.items()
         }
-        out["units"] = {"t_start": "s", "t_half": "s", "t_inv": "s", "tol": "rad"}
+        out["units"] = {"t_start": "s", "t_half": "s", "t_inv": "s", "tol": "rad", "t_lift": "s"}
         _print_json(out)
         return 0
     rows = [
@@ -797,6 +798,7 @@ def _cmd_predict(args: argparse.Namespace) -> int:
         ("t_start [s]", _fmt(p.t_start)),
         ("t_half (mean theta passes pi/2) [s]", _fmt(p.t_half)),
         (f"t_inv (within {p.tol:g} rad of the end) [s]", _fmt(p.t_inv)),
+        ("t_lift (nutation lifts it off before pi/2) [s]", _fmt(p.t_lift)),
         ("epsilon = T_nutation/t_half", _fmt(v.epsilon)),
         (
             "outside verified range",

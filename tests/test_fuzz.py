@@ -202,6 +202,8 @@ DOCUMENTED_NAN = {
     ("asymptotic_state", "omega3"),
     # no time to pass π/2: the small parameter T_n/t_half is undefined
     ("predict_inversion", "epsilon"),
+    # the lift-off criterion not evaluated (no balance path, another law or method)
+    ("predict_inversion", "t_lift"),
 }
 # ... and ±inf: λ_0 = inf in group I, λ_thres = inf in group III, no inverting spin ("never");
 # V = +inf at a pole where N does not vanish (and so its derivatives and f)
@@ -210,7 +212,7 @@ DOCUMENTED_INF = {
     ("min_spin_for_inversion", "result"),
     *((fn, "result") for fn in ("V", "V_rational", "dV_dz", "d2V_dz2", "f")),
     # a top that never starts, passes π/2 or arrives: math.inf by the documented contract
-    *(("predict_inversion", k) for k in ("t_start", "t_half", "t_inv")),
+    *(("predict_inversion", k) for k in ("t_start", "t_half", "t_inv", "t_lift")),
 }
 
 

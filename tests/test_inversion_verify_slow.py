@@ -29,30 +29,51 @@ def _runs(method):
 
 @pytest.mark.slow
 def test_validity_range_of_the_table_meets_the_target():
-    errors, hopping = [], 0
+    errors = []
     for case, pred, t_end in _runs("gyroscopic"):
         if pred.validity.outside_verified_range:
             continue
-        # inside the range the reduction answers, with a finite time
+        # inside the range the reduction answers, with a finite time, and no lift-off before π/2
         assert pred.inverts is True and t_end is not None, case.name
+        assert not pred.t_lift < pred.t_half, case.name
         ref = reference(case, t_end)
         if not ref.has_crossing:
             # no crossing by twice the prediction is a failure, unless the run had no say:
             # it failed (hops accumulating) or was cut at 60 s first
             assert ref.status == "failed" or t_end < 2 * pred.t_half, case.name
             continue
-        if ref.hops:
-            # A hopping top is outside the reduction (g_n = m g) and the flag cannot tell: in the
-            # air no friction acts, so it can only invert later, never earlier than predicted
-            # beyond the target (docs/theory/inversion.md#verification).
-            hopping += 1
-            assert ref.t_half >= pred.t_half - WORST * ref.t_half - ref.T_n, case.name
-            continue
+        # every crossing counts, after hops too (the lift-off criterion is meant to flag those)
         e = max(abs(pred.t_half - ref.t_half) - ref.T_n, 0.0) / ref.t_half
         assert e <= WORST, (case.name, e)
         errors.append(e)
-    assert len(errors) >= 5 and hopping >= 5
+    assert len(errors) >= 5
     assert statistics.median(errors) <= MEDIAN
+
+
+@pytest.mark.slow
+def test_lift_off_criterion_on_the_table():
+    # docs/theory/inversion.md#verification: a case flagged by the lift-off criterion alone (inside
+    # the box of the other assumptions) lifts off before π/2 in the simulation, and a case inside
+    # the validity range does not. The flag is never late: the predicted first lift-off is not
+    # after the simulated one by more than the 10 % target of the path's time (it may be early:
+    # case 46, predicted 18 % early, the linear amplitude's error at a slowly growing ratio).
+    only_hop, inside = 0, 0
+    for case, pred, t_end in _runs("gyroscopic"):
+        notes = pred.validity.notes
+        hop = [n for n in notes if n.startswith("predicted to hop before pi/2")]
+        if t_end is None or (notes and len(hop) < len(notes)):
+            continue
+        ref = reference(case, t_end)
+        if not (ref.has_crossing or ref.status == "completed"):
+            continue
+        if hop:
+            only_hop += 1
+            assert ref.hops > 0, case.name
+            assert pred.t_lift <= (1.0 + WORST) * ref.t_contact_lost, case.name
+        else:
+            inside += 1
+            assert ref.hops == 0, case.name
+    assert only_hop >= 5 and inside >= 5
 
 
 @pytest.mark.slow

@@ -61,7 +61,8 @@ def run(cache: pathlib.Path | None = None) -> list[dict]:
             "ref": ref,
             "pred": {
                 m: {"t_half": p.t_half, "inverts": p.inverts, "epsilon": p.validity.epsilon,
-                    "outside": p.validity.outside_verified_range, "notes": list(p.validity.notes)}
+                    "outside": p.validity.outside_verified_range, "notes": list(p.validity.notes),
+                    "t_lift": p.t_lift}
                 for m, p in preds.items()
             },
         })  # fmt: skip
@@ -120,6 +121,46 @@ def _fmt_err(e: float) -> str:
     return "> 50%" if math.isinf(e) else f"{e:.1%}"
 
 
+def _fmt_t(t: float | None) -> str:
+    if t is None or math.isinf(t):
+        return "–"
+    return "" if math.isnan(t) else f"{t:.3g}"
+
+
+def lift_offs(rows: list[dict]) -> dict:
+    """The lift-off criterion (gyroscopic ``t_lift`` before its ``t_half``) against the simulated
+    lift-offs before the first crossing of π/2 (before the end of the run without one).
+
+    Counts over the cases with a simulation that got that far (a crossing, or a completed run):
+    ``hit`` (predicted and simulated), ``quiet`` (neither), ``false`` (predicted, not simulated),
+    ``miss`` (simulated, not predicted); each also for the cases inside the validity range
+    before the criterion, i.e. whose only flag is the hop. ``dt`` lists |t_lift − t_sim|/t_sim
+    of the hits; ``artefact`` the hits and misses whose simulated lift-off is the viscous law's
+    artefact (μ|v_A| > 1)."""
+    out: dict = {k: [] for k in ("hit", "quiet", "false", "miss", "dt", "artefact")}
+    for r in rows:
+        if _kind(r) == "none":
+            continue
+        p, ref = r["pred"]["gyroscopic"], r["ref"]
+        if math.isnan(p["t_lift"]):
+            continue
+        pred = p["t_lift"] < p["t_half"]
+        sim = ref["hops"] > 0
+        key = {(True, True): "hit", (False, False): "quiet", (True, False): "false",
+               (False, True): "miss"}[(pred, sim)]  # fmt: skip
+        out[key].append(r["name"])
+        if key == "hit":
+            out["dt"].append(abs(p["t_lift"] - ref["t_contact_lost"]) / ref["t_contact_lost"])
+        if sim and ref["artefact"] > 1.0:
+            out["artefact"].append(r["name"])
+    return out
+
+
+def _only_hop_flag(row: dict) -> bool:
+    notes = row["pred"]["gyroscopic"]["notes"]
+    return bool(notes) and all(n.startswith("predicted to hop") for n in notes)
+
+
 def summary(rows: list[dict], method: str, inside: bool) -> dict:
     """Counts and t_half errors of ``method`` within (``inside``) or outside its validity flag."""
     sel = [r for r in rows if r["pred"][method]["outside"] != inside]
@@ -143,8 +184,8 @@ def summary(rows: list[dict], method: str, inside: bool) -> dict:
 def table(rows: list[dict]) -> str:
     out = [
         "| case | law | start | λ/λ_thres | θ0 | μ | ε | t_half gyroscopic (s) | averaged (s) "
-        "| sim (s) | error gyr. | error avg. | simulation |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| sim (s) | error gyr. | error avg. | lift-off pred. / sim. (s) | simulation |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         g, a = r["pred"]["gyroscopic"], r["pred"]["averaged"]
@@ -153,7 +194,7 @@ def table(rows: list[dict]) -> str:
             f"| {r['name']}{mark} | {r['law']} | {r['start']} | {r['ratio']:.1f} | {r['theta0']:.3f} "
             f"| {r['mu']:.3g} | {g['epsilon']:.3g} | {g['t_half']:.3f} | {a['t_half']:.3f} "
             f"| {r['ref']['t_half']:.3f} | {_fmt_err(error(r, 'gyroscopic'))} "
-            f"| {_fmt_err(error(r, 'averaged'))} | {_status(r)} |"
+            f"| {_fmt_err(error(r, 'averaged'))} | {_fmt_lift(r)} | {_status(r)} |"
         )
     out.append("")
     for m in METHODS:
@@ -181,7 +222,35 @@ def table(rows: list[dict]) -> str:
                     line += (f"; {label}: {len(e)}, median {_fmt_err(statistics.median(e))}, "
                              f"worst {_fmt_err(max(e))}")  # fmt: skip
             out.append(line)
+    lo = lift_offs(rows)
+    n = sum(len(lo[k]) for k in ("hit", "quiet", "false", "miss"))
+    line = (
+        f"lift-off before pi/2 (gyroscopic t_lift < t_half) against the simulation, {n} cases: "
+        f"{len(lo['hit'])} predicted and simulated, {len(lo['quiet'])} neither, "
+        f"{len(lo['false'])} false alarms ({', '.join(lo['false']) or 'none'}), {len(lo['miss'])} "
+        f"missed ({', '.join(lo['miss']) or 'none'})"
+    )
+    if lo["dt"]:
+        line += (f"; |t_lift - simulated first lift-off| over the hits: median "
+                 f"{_fmt_err(statistics.median(lo['dt']))}, worst {_fmt_err(max(lo['dt']))}")  # fmt: skip
+    if lo["artefact"]:
+        line += f"; viscous artefact (mu |v_A| > 1) at the simulated lift-off: {', '.join(lo['artefact'])}"
+    out.append(line)
+    only = [r for r in rows if _only_hop_flag(r)]
+    if only:
+        out.append(
+            "flagged by the lift-off criterion alone: "
+            + ", ".join(f"{r['name']} ({_status(r)})" for r in only)
+        )
     return "\n".join(out) + "\n"
+
+
+def _fmt_lift(row: dict) -> str:
+    """Predicted t_lift (if before t_half) / simulated first lift-off (if before the crossing)."""
+    p, ref = row["pred"]["gyroscopic"], row["ref"]
+    pred = p["t_lift"] if p["t_lift"] < p["t_half"] else math.inf
+    sim = ref["t_contact_lost"] if ref["hops"] > 0 else math.inf
+    return f"{_fmt_t(pred)} / {_fmt_t(sim)}"
 
 
 def write_docs(text: str) -> None:
@@ -199,9 +268,10 @@ def figure(rows: list[dict]) -> pathlib.Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True, sharey=True)
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
     colours = {"contact": "tab:blue", "hops": "tab:orange", "artefact": "tab:red"}
-    for ax, m in zip(axes, METHODS, strict=True):
+    axes[1].sharey(axes[0])
+    for ax, m in zip(axes, METHODS, strict=False):
         lo, hi = 0.1, 200.0
         for r in rows:
             kind = _kind(r)
@@ -235,6 +305,40 @@ def figure(rows: list[dict]) -> pathlib.Path:
         Line2D([], [], ls="", marker="o", mfc="none", color="grey", label="open: flagged outside"),
     ]  # fmt: skip
     axes[1].legend(handles=handles, loc="upper left", fontsize=8)
+    # the lift-off criterion: predicted t_lift against the simulated first lift-off, where both
+    # come before π/2 (hits); misses and false alarms on the frame's edges
+    ax = axes[2]
+    lo, hi = 0.01, 200.0
+    for r in rows:
+        if _kind(r) == "none":
+            continue
+        p, ref = r["pred"]["gyroscopic"], r["ref"]
+        if math.isnan(p["t_lift"]):
+            continue
+        pred = p["t_lift"] if p["t_lift"] < p["t_half"] else math.inf
+        sim = ref["t_contact_lost"] if ref["hops"] > 0 else math.inf
+        if math.isinf(pred) and math.isinf(sim):
+            continue
+        key = "artefact" if ref["artefact"] > 1.0 else "hops"
+        x = min(max(pred, lo), hi) if math.isfinite(pred) else hi
+        y = min(max(sim, lo), hi) if math.isfinite(sim) else hi
+        face = colours[key] if not p["outside"] or _only_hop_flag(r) else "none"
+        ax.scatter(x, y, s=36, marker="o" if math.isfinite(pred) and math.isfinite(sim) else "s",
+                   facecolors=face, edgecolors=colours[key], linewidths=1.2, clip_on=False)  # fmt: skip
+    ax.plot([lo, hi], [lo, hi], "k-", lw=0.8)
+    for f in (0.9, 1.1):
+        ax.plot([lo, hi], [lo / f, hi / f], "k:", lw=0.6)
+    ax.set(xscale="log", yscale="log", xlim=(lo, hi), ylim=(lo, hi),
+           xlabel="predicted lift-off t_lift (s; right edge: none before π/2)",
+           ylabel="simulated first lift-off (s; top edge: none before π/2)",
+           title="lift-off criterion (gyroscopic)")  # fmt: skip
+    ax.legend(handles=[
+        Line2D([], [], ls="", marker="o", color="grey", label="both before π/2"),
+        Line2D([], [], ls="", marker="s", color="grey", label="false alarm / miss (edge)"),
+        Line2D([], [], ls="", marker="o", mfc="grey", color="grey",
+               label="filled: no other flag than the hop"),
+        Line2D([], [], ls="", marker="o", color=colours["artefact"], label="viscous artefact"),
+    ], loc="upper left", fontsize=8)  # fmt: skip
     out = ROOT / "docs" / "figures" / "inversion_verification.png"
     fig.savefig(out, dpi=100)
     return out

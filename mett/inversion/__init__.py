@@ -40,7 +40,7 @@ from ..integrals import jellett, modified_energy, routh
 from ..stability import escape_time
 from ..state import State
 from ..top import TippeTop
-from . import _averaged
+from . import _averaged, _nutation
 from ._gyroscopic import NoBalance, balance_D_and_E_mod, contensou_path, slow_path
 from ._result import InversionPrediction, Validity
 
@@ -323,8 +323,9 @@ def predict_inversion(
                 lam=lam,
             )
     mu_lin = _linear_mu(top, law, state)
+    top_lin = top.replace(mu=mu_lin)
     try:
-        esc = escape_time(top.replace(mu=mu_lin), state)
+        esc = escape_time(top_lin, state)
     except ValueError as exc:
         if lam <= top.lambda_0:
             return empty(
@@ -399,6 +400,19 @@ def predict_inversion(
     times = {"start": at[theta0], "half": at[0.5 * math.pi], "end": float(t[-1])}
     D, E_mod = balance_D_and_E_mod(top, lam, theta, balance)
     t_half = times["half"]
+    # Does the nutation lift the top off before π/2 (g_n = m g fails)? First-order criterion
+    # along the path (mett.inversion._nutation, docs/theory/inversion.md#verification), on every
+    # third node up to π/2 (steps <= 0.3 in ln tan(θ/2)) and the last: t_lift moves by <= 1 %
+    # from the full path on the verification cases, at a third of the cost.
+    up = np.flatnonzero(theta <= 0.5 * math.pi)
+    up = np.unique(np.r_[up[::3], up[-1:]])
+    try:
+        amp0, rate0 = _nutation.upright_nutation(top, state, lam, top_lin)
+        t_lift = _nutation.lift_off(top, law, lam, t[up], theta[up], amp0, rate0).t_lift
+    except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
+        t_lift = math.nan
+    if t_lift < t_half:
+        notes.append(f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)")
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
         inverts, reason = True, "inverts"
@@ -426,6 +440,7 @@ def predict_inversion(
         lam=np.asarray(lam_path),
         theta_end=theta_end,
         validity=validity(eps),
+        t_lift=t_lift,
     )
 
 

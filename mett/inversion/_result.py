@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,9 +23,11 @@ class Validity:
     outside_verified_range : bool
         True when the case lies outside the parameter box of the verification table
         (docs/theory/inversion.md#verification): another law than the viscous one, θ0 or
-        λ/λ_thres outside the table's ranges, ε above its largest verified value, or a viscous
+        λ/λ_thres outside the table's ranges, ε above its largest verified value, a viscous
         law whose coefficient μ|v_A| on the balance path exceeds 1 before π/2 (a friction no
-        real contact has, which lifts the top off: docs/theory/flight.md).
+        real contact has, which lifts the top off: docs/theory/flight.md), or a lift-off
+        predicted before π/2 (``InversionPrediction.t_lift``: the reductions assume a top on the
+        table, and a hopping top inverts later).
     notes : tuple of str
         Why the flag is set, one phrase per reason.
     """
@@ -69,6 +72,16 @@ class InversionPrediction:
         The end inclination of the slow flow (rad).
     validity : Validity
         Small parameters and the verified-range flag.
+    t_lift : float
+        First time (s) at which the nutation is predicted to lift the top off the table before θ̄
+        passes π/2, ``math.inf`` if it is not (method "gyroscopic" with the viscous or
+        regularised Coulomb law), ``nan`` where the criterion is not evaluated (the other laws
+        and methods). The criterion (docs/theory/inversion.md#verification): the nutation, a
+        linear mode about the balance state of amplitude Z in cos θ and rate λ_n, takes the
+        normal force g_n = m (g − l d²cos θ/dt²) to zero where l |λ_n|² Z ≥ g (l = Rα); Z from
+        the initiation's mode split, carried along the path by the mode's own growth rate and
+        its adiabatic invariant. Where ``t_lift < t_half`` the prediction is flagged: the
+        reductions assume a top on the table, and a hopping top inverts later.
     """
 
     inverts: bool | None
@@ -85,6 +98,7 @@ class InversionPrediction:
     lam: np.ndarray = field(repr=False)
     theta_end: float
     validity: Validity
+    t_lift: float = math.nan
 
     def theta_at(self, t: float | np.ndarray) -> np.ndarray:
         """Mean inclination θ̄(t) (rad), interpolated on the slow path (held at its ends)."""
