@@ -37,8 +37,10 @@ STAGES: list[tuple[int, str, Any, str]] = [
     (4, "backend choice", "mett.dynamics.backends", "choose"),
     (3, "kernel lookup", REGISTRY["taylor"], "batch_kernel"),
     (3, "the batch and its ends", "mett.dynamics.batch", "_propagate_group"),
-    (4, "Taylor kernel (all lanes)", "mett.dynamics.taylor", "propagate"),
+    (4, "the batch's call of the kernel", REGISTRY["taylor"], "propagate"),
+    (5, "Taylor kernel (all lanes)", "mett.dynamics.taylor", "propagate"),
     (4, "derive (θ, ω3, E of the ends)", MODELS["gliding"], "derive"),
+    (4, "θ over the windows", MODELS["gliding"], "theta"),
     (2, "row of each point", "mett.sweeps", "_row"),
     (1, "the table (SweepTable)", "mett.sweeps", "SweepTable"),
 ]

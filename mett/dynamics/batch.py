@@ -120,6 +120,7 @@ def run_ends(
     kw = {**SIMULATE_DEFAULTS, **simulate_kw, "stop_on_contact_loss": True}
     out: list[Any] = [None] * len(jobs)
     fast: dict[Any, list[tuple[int, PreparedRun]]] = {}
+    kernels: dict[tuple, Any] = {}
     # The options common to the jobs are checked once (a job's own friction law is applied to
     # its top, so such a job is prepared whole); options simulate would refuse are left to
     # prepare_run, which reports them for each job as simulate does
@@ -138,7 +139,13 @@ def run_ends(
             if isinstance(prep, Trajectory):  # decided at t = 0
                 out[j] = end_of(prep, window=window, n_window=n_window)
             elif _TAYLOR.batchable(prep):
-                k = _TAYLOR.batch_kernel(prep, LANES)
+                # the kernel of the previous run of this model, phase and order, if its branches
+                # are this run's (the lookup by value costs more than the check; the runs hold
+                # the model and phase, so their ids are theirs through this call)
+                key = (id(prep.model), id(prep.phase), prep.rtol, prep.y0.size)
+                k = kernels.get(key)
+                if k is None or not k.traced.admits(prep.params):
+                    k = kernels[key] = _TAYLOR.batch_kernel(prep, LANES)
                 fast.setdefault((k, prep.max_step), []).append((j, prep))
             else:
                 out[j] = end_of(run_prepared(prep), window=window, n_window=n_window)
