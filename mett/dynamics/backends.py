@@ -730,10 +730,11 @@ class TaylorBackend(_Adapter):
     @staticmethod
     def propagate(
         kernel: Any, preps: list[PreparedRun], t_end: float, max_step: float, t_eval: np.ndarray
-    ) -> list[tuple[str, str, float, np.ndarray, np.ndarray, float]]:
+    ) -> tuple[list[str], list[str], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Runs ``preps`` (of one :meth:`batch_kernel`) from t = 0 to ``t_end``, ``kernel.lanes``
-        at a time, keeping only their ends: per run (status, message, t_stop, y_stop, the
-        states at ``t_eval`` (NaN after the run stopped), the first zero of cos θ (NaN: none))."""
+        at a time, keeping only their ends, as columns (a row per run): (statuses, messages,
+        t_stop (m,), y_stop (m, n), the states at ``t_eval`` (m, len(t_eval), n; NaN after the
+        run stopped), the first zero of cos θ (m,; NaN: none))."""
         from . import taylor
 
         events = preps[0].phase.events
@@ -746,20 +747,21 @@ class TaylorBackend(_Adapter):
                 direction=[ev.direction for ev in events] + [0.0], max_step=max_step,
                 max_steps=_run.MAX_STEPS,
             )  # fmt: skip
-        out = []
-        for row in range(len(preps)):
-            code, t_stop = int(res.status[row]), float(res.t[row])
+        done = completed_message(t_end)
+        statuses, messages = [], []
+        for code, t_stop, index in zip(
+            res.status.tolist(), res.t.tolist(), res.event_index.tolist(), strict=True
+        ):
             if code == taylor.COMPLETED:
-                status, message = "completed", completed_message(t_end)
+                status, message = "completed", done
             elif code == taylor.TERMINAL_EVENT:
-                ev = events[int(res.event_index[row])]
+                ev = events[index]
                 status, message = event_end(ev.action, ev.message, t_stop)
             else:
                 status, message = "failed", integrator_failure(taylor.STATUS_MESSAGES, code, t_stop)
-            out.append(
-                (status, message, t_stop, res.y[row], res.samples[row], float(res.first[row, -1]))
-            )
-        return out
+            statuses.append(status)
+            messages.append(message)
+        return statuses, messages, res.t, res.y, res.samples, res.first[:, -1]
 
 
 REGISTRY: dict[str, Backend] = {}

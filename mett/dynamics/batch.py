@@ -176,12 +176,10 @@ def _propagate_group(
     preps = [prep for _, prep in items]
     tw = _window(0.0, t_end, window, n_window)
     P = np.array([prep.params for prep in preps], dtype=float)
-    res = _TAYLOR.propagate(k, preps, t_end, max_step, tw)
-    status, message, t_stop, y_stop, samples, t_cross = zip(*res, strict=True)
+    status, message, t_stop, y_stop, S, t_cross = _TAYLOR.propagate(k, preps, t_end, max_step, tw)
     m, n, n_w = len(preps), preps[0].y0.size, tw.size
     # a run that stopped early has no window (only a completed run is judged settled)
     judged = np.array([s == "completed" for s in status]) & (n_w > 0)
-    S = np.array(samples, dtype=float).reshape(m, n_w, n)
     # One derive for the whole group (Model.derive takes one parameter set per column): of each
     # run's start, its end and the two ends of its window (E there is all the settled test
     # compares), run after run; θ over the windows from the model's cheap theta, also in one
@@ -203,17 +201,23 @@ def _propagate_group(
     omega3_end = np.asarray(series["omega3"], dtype=float)[at + 1].tolist()
     energy = np.asarray(series["E"], dtype=float)
     e0 = energy[at].tolist()
-    at_w = 0
+    # the first crossing, where it came before the run's end
+    cross = np.where(t_cross <= t_stop, t_cross, math.nan).tolist()
+    stops = t_stop.tolist()
+    # each judged run's window: θ and E as views of the group's arrays, in run order
+    theta_rows = theta_w.reshape(-1, n_w) if n_w else theta_w.reshape(0, 0)
+    e_rows = energy[(at[judged] + 2)[:, None] + np.arange(2)]
+    none_tw, none_th, none_e = tw[:0], theta_w[:0], energy[:0]
+    w = 0
     for row, (j, _) in enumerate(items):
         if judged[row]:
-            a = int(at[row])
-            tw_r, th_r, e_r = tw, theta_w[at_w : at_w + n_w], energy[a + 2 : a + 4]
-            at_w += n_w
+            tw_r, th_r, e_r = tw, theta_rows[w], e_rows[w]
+            w += 1
         else:
-            tw_r, th_r, e_r = tw[:0], theta_w[:0], energy[:0]
+            tw_r, th_r, e_r = none_tw, none_th, none_e
         out[j] = RunEnd(
-            status[row], message[row], t_stop[row], theta_end[row], omega3_end[row],
-            t_cross[row] if t_cross[row] <= t_stop[row] else math.nan, tw_r, th_r, e_r, e0[row],
+            status[row], message[row], stops[row], theta_end[row], omega3_end[row], cross[row],
+            tw_r, th_r, e_r, e0[row],
         )  # fmt: skip
 
 
