@@ -29,6 +29,8 @@ import pandas as pd
 
 from . import _validate
 from ._validate import MettWarning
+from .integrals import jellett
+from .state import State
 from .top import TippeTop
 
 if TYPE_CHECKING:
@@ -194,9 +196,6 @@ def _law(base: dict, point: dict, top: TippeTop) -> Any:
 def _start(base: dict, point: dict) -> tuple[dict, Any]:
     """The row of a grid point so far, and (top, state, simulate options, start values, model) to
     run, or None if the point's parameters are refused (the row then says why)."""
-    from .integrals import jellett
-    from .state import State
-
     row: dict[str, Any] = dict(point)
     try:
         top, ic = _point_setup(base, point)
@@ -242,11 +241,11 @@ def _prediction(top: TippeTop, lam: float) -> tuple[str, tuple[str, ...]]:
     and their stability do not depend on it (docs/theory/thresholds.md#thresholds: λ and the
     top's m, R, α, I1, I3, g decide them; a test checks this).
     """
-    from .classification import asymptotic_state
-
     key = (*(getattr(top, f) for f in _PREDICTION_KEY), lam)
     found = _PREDICTED.get(key)
     if found is None:
+        from .classification import asymptotic_state
+
         pred = asymptotic_state(top, lam)
         found = (pred.kind, tuple(c.kind for c in pred.candidates))
         if len(_PREDICTED) >= 4096:  # bounded: a long-lived process sweeps many grids
@@ -811,7 +810,6 @@ def _probe_options(base: dict, grid: _Grid) -> str:
     import numpy as np
 
     from .dynamics.simulation import check_run
-    from .state import State
 
     kw = {k: v for k, v in base["simulate_kw"].items() if k not in _FRICTION}
     if "events" in kw:
