@@ -25,10 +25,13 @@ from concurrent.futures import Executor, Future, as_completed
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any, cast
 
+import numpy as np
 import pandas as pd
 
 from . import _validate
 from ._validate import MettWarning
+from .dynamics import MODELS
+from .friction import Viscous
 from .integrals import jellett
 from .state import State
 from .top import TippeTop
@@ -262,11 +265,6 @@ def _unstable_spin(top: TippeTop, model: str, kw: dict, lam: float, pole: str, e
     left by every nearby top, slowly when the growth rate σ is small: a top seen near it at
     ``t_end`` is still escaping (e.g. θ = 0.035 rad at 4 s, tumbling by 30 s), never an end state.
     """
-    import numpy as np
-
-    from .dynamics import MODELS
-    from .friction import Viscous
-
     if pole not in _SPIN_MODELS.get(model, ()):
         return ""
     if "lam" not in MODELS[model].conserves:  # λ changes (Contensou torque, stem impacts): at
@@ -312,8 +310,6 @@ _UNSTABLE: dict[tuple, bool] = {}
 def _growth_rate(top: TippeTop, lam: float, pole: str) -> float:
     """The largest real part σ (1/s) of the spin's eigenvalues, or 0 where it is 0 to rounding
     (a frictionless, neutral spin)."""
-    import numpy as np
-
     from .stability import spin_eigenvalues
 
     ev = spin_eigenvalues(top, lam, pole)
