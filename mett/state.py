@@ -105,7 +105,8 @@ class State:
 
     @property
     def shape(self) -> tuple[int, ...]:
-        return np.shape(self.theta)
+        theta = self.theta
+        return () if type(theta) is float else np.shape(theta)  # one state: no numpy call
 
     def as_array(self) -> np.ndarray:
         """``[theta, thetadot, phidot, omega3, nu_x, nu_y]`` stacked on the first axis."""

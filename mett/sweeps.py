@@ -25,10 +25,15 @@ from concurrent.futures import Executor, Future, as_completed
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any, cast
 
+import numpy as np
 import pandas as pd
 
 from . import _validate
 from ._validate import MettWarning
+from .dynamics import MODELS
+from .friction import Viscous
+from .integrals import jellett
+from .state import State
 from .top import TippeTop
 
 if TYPE_CHECKING:
@@ -194,9 +199,6 @@ def _law(base: dict, point: dict, top: TippeTop) -> Any:
 def _start(base: dict, point: dict) -> tuple[dict, Any]:
     """The row of a grid point so far, and (top, state, simulate options, start values, model) to
     run, or None if the point's parameters are refused (the row then says why)."""
-    from .integrals import jellett
-    from .state import State
-
     row: dict[str, Any] = dict(point)
     try:
         top, ic = _point_setup(base, point)
@@ -242,11 +244,11 @@ def _prediction(top: TippeTop, lam: float) -> tuple[str, tuple[str, ...]]:
     and their stability do not depend on it (docs/theory/thresholds.md#thresholds: λ and the
     top's m, R, α, I1, I3, g decide them; a test checks this).
     """
-    from .classification import asymptotic_state
-
     key = (*(getattr(top, f) for f in _PREDICTION_KEY), lam)
     found = _PREDICTED.get(key)
     if found is None:
+        from .classification import asymptotic_state
+
         pred = asymptotic_state(top, lam)
         found = (pred.kind, tuple(c.kind for c in pred.candidates))
         if len(_PREDICTED) >= 4096:  # bounded: a long-lived process sweeps many grids
@@ -263,11 +265,6 @@ def _unstable_spin(top: TippeTop, model: str, kw: dict, lam: float, pole: str, e
     left by every nearby top, slowly when the growth rate σ is small: a top seen near it at
     ``t_end`` is still escaping (e.g. θ = 0.035 rad at 4 s, tumbling by 30 s), never an end state.
     """
-    import numpy as np
-
-    from .dynamics import MODELS
-    from .friction import Viscous
-
     if pole not in _SPIN_MODELS.get(model, ()):
         return ""
     if "lam" not in MODELS[model].conserves:  # λ changes (Contensou torque, stem impacts): at
@@ -313,8 +310,6 @@ _UNSTABLE: dict[tuple, bool] = {}
 def _growth_rate(top: TippeTop, lam: float, pole: str) -> float:
     """The largest real part σ (1/s) of the spin's eigenvalues, or 0 where it is 0 to rounding
     (a frictionless, neutral spin)."""
-    import numpy as np
-
     from .stability import spin_eigenvalues
 
     ev = spin_eigenvalues(top, lam, pole)
@@ -706,14 +701,14 @@ def _canonical(row: dict) -> str:
 
 def _want_progress(progress: bool | None) -> bool:
     """Resolve ``progress`` before any work: None means "if stderr is a terminal and tqdm exists"."""
-    has_tqdm = importlib.util.find_spec("tqdm") is not None
+    # tqdm is looked for only where a bar is wanted (the search of sys.path costs ~60 µs)
     if progress is None:
         try:
             interactive = sys.stderr is not None and sys.stderr.isatty()
         except (AttributeError, ValueError):  # a closed or replaced stderr
             interactive = False
-        return interactive and has_tqdm
-    if progress and not has_tqdm:
+        return interactive and importlib.util.find_spec("tqdm") is not None
+    if progress and importlib.util.find_spec("tqdm") is None:
         raise ValueError("progress=True needs tqdm: pip install 'mett[progress]'")
     return progress
 
@@ -811,7 +806,6 @@ def _probe_options(base: dict, grid: _Grid) -> str:
     import numpy as np
 
     from .dynamics.simulation import check_run
-    from .state import State
 
     kw = {k: v for k, v in base["simulate_kw"].items() if k not in _FRICTION}
     if "events" in kw:

@@ -23,7 +23,7 @@ import pytest
 
 import mett
 from mett import friction
-from mett.dynamics import MODELS, backends, simulation
+from mett.dynamics import MODELS, backends, registry, simulation
 
 TOP = mett.presets.get("rutstam2013")
 THESIS = mett.State(theta=0.1, omega3=155.0)
@@ -119,6 +119,62 @@ def test_a_law_or_event_or_rhs_taylor_cannot_represent_sends_auto_to_dop853():
     branchy = dataclasses.replace(gliding, name="branchy-test", rhs_into=branchy_into)
     assert "cannot be traced" in tay.inexact(branchy, p, {}, 10)
     assert backends.choose(branchy, "DOP853", p, {}, 10) == "compiled"
+
+
+def _first_principles_choice(model, method, params, options, n_state, user_events=False):
+    """backend="auto" by its definition: the first backend of AUTO that accepts the run and is
+    exact for it (asked afresh, nothing remembered)."""
+    for name in backends.AUTO:
+        if user_events and name == "taylor":
+            continue
+        b = backends.REGISTRY[name]
+        if b.accepts(model, method) and b.inexact(model, params, options, n_state) is None:
+            return name
+    return "scipy"
+
+
+def test_the_remembered_choice_is_the_choice_asked_afresh_for_every_model_law_and_method():
+    # choose remembers what does not depend on the parameters (per model, method, kind of law);
+    # the tracer's verdict, which may, is asked per call: a model whose right-hand side branches
+    # on the state only for some parameters runs Taylor until such parameters come
+    gliding = MODELS["gliding"]
+
+    def sometimes_branchy_into(t, y, q, out):
+        gliding.rhs_into(t, y, q, out)
+        if q[5] > 1.0 and y[9] > 2.0:  # a branch on the state, reached only when mu > 1
+            out[0] = 0.0
+
+    picky = dataclasses.replace(gliding, name="picky-test", rhs_into=sometimes_branchy_into)
+    # Taylor while the parameters keep it off the state's branch; once it is reached, the
+    # tracer's "no" holds for every parameter set (backends._TRACED)
+    assert backends.choose(picky, "DOP853", gliding.params(TOP, {}), {}, 10) == "taylor"
+    p2 = gliding.params(TOP.replace(mu=2.0), {})
+    assert backends.choose(picky, "DOP853", p2, {}, 10) == "compiled"
+    laws = [None, friction.Viscous(0.2), friction.Coulomb(0.3), _UndeclaredViscous(0.3)]
+    models = [*MODELS.values(), picky]
+    checked = set()
+    for mu in (0.3, 2.0, 0.3):
+        top = TOP.replace(mu=mu)
+        for model in models:
+            try:  # the model's own parameters and state size (with its default options)
+                p = model.params(top, registry.validate_options(model, {}))
+                n = len(model.initial(THESIS, p))
+            except (ValueError, TypeError, KeyError):
+                continue  # a model that needs options or another top: its own tests
+            for method in ("DOP853", "Radau"):
+                for law in laws:
+                    for user in (False, True):
+                        opts = {} if law is None else {"friction": law}
+                        args = (model, method, p, opts, n, user)
+                        assert backends.choose(*args) == _first_principles_choice(*args), (
+                            model.name,
+                            mu,
+                            method,
+                            law,
+                            user,
+                        )
+            checked.add(model.name)
+    assert {"gliding", "rolling", "picky-test"} <= checked
 
 
 def _first_half(traj):

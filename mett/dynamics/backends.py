@@ -677,16 +677,25 @@ class TaylorBackend(_Adapter):
         * a phase whose right-hand side or events cannot be traced (a branch on the state, an
           operation the tracer does not know: :func:`mett.dynamics.taylor.trace`).
         """
+        why = self.static_inexact(model, options)
+        if why is not None:
+            return why
+        for ph in model.phase_table():
+            why = _untraceable(model, ph, params, n_state)
+            if why is not None:
+                return why
+        return None
+
+    @staticmethod
+    def static_inexact(model: Model, options: dict) -> str | None:
+        """The part of :meth:`inexact` that does not depend on the parameters (the law, the
+        grazing events)."""
         law = options.get("friction")
         if law is not None and getattr(law, "analytic", False) is not True:
             return f"the friction law {type(law).__name__} is not analytic in the state"
         for ph in model.phase_table():
             if any(ev.grazing for ev in ph.events):
                 return f"phase {ph.name!r} of model {model.name!r} has a grazing event"
-        for ph in model.phase_table():
-            why = _untraceable(model, ph, params, n_state)
-            if why is not None:
-                return why
         return None
 
     # --- many runs at once (mett.dynamics.batch) ---
@@ -721,10 +730,11 @@ class TaylorBackend(_Adapter):
     @staticmethod
     def propagate(
         kernel: Any, preps: list[PreparedRun], t_end: float, max_step: float, t_eval: np.ndarray
-    ) -> list[tuple[str, str, float, np.ndarray, np.ndarray, float]]:
+    ) -> tuple[list[str], list[str], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Runs ``preps`` (of one :meth:`batch_kernel`) from t = 0 to ``t_end``, ``kernel.lanes``
-        at a time, keeping only their ends: per run (status, message, t_stop, y_stop, the
-        states at ``t_eval`` (NaN after the run stopped), the first zero of cos θ (NaN: none))."""
+        at a time, keeping only their ends, as columns (a row per run): (statuses, messages,
+        t_stop (m,), y_stop (m, n), the states at ``t_eval`` (m, len(t_eval), n; NaN after the
+        run stopped), the first zero of cos θ (m,; NaN: none))."""
         from . import taylor
 
         events = preps[0].phase.events
@@ -737,20 +747,21 @@ class TaylorBackend(_Adapter):
                 direction=[ev.direction for ev in events] + [0.0], max_step=max_step,
                 max_steps=_run.MAX_STEPS,
             )  # fmt: skip
-        out = []
-        for row in range(len(preps)):
-            code, t_stop = int(res.status[row]), float(res.t[row])
+        done = completed_message(t_end)
+        statuses, messages = [], []
+        for code, t_stop, index in zip(
+            res.status.tolist(), res.t.tolist(), res.event_index.tolist(), strict=True
+        ):
             if code == taylor.COMPLETED:
-                status, message = "completed", completed_message(t_end)
+                status, message = "completed", done
             elif code == taylor.TERMINAL_EVENT:
-                ev = events[int(res.event_index[row])]
+                ev = events[index]
                 status, message = event_end(ev.action, ev.message, t_stop)
             else:
                 status, message = "failed", integrator_failure(taylor.STATUS_MESSAGES, code, t_stop)
-            out.append(
-                (status, message, t_stop, res.y[row], res.samples[row], float(res.first[row, -1]))
-            )
-        return out
+            statuses.append(status)
+            messages.append(message)
+        return statuses, messages, res.t, res.y, res.samples, res.first[:, -1]
 
 
 REGISTRY: dict[str, Backend] = {}
@@ -787,18 +798,68 @@ def choose(
     A run with ``user_events`` does not go to Taylor: a user's event is any function, whose zeros
     may come in pairs within one of Taylor's long steps (it looks for sign changes at a few points
     per step), e.g. θ̇ = 0 of a top next to its pole; the DOP853's short steps find them."""
+    law = options.get("friction")
+    # the verdicts that do not depend on the parameters, once per model, method and kind of law
+    # (what TaylorBackend.static_inexact reads of it): a sweep asks for every point
+    kind = None if law is None else (type(law), getattr(law, "analytic", False) is True)
+    key = (id(model), method, kind, user_events, n_state)
+    memo = _CHOICES.get(key)
+    if memo is None or memo[0] is not model:
+        first, fallback = _static_choice(model, method, options, n_state, user_events)
+        phases = [(ph, _traced_of(ph)) for ph in model.phase_table()]
+        memo = (model, first, fallback, phases)
+        if len(_CHOICES) >= 256:  # bounded: a long-lived process runs many models and laws
+            _CHOICES.clear()
+        _CHOICES[key] = memo
+    _, first, fallback, phases = memo
+    if first != "taylor":
+        return first
+    for ph, seen in phases:  # the tracer's verdict for these parameters, as in inexact
+        known = seen and not isinstance(seen[0], str) and any(tr.admits(params) for tr in seen)
+        if not known and _untraceable(model, ph, params, n_state) is not None:
+            return fallback
+    return first
+
+
+_CHOICES: dict[tuple, tuple[Any, str, str, list]] = {}
+""":func:`choose`'s verdicts per (model by identity, method, the law's type and whether it is
+analytic, user events, n_state), with the model held (so that its id stays its own): the first
+backend of :data:`AUTO` that accepts the run and is exact for it whatever its parameters (the
+Taylor backend's tracer may still refuse them: checked per call), the backend after it, and the
+model's phases with their lists of traced graphs (:data:`_TRACED`)."""
+
+
+def _static_choice(
+    model: Model, method: str, options: dict, n_state: int, user_events: bool
+) -> tuple[str, str]:
+    """(the first of :data:`AUTO` that accepts ``model`` and is exact for it, the Taylor
+    backend's tracing left to each call; the first after it that is exact)."""
+    names = []
     for name in AUTO:
         if user_events and name == "taylor":
             continue
         b = REGISTRY[name]
-        if b.accepts(model, method) and b.inexact(model, params, options, n_state) is None:
-            return name
-    return "scipy"  # accepts every model with every method of solve_ivp
+        if not b.accepts(model, method):
+            continue
+        if name == "taylor":  # exact unless the law or an event is not (or the tracer refuses)
+            if TaylorBackend.static_inexact(model, options) is None:
+                names.append(name)
+        elif b.inexact(model, (), options, n_state) is None:  # the DOP853s: exact for any p
+            names.append(name)
+    names.append("scipy")  # accepts every model with every method of solve_ivp
+    first = names[0]
+    fallback = next((n for n in names[1:] if n != "taylor"), "scipy")
+    return first, fallback
 
 
 _TRACED: dict[tuple, list[Any]] = {}
 """Per (rhs_into, event functions): the graphs traced so far (``admits`` says for which
 parameters), or the reason tracing failed (the same for all parameters)."""
+
+
+def _traced_of(phase: Any) -> list[Any]:
+    """The list of :data:`_TRACED` for ``phase`` (made empty if none)."""
+    return _TRACED.setdefault((phase.rhs_into, tuple(ev.fn for ev in phase.events)), [])
 
 
 def _untraceable(model: Model, phase: Any, params: tuple, n_state: int) -> str | None:
@@ -807,15 +868,14 @@ def _untraceable(model: Model, phase: Any, params: tuple, n_state: int) -> str |
 
     if phase.rhs_into is None:
         return f"phase {phase.name!r} of model {model.name!r} has no rhs_into"
-    key = (phase.rhs_into, tuple(ev.fn for ev in phase.events))
-    seen = _TRACED.setdefault(key, [])
+    seen = _traced_of(phase)
     if seen and isinstance(seen[0], str):
         return seen[0]
     if any(tr.admits(params) for tr in seen):
         return None
     try:
-        tr = taylor.trace(phase.rhs_into, list(key[1]), n_state, len(params), params,
-                          model.conserved_lengths)  # fmt: skip
+        tr = taylor.trace(phase.rhs_into, [ev.fn for ev in phase.events], n_state, len(params),
+                          params, model.conserved_lengths)  # fmt: skip
     except Exception as exc:  # the model's own code run on stand-ins: any failure is a "no"
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         why = f"phase {phase.name!r} of model {model.name!r} cannot be traced: {first}"

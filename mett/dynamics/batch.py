@@ -120,6 +120,7 @@ def run_ends(
     kw = {**SIMULATE_DEFAULTS, **simulate_kw, "stop_on_contact_loss": True}
     out: list[Any] = [None] * len(jobs)
     fast: dict[Any, list[tuple[int, PreparedRun]]] = {}
+    kernels: dict[tuple, Any] = {}
     # The options common to the jobs are checked once (a job's own friction law is applied to
     # its top, so such a job is prepared whole); options simulate would refuse are left to
     # prepare_run, which reports them for each job as simulate does
@@ -138,7 +139,13 @@ def run_ends(
             if isinstance(prep, Trajectory):  # decided at t = 0
                 out[j] = end_of(prep, window=window, n_window=n_window)
             elif _TAYLOR.batchable(prep):
-                k = _TAYLOR.batch_kernel(prep, LANES)
+                # the kernel of the previous run of this model, phase and order, if its branches
+                # are this run's (the lookup by value costs more than the check; the runs hold
+                # the model and phase, so their ids are theirs through this call)
+                key = (id(prep.model), id(prep.phase), prep.rtol, prep.y0.size)
+                k = kernels.get(key)
+                if k is None or not k.traced.admits(prep.params):
+                    k = kernels[key] = _TAYLOR.batch_kernel(prep, LANES)
                 fast.setdefault((k, prep.max_step), []).append((j, prep))
             else:
                 out[j] = end_of(run_prepared(prep), window=window, n_window=n_window)
@@ -169,12 +176,10 @@ def _propagate_group(
     preps = [prep for _, prep in items]
     tw = _window(0.0, t_end, window, n_window)
     P = np.array([prep.params for prep in preps], dtype=float)
-    res = _TAYLOR.propagate(k, preps, t_end, max_step, tw)
-    status, message, t_stop, y_stop, samples, t_cross = zip(*res, strict=True)
+    status, message, t_stop, y_stop, S, t_cross = _TAYLOR.propagate(k, preps, t_end, max_step, tw)
     m, n, n_w = len(preps), preps[0].y0.size, tw.size
     # a run that stopped early has no window (only a completed run is judged settled)
     judged = np.array([s == "completed" for s in status]) & (n_w > 0)
-    S = np.array(samples, dtype=float).reshape(m, n_w, n)
     # One derive for the whole group (Model.derive takes one parameter set per column): of each
     # run's start, its end and the two ends of its window (E there is all the settled test
     # compares), run after run; θ over the windows from the model's cheap theta, also in one
@@ -196,17 +201,23 @@ def _propagate_group(
     omega3_end = np.asarray(series["omega3"], dtype=float)[at + 1].tolist()
     energy = np.asarray(series["E"], dtype=float)
     e0 = energy[at].tolist()
-    at_w = 0
+    # the first crossing, where it came before the run's end
+    cross = np.where(t_cross <= t_stop, t_cross, math.nan).tolist()
+    stops = t_stop.tolist()
+    # each judged run's window: θ and E as views of the group's arrays, in run order
+    theta_rows = theta_w.reshape(-1, n_w) if n_w else theta_w.reshape(0, 0)
+    e_rows = energy[(at[judged] + 2)[:, None] + np.arange(2)]
+    none_tw, none_th, none_e = tw[:0], theta_w[:0], energy[:0]
+    w = 0
     for row, (j, _) in enumerate(items):
         if judged[row]:
-            a = int(at[row])
-            tw_r, th_r, e_r = tw, theta_w[at_w : at_w + n_w], energy[a + 2 : a + 4]
-            at_w += n_w
+            tw_r, th_r, e_r = tw, theta_rows[w], e_rows[w]
+            w += 1
         else:
-            tw_r, th_r, e_r = tw[:0], theta_w[:0], energy[:0]
+            tw_r, th_r, e_r = none_tw, none_th, none_e
         out[j] = RunEnd(
-            status[row], message[row], t_stop[row], theta_end[row], omega3_end[row],
-            t_cross[row] if t_cross[row] <= t_stop[row] else math.nan, tw_r, th_r, e_r, e0[row],
+            status[row], message[row], stops[row], theta_end[row], omega3_end[row], cross[row],
+            tw_r, th_r, e_r, e0[row],
         )  # fmt: skip
 
 
