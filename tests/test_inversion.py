@@ -155,6 +155,16 @@ def test_bad_input_is_refused(thesis):
     assert p.inverts is None and "Contensou" in p.reason
 
 
+def test_a_subnormal_spin_is_an_answer_not_a_division_by_zero():
+    # I3 * 5e-324 underflows to 0: the nutation period is computed as a ratio first (inf); the
+    # body spins far below any threshold, so the answer is "no inversion" with its reason
+    top = mett.TippeTop(0.0625, 0.03125, 0.5, 6.103515625e-05, 6.103515625e-05, 0.0)
+    p = predict_inversion(top, mett.State(theta=1.0, phidot=1.0, omega3=5e-324))
+    assert p.inverts is not True and p.reason
+    assert mett.inversion._gyroscopic.nutation_period(top, 5e-324) == math.inf
+    assert mett.inversion._gyroscopic.nutation_period(top, 0.0) == math.inf
+
+
 def test_cli_predict_prints_the_prediction(capsys):
     import json
 

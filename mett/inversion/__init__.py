@@ -41,7 +41,13 @@ from ..stability import escape_time
 from ..state import State
 from ..top import TippeTop
 from . import _averaged, _nutation
-from ._gyroscopic import NoBalance, balance_D_and_E_mod, contensou_path, slow_path
+from ._gyroscopic import (
+    NoBalance,
+    balance_D_and_E_mod,
+    contensou_path,
+    nutation_period,
+    slow_path,
+)
 from ._result import InversionPrediction, Validity
 
 __all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
@@ -270,7 +276,7 @@ def predict_inversion(
             n.append(f"epsilon = T_n/t_half above {VERIFIED['epsilon']}")
         return Validity(eps, spin_ratio, bool(n), tuple(n))
 
-    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+    T_n = nutation_period(top, float(state.omega3))
 
     if top.group == "I":
         return empty(
@@ -511,7 +517,7 @@ def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
         )
     else:
         inverts, reason = None, f"the slow flow has not ended by t = {float(path.t[-1]):.3g} s"
-    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+    T_n = nutation_period(top, float(state.omega3))
     eps = T_n / path.t_half if math.isfinite(path.t_half) else math.nan
     D, E_mod = balance_D_and_E_mod(top, path.lam, path.theta, path.state)
     if amp >= theta0:
@@ -578,7 +584,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
             theta0=theta0,
             lam=lam,
         )
-    T_n = 2.0 * math.pi * top.I1 / (top.I3 * abs(float(state.omega3)))
+    T_n = nutation_period(top, float(state.omega3))
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if kind == "inverted":
         inverts, reason = (True, "inverts") if math.isfinite(t_half) else (None, "")

@@ -17,6 +17,7 @@ import numpy as np
 from ..friction import FrictionLaw, RegularisedCoulomb, Viscous
 from ..state import State
 from ..top import TippeTop
+from ._gyroscopic import nutation_period
 
 
 @dataclass(frozen=True)
@@ -141,7 +142,7 @@ def reference(case: Case, t_end: float, rtol: float = 1e-8) -> Reference:
                         backend="auto", stop_on_contact_loss=False)  # fmt: skip
     hits = traj.crossings(0.5 * math.pi)
     t_half = float(hits[0]) if len(hits) else math.inf
-    T_n = 2.0 * math.pi * case.top.I1 / (case.top.I3 * abs(float(case.state.omega3)))
+    T_n = nutation_period(case.top, float(case.state.omega3))
     switches = [s for s in traj.records.get("switches", []) if s.t <= t_half]
     lifts = [s for s in switches if s.reason == "lift-off"]
     lands = [s for s in switches if s.reason == "touchdown"]

@@ -43,6 +43,13 @@ class NoBalance(Exception):
         self.theta = theta
 
 
+def nutation_period(top: TippeTop, omega3: float) -> float:
+    """The fast nutation period 2π I1/(I3 |ω3|) (s) of a top spinning at ω3 (rad/s): the
+    ratio first, so that a subnormal spin gives ``inf``, not a division by an underflowed zero."""
+    w = abs(float(omega3))
+    return 2.0 * math.pi * (top.I1 / top.I3) / w if w > 0.0 else math.inf
+
+
 def balance_state(top: TippeTop, lam, theta):
     """Fast steady precession (φ̇, ω3, E, v_A, ω_n) at inclination θ with Jellett integral λ.
 
