@@ -158,3 +158,55 @@ def test_the_full_matrix(case):
         pytest.skip("no stemmed model for the regularised law (ValueError naming the laws)")
     top, traj = _run(*case)
     check_life(top, traj)
+
+
+# the gap of a lift-off of the thesis body under Coulomb–Contensou (θ0 = 0.5, ω3 = 465.1 rad/s,
+# contact point at rest; at t = 0.98313 s): (h0, ḣ0, g, l, Ω, u_z, v_z), M4, t0 — inputs
+_GRAZE = ((0.0, 0.0, 9.82, 0.006, 492.21945682007265, -0.006755269561715127,
+           -0.009161001168075661), 4008831.6666319156, 0.9831252266566536)  # fmt: skip
+
+
+def _gap_mp(args, tau):
+    """h(τ) at 50 digits: h0 + ḣ0 τ − g τ²/2 + l [u_z (cos Ωτ − 1) + v_z (sin Ωτ − Ωτ)]."""
+    import mpmath
+
+    with mpmath.workdps(50):
+        h0, hd0, g, l, W, uz, vz = (mpmath.mpf(x) for x in args)
+        t = mpmath.mpf(tau)
+        w = W * t
+        return (
+            h0 + hd0 * t - g * t * t / 2 + l * (uz * (mpmath.cos(w) - 1) + vz * (mpmath.sin(w) - w))
+        )
+
+
+def test_a_lift_off_whose_gap_dips_by_rounding_is_a_real_flight():
+    """Defect: at a lift-off located a rounding error early (ḧ(0) = −1.8e-15 m/s², h⃛ > 0) the gap
+    dips below 0 until τ* = −2ḧ/h⃛ ≈ 2e-18 s and then rises; the march computed h(τ*) = 0 by
+    cancellation and returned τ* as the touchdown: a zero-length hop, the contact needing a pull
+    again, 10 000 flights at one instant and status "failed" (before). Now the touchdown is the
+    first root of the rising gap, checked against the gap at 50 digits."""
+    from mett.dynamics import _hop
+    from mett.dynamics.flight import Hop
+
+    args, M4, t0 = _GRAZE
+    tau = _hop.touchdown(*args, M4, t0, 1.0)
+    hop = Hop.__new__(Hop)  # the Python reference march on the same gap
+    hop.h0, hop.hd0, hop.g, hop.l, hop.Omega = args[0], args[1], args[2], args[3], args[4]
+    hop.u, hop.v, hop.M4, hop.t0 = (
+        np.array([0.0, 0.0, args[5]]),
+        np.array([0.0, 0.0, args[6]]),
+        M4,
+        t0,
+    )
+    assert hop.touchdown_reference(1.0) == pytest.approx(tau, rel=1e-12)
+    assert tau > 1e-6  # not the dip's end, ~1e-18 s
+    grid = np.linspace(tau * 1e-3, tau * (1.0 - 1e-6), 200)
+    assert all(_gap_mp(args, x) > 0 for x in grid)  # the gap is open before the touchdown
+    assert abs(_gap_mp(args, tau)) < 1e-12 * args[3]  # and closes at it
+    assert _gap_mp(args, tau * (1.0 + 1e-6)) < 0
+    # the run that ground through 10 000 flights at t = 0.98313 s goes on
+    top = TOPS["thesis"]
+    traj = mett.simulate(
+        top, mett.State(theta=0.5, omega3=465.1), t_end=1.0, friction=LAWS["contensou"]
+    )
+    check_life(top, traj)

@@ -362,7 +362,8 @@ class Hop:
         0.0 if the gap cannot open (ḧ ≤ 0 and h⃛ ≤ 0 at a lift-off: a hop of zero length). At a
         lift-off located slightly early (ḧ(0) = −g_n/m < 0 by the event tolerance) the gap dips
         below 0 until τ = −2ḧ(0)/h⃛(0), a time of the order of the event's location error; the
-        march starts there.
+        march starts there. A zero of h reached with ḣ > 0 (there, the gap computed as 0 or
+        below by rounding while it rises) is not a touchdown: the march steps on from it.
         """
         h, h1, h2, h3 = self.gap(0.0)
         eps = np.finfo(float).eps
@@ -385,9 +386,12 @@ class Hop:
             if tau >= tau_max:
                 return None
             h, h1, h2, h3 = self.gap(tau)
-            if h <= 0.0:
+            if h <= 0.0 and h1 > 0.0:  # a rounding-level zero of a rising gap: no touchdown
+                s = _first_root([-self.M4 / 24.0, h3 / 6.0, 0.5 * h2, h1])
+            elif h <= 0.0:
                 return tau
-            s = _first_root([-self.M4 / 24.0, h3 / 6.0, 0.5 * h2, h1, h])
+            else:
+                s = _first_root([-self.M4 / 24.0, h3 / 6.0, 0.5 * h2, h1, h])
             if s is None:  # h > 0 for ever (no gravity and no wobble: never happens with g > 0)
                 return None
             if s <= t_res:
