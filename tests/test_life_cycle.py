@@ -210,3 +210,48 @@ def test_a_lift_off_whose_gap_dips_by_rounding_is_a_real_flight():
         top, mett.State(theta=0.5, omega3=465.1), t_end=1.0, friction=LAWS["contensou"]
     )
     check_life(top, traj)
+
+
+def test_a_normal_force_that_dips_below_zero_within_one_step_is_a_lift_off():
+    """Defect: under Coulomb–Contensou the thesis body's g_n dips below 0 for ~1.5 ms near
+    t = 1.6229 s, shorter than a step at rtol = 1e-10: both ends of the step had g_n > 0, the
+    lift-off was missed and the contact pulled the top down (E rose by 1e-7 of itself between two
+    samples, min g_n 0.0018 N). The dry models' contact_lost events are now grazing events (the
+    compiled DOP853 looks for an interior minimum of g_n over each step): the run lifts off there,
+    as the same run at rtol = 1e-12, whose steps resolve the dip, does."""
+    top = TOPS["thesis"]
+    state = mett.State.with_cm_at_rest(top, theta=0.5, omega3=465.1)
+    traj = mett.simulate(top, state, t_end=1.65, friction=LAWS["contensou"])
+    check_life(top, traj)
+    fine = mett.simulate(top, state, t_end=1.65, friction=LAWS["contensou"], rtol=1e-12)
+    lift = [sw.t for sw in traj.switches if sw.reason == "lift-off"]
+    lift_fine = [sw.t for sw in fine.switches if sw.reason == "lift-off"]
+    assert len(lift) == len(lift_fine)
+    # the two runs differ by their integration errors (rtol 1e-10 over ~2000 steps of a motion
+    # whose nutation period is ~13 ms): their lift-offs agree to 1e-5 s
+    assert np.allclose(lift, lift_fine, rtol=0.0, atol=1e-5)
+
+
+@pytest.mark.parametrize("eps", [1e-2, 1e-5])
+def test_the_regularised_landing_impulse_matches_radau(eps):
+    """Defect (a stall): every regularised landing integrated its impulse with scipy's Radau,
+    ~140 steps and 0.1-0.5 s of CPU per landing, so a hopping run took minutes (the thesis body
+    at 1546 rad/s: more than 60 s for 8 s). It now uses LSODA. Checked against Radau at
+    rtol 1e-12 (an independent method and tolerance) on a landing that is stiff (ε = 1e-5 m/s:
+    μ|W|/ε × p ~ 1e5) and one that is not; both agree to the 1e-10 tolerance's error, 1e-8."""
+    from mett.dynamics import flight
+
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(3, 3))
+    W = 30.0 * (A @ A.T + 3.0 * np.eye(3))  # N s → m/s: a body of a few grams
+    v0 = np.array([0.05, -0.02, -0.5])  # |v_t| passes through 0 during the impact
+
+    def tangential(vx, vy):
+        k = -0.3 / np.sqrt(vx * vx + vy * vy + eps * eps)
+        return k * vx, k * vy
+
+    P = flight.regularised_impulse(v0, W, 0.3, eps)
+    ref = stem.compression_impulse(v0, W, tangential, "Radau", 1e-12, 1e-16)
+    assert np.allclose(P, ref, rtol=0.0, atol=1e-8 * abs(ref[2]))
+    assert abs((v0 + W @ P)[2]) <= 1e-9 * abs(v0[2])  # compression ended
+    assert float(v0 @ P + 0.5 * P @ (W @ P)) < 0.0  # the landing dissipates
