@@ -178,8 +178,9 @@ def main(argv: list[str] | None = None) -> int:
     for tname in args.tops:  # compile or load every model's kernels outside the CPU limit
         for lname in args.laws:
             top = all_tops[tname]
-            w3 = 5.0 * min_spin_for_inversion(ball_of(top), 0.1)
-            one_run(top, all_laws[lname], 0.1, w3, "cm", 0.05, math.inf)
+            w3 = min_spin_for_inversion(ball_of(top), 0.1)  # a life through every phase kind
+            one_run(top, all_laws[lname], 0.1, 1.5 * w3, "cm", args.t_end, math.inf)
+            one_run(top, all_laws[lname], 0.1, 5.0 * w3, "cm", 0.5, math.inf)  # and hops
     print(head, flush=True)
     for tname in args.tops:
         top = all_tops[tname]
