@@ -202,7 +202,7 @@ def test_every_dry_law_lands(law):
 def test_regularised_landing_impulse():
     """The regularised impact ends compression (v_z = 0), dissipates (ΔT = v0·P + ½ P·W P < 0,
     W the contact's inverse effective mass), is the frictionless −v_z/W_zz ẑ at μ = 0 and the
-    viscous impulse of coefficient μ/ε where |v_t| ≪ ε (law error (v_t/ε)² ~ 1e-11, Radau at
+    viscous impulse of coefficient μ/ε where |v_t| ≪ ε (law error (v_t/ε)² ~ 1e-11, LSODA at
     rtol 1e-10: agreement 1e-8)."""
     rng = np.random.default_rng(3)
     A = rng.normal(size=(3, 3))

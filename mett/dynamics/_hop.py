@@ -189,9 +189,13 @@ def touchdown(
         if tau >= tau_max:
             return math.nan
         h, h1, h2, h3 = gap(h0, hd0, g, l, W, uz, vz, tau)
-        if h <= 0.0:
+        if h <= 0.0 and h1 > 0.0:  # a rounding-level zero of a rising gap (the end of a
+            # lift-off's dip): not a touchdown; step on h ≥ s (ḣ + ḧ s/2 + h⃛ s²/6 − M4 s³/24)
+            s = first_root(np.array([-M4 / 24.0, h3 / 6.0, 0.5 * h2, h1]))
+        elif h <= 0.0:
             return tau
-        s = first_root(np.array([-M4 / 24.0, h3 / 6.0, 0.5 * h2, h1, h]))
+        else:
+            s = first_root(np.array([-M4 / 24.0, h3 / 6.0, 0.5 * h2, h1, h]))
         if math.isnan(s):  # h > 0 for ever (no gravity and no wobble)
             return math.nan
         if s <= t_res:

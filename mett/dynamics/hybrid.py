@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from ._run import Piece, Run
+from ._run import Piece, Run, event_end
 from .backends import UserEvents
-from .dense import SegmentedSolution
+from .dense import ConstantSolution, SegmentedSolution
 from .registry import JumpFailed, Phase
 from .trajectory import Trajectory
 
@@ -64,6 +64,15 @@ def geometric_tail(
     return r, float(r * np.sum(d[-lag:]) / (1.0 - r))
 
 
+def _needs_pull(phase: Phase, t: float, y: np.ndarray, params: tuple) -> bool:
+    """True if ``y`` at the start of ``phase`` needs a pulling normal force: its "contact_lost"
+    event function (g_n/(m g)) is ≤ 0 there. After an impact the new contact's force jumps, and a
+    zero that is already behind the phase's start is no event: without this check the phase
+    would run on with g_n < 0 (a contact that pulls the top down, energy rising)."""
+    ev = next((ev for ev in phase.events if ev.action == "contact_lost"), None)
+    return ev is not None and not float(ev.fn(t, y, params)) > 0.0
+
+
 def solve_hybrid(
     run: Run,
     solve: Callable[..., Piece],
@@ -88,6 +97,7 @@ def solve_hybrid(
     jumps: list[tuple[np.ndarray, np.ndarray]] = []
     nfev = 0
     jump_failed: str | None = None
+    lost_at: float | None = None
     while True:
         seg = solve(run, events=events)
         nfev += seg.kw.get("nfev", 0)
@@ -112,6 +122,8 @@ def solve_hybrid(
                 if target not in table:
                     jump_failed = f"switch to unknown phase {target!r} (t = {t_sw:.9g} s)"
                     last = True
+            if not last and _needs_pull(table[target], t_sw, y_sw, params):
+                lost_at = t_sw  # the new contact lifts off at once: the run ends after the switch
         t_seg, y_seg = np.asarray(seg.t, dtype=float), np.asarray(seg.Y, dtype=float)
         if not last:
             t_seg, y_seg = t_seg[:-1], y_seg[:, :-1]  # the state at the switch starts the next
@@ -122,6 +134,13 @@ def solve_hybrid(
             break
         switches.append((t_sw, run.phase.name, target))
         jumps.append((y_ev, y_sw))
+        if lost_at is not None:  # one sample, the state after the switch, in the new phase
+            t_parts.append(np.array([t_sw]))
+            y_parts.append(np.asarray(y_sw, dtype=float).reshape(-1, 1))
+            phases.append(target)
+            sols.append(ConstantSolution(t_sw, np.asarray(y_sw, dtype=float)))
+            seg_phases.append(target)
+            break
         tolerances = run.tolerances
         run = Run(mdl, run.top, params, y_sw, run.backend, table[target], t0=t_sw,
                    state=run.state, options=run.options)  # fmt: skip
@@ -129,7 +148,10 @@ def solve_hybrid(
     kw = dict(seg.kw)
     kw["nfev"] = nfev
     status, message = seg.status, seg.message
-    if jump_failed is not None:
+    if lost_at is not None:
+        status, message = event_end("contact_lost", "", lost_at)
+        kw["t_contact_lost"] = lost_at
+    elif jump_failed is not None:
         status, message = "failed", jump_failed
     elif run.switch is not None:  # stopped for switching too often
         status, message = "failed", f"more than {MAX_SWITCHES} phase switches"

@@ -1370,7 +1370,7 @@ MODEL = register(
         scales=_scales,
         conserved_lengths=((7, 8, 9),),
         events=(
-            Event(_ball_sliding_contact, -1.0, "contact_lost"),
+            Event(_ball_sliding_contact, -1.0, "contact_lost", grazing=True),
             Event(_ball_stop, -1.0, "switch", target="ball-rolling", jump=_on_ball(stop_jump)),
             Event(
                 _ball_reversal, -1.0, "switch", target="ball-sliding", jump=_on_ball(reversal_jump)
@@ -1391,7 +1391,7 @@ MODEL = register(
                 _python(_ball_rolling_into),
                 _ball_rolling_into,
                 (
-                    Event(_ball_rolling_contact, -1.0, "contact_lost"),
+                    Event(_ball_rolling_contact, -1.0, "contact_lost", grazing=True),
                     Event(
                         _ball_cone,
                         -1.0,
@@ -1408,7 +1408,7 @@ MODEL = register(
                 _python(_stem_sliding_into),
                 _stem_sliding_into,
                 (
-                    Event(_stem_sliding_contact, -1.0, "contact_lost"),
+                    Event(_stem_sliding_contact, -1.0, "contact_lost", grazing=True),
                     Event(
                         _stem_stop, -1.0, "switch", target="stem-rolling", jump=_on_stem(stop_jump)
                     ),
@@ -1427,7 +1427,7 @@ MODEL = register(
                 _python(_stem_rolling_into),
                 _stem_rolling_into,
                 (
-                    Event(_stem_rolling_contact, -1.0, "contact_lost"),
+                    Event(_stem_rolling_contact, -1.0, "contact_lost", grazing=True),
                     Event(
                         _stem_cone,
                         -1.0,

@@ -264,7 +264,7 @@ MODEL = register(
         scales=_scales,
         conserved_lengths=((7, 8, 9),),
         events=(
-            Event(sliding_contact, -1.0, "contact_lost"),
+            Event(sliding_contact, -1.0, "contact_lost", grazing=True),
             Event(stop_event, -1.0, "switch", target="rolling", jump=stop_jump),
             Event(reversal_event, -1.0, "switch", target="sliding", jump=reversal_jump),
         ),
@@ -277,7 +277,7 @@ MODEL = register(
                 stick_rhs,
                 stick_into,
                 (
-                    Event(rolling_contact, -1.0, "contact_lost"),
+                    Event(rolling_contact, -1.0, "contact_lost", grazing=True),
                     Event(
                         cone_event, -1.0, "switch", target="sliding", jump=cone_jump, grazing=True
                     ),
