@@ -200,14 +200,6 @@ def _stem_stop(t: float, y: Any, p: Any) -> Any:
     return stop_event(t, y, _stem(p))
 
 
-def _ball_near(t: float, y: Any, p: Any) -> Any:
-    return stickslip.near_stop_event(t, y, _ball(p))
-
-
-def _stem_near(t: float, y: Any, p: Any) -> Any:
-    return stickslip.near_stop_event(t, y, _stem(p))
-
-
 def _ball_reversal(t: float, y: Any, p: Any) -> Any:
     return reversal_event(t, y, _ball(p))
 
@@ -302,66 +294,58 @@ def _both_stem_stop(t: float, y: Any, p: Any) -> Any:
     return _slide_both(y, p)[4] - p[ix.BAND]
 
 
-NEAR_STOP = stickslip.NEAR_STOP  # k of the near-stop event, as for one contact
+NEAR_STOP = 1.5
+"""k of the near-stop event (1): where sticking is admissible, a slip of the double contact is
+stopped when it falls below k δ (docs/theory/stem.md#dry-friction, "The near-stop pass"): above
+the band (1), to catch a slip that hovers at a few δ, turning at the integrator's stability
+limit, and never reaches it; below the restart (2), so that a slip restarted at 2δ from the
+cone's edge (zero acceleration, zero margin) is not stopped again at once. The stop removes at
+most k δ of slip, less than the 3δ a "reversal" changes it by."""
+
+_CONE_SIDE = 1e6
+"""Weight of the admissibility term of the near-stop events (as the stop/reversal events of one
+contact, :mod:`.contact`): a margin of −1e-6 m g keeps the event k δ above its zero."""
 
 
-def _slip_turn(rates: tuple, e: tuple, L: tuple, w: tuple, n: tuple, li: Any, Ri: Any,
-               de: tuple, I1: Any, I3: Any, rs: Any) -> tuple:  # fmt: skip
-    """(γ·γ̇, |γ|) of a contact of the double contact with arm l_i 3̂ − R_i ẑ and slip ``n``,
-    along the rates ``rates`` of its mode: ν = V + l_i 3̂̇ + R_i ẑ × ω (horizontal), 3̂̇ = L × 3̂/I1,
-    ω = L/I1 + c (L·3̂) 3̂, differentiated with L̇ = rates[4:7] and 3̂̈ = (L̇ × 3̂ + L × 3̂̇)/I1
-    (3̂̇_z = 0 on the manifold); γ = (ν, r* ω_z). Plain arithmetic."""
-    ex, ey, ez = e
-    Lx, Ly, Lz = L
-    dex, dey = de
-    dLx, dLy, dLz = rates[4], rates[5], rates[6]
-    c = 1.0 / I3 - 1.0 / I1
-    Le = Lx * ex + Ly * ey + Lz * ez
-    dLe = dLx * ex + dLy * ey + dLz * ez + Lx * dex + Ly * dey
-    dwx = dLx / I1 + c * (dLe * ex + Le * dex)
-    dwy = dLy / I1 + c * (dLe * ey + Le * dey)
-    dwz = dLz / I1 + c * dLe * ez
-    ddex = (dLy * ez - dLz * ey - Lz * dey) / I1
-    ddey = (dLz * ex - dLx * ez + Lz * dex) / I1
-    dnx = rates[2] + li * ddex - Ri * dwy
-    dny = rates[3] + li * ddey + Ri * dwx
-    sw = rs * w[2]
-    return (
-        n[0] * dnx + n[1] * dny + sw * rs * dwz,
-        (n[0] * n[0] + n[1] * n[1] + sw * sw) ** 0.5,
-    )
+def _pos(x: Any) -> Any:
+    """max(x, 0) as plain arithmetic, (x + √(x²))/2: no branch on a state value."""
+    return 0.5 * (x + (x * x) ** 0.5)
 
 
-def _near_stop(turn: tuple, p: Any) -> Any:
-    """The near-stop event of one sliding contact: −γ̂·γ̇/g (1/s scale-free: m/s² over g) while
-    |γ| < k δ, else −1. It falls through 0 (direction −1) only at a minimum of |γ| inside the
-    gate: entering the gate it jumps from −1 to a positive value (a crossing the other way), and
-    a slip that grows (γ·γ̇ > 0) is negative inside and outside."""
-    if p[ix.MU] == 0.0 or turn[1] >= NEAR_STOP * p[ix.BAND]:
-        return -1.0 + 0.0 * turn[1]
-    return -turn[0] / (turn[1] * p[ix.G])
+def _near_stop(y: Any, p: Any, s: Any) -> Any:
+    """The near-stop event of contact ``s`` (0 ball, 1 stem) while both slide (Coulomb):
+    |γ_s| − k δ, kept positive (by k δ × 1e6 per m g of violation) where sticking there is not
+    admissible: the sticking force of the mode "s sticks, the other slides" (:func:`_stick_both`)
+    outside its cone or a normal force < 0. Under Coulomb–Contensou (sticking needs ω_z = 0) and
+    at μ = 0 it never fires."""
+    if p[ix.MU] == 0.0 or p[ix.RSTAR] > 0.0:
+        return 1.0 + 0.0 * y[0]
+    d = _stick_both(y, p, s)
+    F = d[3]
+    mg = p[ix.M] * p[ix.G]
+    cone = (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) / mg
+    bad = _pos(-cone) + _pos(-d[1] / mg) + _pos(-d[2] / mg)
+    sl = _slips_plain(y, p)
+    speed = sl[0] + s * (sl[1] - sl[0])
+    band = NEAR_STOP * p[ix.BAND]
+    return speed - band + band * _CONE_SIDE * bad
 
 
-def _both_turns(y: Any, p: Any) -> tuple:
-    """(γ_1·γ̇_1, |γ_1|), (γ_2·γ̇_2, |γ_2|) of the double contact with both contacts sliding."""
-    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
-    r_s, l_s, rs = p[ix.DRY_R_S], p[ix.DRY_L_S], p[ix.RSTAR]
-    e, L, w, n1, n2, de = both_kinematics(y, R, l, I1, I3, r_s, l_s)
-    rates = _slide_both(y, p)[0]
-    return (
-        _slip_turn(rates, e, L, w, n1, l, R, de, I1, I3, rs),
-        _slip_turn(rates, e, L, w, n2, l + l_s, r_s, de, I1, I3, rs),
-    )
+def _slips_plain(y: Any, p: Any) -> tuple:
+    """|ν_1|, |ν_2| (m/s) of a double-contact state (Coulomb). Plain arithmetic."""
+    kin = both_kinematics(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S])
+    n1, n2 = kin[3], kin[4]
+    return (n1[0] * n1[0] + n1[1] * n1[1]) ** 0.5, (n2[0] * n2[0] + n2[1] * n2[1]) ** 0.5
 
 
 def _both_ball_near(t: float, y: Any, p: Any) -> Any:
     """The ball's near-stop event while both contacts slide (:func:`_near_stop`)."""
-    return _near_stop(_both_turns(y, p)[0], p)
+    return _near_stop(y, p, 0.0)
 
 
 def _both_stem_near(t: float, y: Any, p: Any) -> Any:
     """The stem's near-stop event while both contacts slide (:func:`_near_stop`)."""
-    return _near_stop(_both_turns(y, p)[1], p)
+    return _near_stop(y, p, 1.0)
 
 
 def _solve3(A: tuple, b: tuple) -> tuple:
@@ -671,28 +655,6 @@ def _br_stem_cone(t: float, y: Any, p: Any) -> Any:
 def _br_line_cone(t: float, y: Any, p: Any) -> Any:
     """(ρ_1 + ρ_2 − |T|)/(m g): no split of the force along the contact line fits both cones."""
     return _roll_margins(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
-
-
-def _stick_turn(y: Any, p: Any, s: Any) -> tuple:
-    """(γ_k·γ̇_k, |γ_k|) of the sliding contact k of the double contact with contact ``s``
-    sticking (Coulomb): its slip along the rates of :func:`_stick_both`."""
-    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
-    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
-    e, L, w, n1, n2, de = both_kinematics(y, R, l, I1, I3, r_s, l_s)
-    rates = _stick_both(y, p, s)[0]
-    nk = (n2[0] + s * (n1[0] - n2[0]), n2[1] + s * (n1[1] - n2[1]))
-    lk, Rk = l + l_s - s * l_s, r_s - s * (r_s - R)
-    return _slip_turn(rates, e, L, w, nk, lk, Rk, de, I1, I3, 0.0)
-
-
-def _bs_near(t: float, y: Any, p: Any) -> Any:
-    """The sliding stem's near-stop event while the ball sticks (:func:`_near_stop`)."""
-    return _near_stop(_stick_turn(y, p, 0.0), p)
-
-
-def _ss_near(t: float, y: Any, p: Any) -> Any:
-    """The sliding ball's near-stop event while the stem sticks (:func:`_near_stop`)."""
-    return _near_stop(_stick_turn(y, p, 1.0), p)
 
 
 def both_forces(y: Any, p: tuple) -> tuple:
@@ -1728,14 +1690,6 @@ MODEL = register(
             Event(
                 _ball_reversal, -1.0, "switch", target="ball-sliding", jump=_on_ball(reversal_jump)
             ),
-            Event(
-                _ball_near,
-                -1.0,
-                "switch",
-                target="ball-rolling",
-                jump=_on_ball(stickslip.near_stop_jump),
-                select=_select,
-            ),
             _TOUCHDOWN,
         ),
         options=(
@@ -1779,14 +1733,6 @@ MODEL = register(
                         "switch",
                         target="stem-sliding",
                         jump=_on_stem(reversal_jump),
-                    ),
-                    Event(
-                        _stem_near,
-                        -1.0,
-                        "switch",
-                        target="stem-rolling",
-                        jump=_on_stem(stickslip.near_stop_jump),
-                        select=_select,
                     ),
                     _LANDING,
                 ),
@@ -1832,7 +1778,6 @@ MODEL = register(
                     _both_switch(_bs_stem_lift, "ball-rolling", _stem_lifts),
                     _both_switch(_bs_cone, "both-sliding", _both_cone, grazing=True),
                     _both_switch(_bs_stop, "both-ball-rolling", _both_stop),
-                    _both_switch(_bs_near, "both-ball-rolling", _both_stop),
                 ),
             ),
             Phase(
@@ -1845,7 +1790,6 @@ MODEL = register(
                     _both_switch(_ss_stem_lift, "ball-sliding", _stem_lifts),
                     _both_switch(_ss_cone, "both-sliding", _both_cone, grazing=True),
                     _both_switch(_ss_stop, "both-stem-rolling", _both_stop),
-                    _both_switch(_ss_near, "both-stem-rolling", _both_stop),
                 ),
             ),
             Phase(

@@ -101,10 +101,8 @@ from .contact import (
     contact_quantities,
     from_gliding,
     gliding_params,
-    kinematics,
     normal_force,
     required,
-    restart,
     reversal_event,
     reversal_jump,
     rolling_contact,
@@ -125,17 +123,7 @@ from .contact import (
 )
 from .registry import Event, Model, Option, Phase, friction_law, register
 
-__all__ = [
-    "CONTENSOU",
-    "MODEL",
-    "NEAR_STOP",
-    "PHASES",
-    "REGULARISED",
-    "Switch",
-    "near_stop_event",
-    "near_stop_jump",
-    "stopping_band",
-]
+__all__ = ["CONTENSOU", "MODEL", "PHASES", "REGULARISED", "Switch", "stopping_band"]
 
 PHASES = ("sliding", "rolling")
 
@@ -181,43 +169,6 @@ def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
     sc = np.array(gliding.MODEL.scales(to_gliding(y0, p), gliding_params(p)), dtype=float)
     sc[6] *= p[ix.R]  # λ = −L·a: the momentum scale times R
     return sc
-
-
-NEAR_STOP = 1.5
-"""k of the near-stop event (1): a Coulomb slip whose minimum |γ| lies below k δ is stopped
-there, as if it had reached the band (docs/theory/stem.md#dry-friction, "The near-stop pass").
-Between the band (1, where the "stop" fires anyway) and the restart (2: a slip restarted at 2δ
-from the cone's edge starts with zero acceleration, and must lie outside the gate so that the
-rounding of its first step cannot stop it again at once); the jump then removes at most k δ of
-slip, less than the 3δ a "reversal" changes it by."""
-
-
-def near_stop_event(t: float, y: Any, p: Any) -> Any:
-    """The near-stop event of the sliding phase (Coulomb): −ν̂·v̇_A/g while |v_A| < k δ
-    (:data:`NEAR_STOP`), else −1. It falls through 0 (direction −1) only at a minimum of the
-    slip inside the gate: entering the gate it jumps from −1 to a positive value (the other
-    direction), and a growing slip is negative inside and outside. Never fires at μ = 0 or
-    under Coulomb–Contensou (γ there has the spin part r* ω_z, not tracked by this event)."""
-    if p[ix.MU] == 0.0 or p[ix.RSTAR] > 0.0 or p[ix.LAW] != LAW_COULOMB:
-        return -1.0 + 0.0 * y[0]
-    nu = kinematics(y, p)[4]
-    s = (nu[0] * nu[0] + nu[1] * nu[1]) ** 0.5
-    if s >= NEAR_STOP * p[ix.BAND]:
-        return -1.0 + 0.0 * s
-    vdot = slide_law(y, p)[4]
-    return -(nu[0] * vdot[0] + nu[1] * vdot[1]) / (s * p[ix.G])
-
-
-def near_stop_jump(y: np.ndarray, p: tuple) -> np.ndarray:
-    """At a minimum of the slip below k δ: the slip removed by the stopping impulse, then rolling
-    if the force rolling needs lies in the cone (a "stop"), else restarted at 2δ along the excess
-    force (a "reversal"), exactly the decision at the band."""
-    y0 = set_slip(y, p, np.zeros(3))
-    return y0 if required(y0, p)[2] >= 0.0 else restart(y0, p)
-
-
-def _near_select(y: np.ndarray, p: tuple) -> str:
-    return start_phase(y, p)
 
 
 class Switch(NamedTuple):
@@ -316,14 +267,6 @@ MODEL = register(
             Event(sliding_contact, -1.0, "contact_lost"),
             Event(stop_event, -1.0, "switch", target="rolling", jump=stop_jump),
             Event(reversal_event, -1.0, "switch", target="sliding", jump=reversal_jump),
-            Event(
-                near_stop_event,
-                -1.0,
-                "switch",
-                target="rolling",
-                jump=near_stop_jump,
-                select=_near_select,
-            ),
         ),
         options=(Option("friction", friction_law, None, "the Coulomb law"), _BAND),
         friction=(Coulomb,),
