@@ -8,7 +8,10 @@ sphere in contact in place of L_z, plus the contact flag ``y[10]``, 0 ball, 1 st
 exact stick–slip of :mod:`.stickslip` on whichever sphere touches: four phases, the contact ×
 the friction phase,
 
-    "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling".
+    "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling",
+
+and, with both spheres on the plane (flags 2–5), "both-sliding", "both-ball-rolling",
+"both-stem-rolling" and "both-rolling" (:data:`BOTH_FLAGS`).
 
 Every equation of a phase is stickslip's, called through its public contact interface with the
 geometry of the sphere in contact: stickslip's parameter tuple ``(m, R, l, I1, I3, mu, g, r*,
@@ -1279,12 +1282,17 @@ def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
     chosen by consistency (Pfeiffer & Glocker 1996; Leine & Glocker 2003: a mode is admissible
     when its normal forces are ≥ 0 and each sticking contact's force lies in its cone).
 
-    Sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
+    Both slips within the band (or the other contact already sticking): both sticking is tried
+    first; admissible (normal forces ≥ 0, some split of the force along the contact line in both
+    cones, :func:`_split_line`), both slips are stopped (:func:`_stop_pair`) and the rolling
+    about the contact line runs ("both-rolling", flag 5; never admissible when r_s < R, the
+    stem's normal force is then negative: docs/theory/stem.md#dry-friction). One contact
+    sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
     both normal velocities 0) and the mode "both-ball-rolling" / "both-stem-rolling" runs (flag
-    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0) and for both contacts sticking (an
-    indeterminate force under Coulomb) the run ends with :class:`JumpFailed` naming the mode.
-    Not admissible: the slip restarts (2δ) opposite to the force sticking would need (where the
-    excess force drives it; exact at the cone's edge)."""
+    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0, which makes both contacts rest:
+    the same rolling) the run ends with :class:`JumpFailed` naming the mode. Not admissible:
+    the slip restarts (2δ) opposite to the force sticking would need (where the excess force
+    drives it; exact at the cone's edge)."""
     if dry.frictionless(p) or p[ix.LAW] != dry.LAW_COULOMB:
         return y2
     flag = float(round(y2[10]))
