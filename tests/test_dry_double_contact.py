@@ -662,3 +662,10 @@ def test_a_near_stop_pass_is_stopped_inside_the_cone():
     np.testing.assert_allclose(tr.gn_ball[both] + tr.gn_stem[both], mg, rtol=1e-12)
     E = np.array([_energy(THESIS_STEM, tr.states[:, j]) for j in range(tr.t.size)])
     assert np.all(np.diff(E) <= 10 * tr.rtol * E[0])
+    # the scipy backend runs the same event functions: the same stop, its time to the event
+    # tolerance (1e-9 s, as for the Friedl run's switches)
+    ref = _continue(THESIS_STEM, law, NEAR_STOP_Y0, NEAR_STOP_T0, NEAR_STOP_T0 + 0.003, "scipy")
+    assert [(w.before, w.after, w.reason) for w in ref.switches] == [
+        (w.before, w.after, w.reason) for w in tr.switches
+    ]
+    assert abs(ref.switches[0].t - sw.t) < 1e-9
