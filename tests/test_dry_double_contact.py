@@ -424,3 +424,248 @@ def test_the_gallery_figure_of_the_dry_life_cycle_shows_what_its_caption_says(tm
     inside = [sw.reason for sw in run.switches if t0 < sw.t < t1]
     assert inside[0] == "landing" and "accumulation" in inside
     assert inside[-1] == "stem lifts off" and set(run.contact) == {"ball", "stem", "both"}
+
+
+# --- both contacts sticking under Coulomb: the body rolls about the contact line ---------------
+
+# a top whose stem sphere is larger than its ball (r_s > R: θ_t < π/2), the only geometry where
+# both contacts can stick (below); and the friedl1997 top (r_s < R)
+BIG_STEM = mett.TippeTop(m=0.006, R=0.015, alpha=0.2, I1=8e-7, I3=7e-7, mu=0.3).with_stem(
+    radius=0.02, distance=0.013
+)
+
+
+def _rolling_state(top, phi, Om):
+    """Both contact points at rest: ω = Ω d̂ about the contact line (d̂ the horizontal direction
+    of the axis), V = −ω × a_1; θ = θ_t (L_z form, flag 5)."""
+    th = top.touchdown_angle
+    e = np.array([math.sin(th) * math.sin(phi), -math.sin(th) * math.cos(phi), math.cos(th)])
+    d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+    w = Om * d
+    b = top.ball
+    L = b.I1 * w + (b.I3 - b.I1) * np.dot(w, e) * e
+    V = -np.cross(w, _arms(top, e)[0][1])
+    return np.concatenate(([0.0, 0.0], V[:2], L, e, [5.0]))
+
+
+def _rolling_cone(top, Om):
+    """The closed form of the rolling about the contact line (the theory page): the line turns
+    about the vertical at −Ω cot θ_t, the centre of mass (at height z_G above the line) on a
+    circle, T = −m Ω² z_G cot θ_t along the line; the moment about the line's normal n̂ gives
+    λ_2 = (−m g l sin²θ_t + Ω² J cos θ_t)/(l_s sin²θ_t), J = m z_G² + I1 cos²θ_t + I3 sin²θ_t
+    the moment of inertia about the contact line; λ_1 = m g − λ_2."""
+    b = top.ball
+    th = top.touchdown_angle
+    l = b.R * b.alpha
+    zG = b.R - l * math.cos(th)
+    J = b.m * zG**2 + b.I1 * math.cos(th) ** 2 + b.I3 * math.sin(th) ** 2
+    s2 = math.sin(th) ** 2
+    lam2 = (-b.m * b.g * l * s2 + Om**2 * J * math.cos(th)) / (top.distance * s2)
+    return b.m * b.g - lam2, lam2, -b.m * Om**2 * zG / math.tan(th)
+
+
+@pytest.mark.parametrize("top", [TOP, BIG_STEM], ids=["friedl", "big-stem"])
+def test_both_rolling_forces_match_the_rolling_cone_and_the_kkt_solve(top):
+    law = Coulomb(0.3)
+    p = _params(law, top)
+    phase = {ph.name: ph for ph in stemslip.MODEL.phases}["both-rolling"]
+    b = top.ball
+    mg = b.m * b.g
+    rng = np.random.default_rng(3)
+    for Om in (0.0, 5.0, 20.0, -20.0, 60.0, 300.0):
+        y = _rolling_state(top, rng.uniform(0.0, 2.0 * math.pi), Om)
+        lam1, lam2, T = _rolling_cone(top, Om)
+        scale = mg + abs(lam1) + abs(lam2)
+        got = stemslip.both_stick_forces(y, p, (True, True))
+        assert (
+            abs(got["lam"][0] - lam1) < 1e-10 * scale and abs(got["lam"][1] - lam2) < 1e-10 * scale
+        )
+        e = y[7:10]
+        d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+        n = np.cross(Z, d)
+        Fsum = got["Ft"][0] + got["Ft"][1]
+        assert abs(Fsum @ d - T) < 1e-10 * scale and abs(Fsum @ n) < 1e-10 * scale
+        # the phase's closed form against the KKT solve (the motion is determined)
+        lam, F, M, Vdot, wdot = _kkt(top, law, y, (True, True))
+        np.testing.assert_allclose(stemslip.both_forces(y, p)[:2], lam, atol=1e-10 * scale)
+        rates = phase.rhs(0.0, y, p)
+        np.testing.assert_allclose(rates[2:4], Vdot[:2], atol=1e-10 * scale / b.m)
+        e_, w, L, I = _body(top, y)
+        Ldot = I @ wdot + np.cross(w, I @ w)
+        np.testing.assert_allclose(rates[4:7], Ldot, atol=1e-10 * scale * top.distance)
+        if top is TOP:  # r_s < R, cos θ_t < 0: the stem is pulled up at every Ω
+            assert lam2 < 0.0
+
+
+def test_both_contacts_stick_where_some_split_along_the_line_fits_both_cones():
+    # the mode selection with both slips within the band: both-rolling exactly where the normal
+    # forces are ≥ 0 and some split t_1 + t_2 = T of the force along the contact line puts both
+    # forces in their cones (scanned here over the split), never for the friedl1997 top
+    law = Coulomb(0.3)
+    rng = np.random.default_rng(4)
+    seen = set()
+    for top, oms in ((BIG_STEM, np.linspace(0.0, 60.0, 25)), (TOP, (0.0, 30.0, 200.0))):
+        p = _params(law, top)
+        for Om in oms:
+            y = _rolling_state(top, rng.uniform(0.0, 2.0 * math.pi), Om)
+            y[10] = 2.0
+            y[2] += 0.3 * p[ix.BAND]  # both slips within the band
+            lam, F, _, _, _ = _kkt(top, law, y, (True, True))
+            e = y[7:10]
+            d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+            T = (F[0] + F[1]) @ d
+            fits = min(lam) >= 0.0 and any(
+                np.hypot(F[0] @ np.cross(Z, d), t) <= law.mu * lam[0]
+                and np.hypot(F[1] @ np.cross(Z, d), T - t) <= law.mu * lam[1]
+                for t in np.linspace(-abs(T) - 1.0, abs(T) + 1.0, 20001)
+            )
+            try:
+                out = stemslip._settle_both(y, p)
+                rolls = round(out[10]) == 5
+            except mett.dynamics.registry.JumpFailed:
+                rolls = False
+            assert rolls == fits, (Om, lam, T)
+            if rolls:  # both slips stopped, both normal velocities 0
+                assert max(stemslip._slips(out, p)) < 1e-12
+            seen.add((top is BIG_STEM, rolls))
+    # the big stem: a window of Ω that rolls, and Ω outside it; friedl1997: never
+    assert seen == {(True, True), (True, False), (False, False)}
+
+
+def test_both_rolling_is_a_steady_rolling_without_loss():
+    # the phase integrated by itself: Ω constant (E = ½ J Ω² + const, no work by sticking
+    # forces), so the forces are constant and no exit event can fire; both slips stay at the
+    # integration error
+    from scipy.integrate import solve_ivp
+
+    law = Coulomb(0.3)
+    p = _params(law, BIG_STEM)
+    phase = {ph.name: ph for ph in stemslip.MODEL.phases}["both-rolling"]
+    y0 = _rolling_state(BIG_STEM, 0.3, 20.0)
+    rtol = 1e-10
+    sol = solve_ivp(phase.rhs, (0.0, 1.0), y0, args=(p,), method="DOP853", rtol=rtol, atol=1e-14)
+    E = np.array([_energy(BIG_STEM, sol.y[:, j]) for j in range(sol.t.size)])
+    # DOP853 error control: rtol per step, the steps' errors add up over ≤ 10³ steps
+    assert np.max(np.abs(E - E[0])) < 1e3 * rtol * E[0]
+    lam0 = _rolling_cone(BIG_STEM, 20.0)
+    mg = BIG_STEM.ball.m * BIG_STEM.ball.g
+    for j in range(0, sol.t.size, max(1, sol.t.size // 20)):
+        f = stemslip.both_forces(sol.y[:, j], p)
+        assert abs(f[0] - lam0[0]) < 1e-6 * mg and abs(f[1] - lam0[1]) < 1e-6 * mg
+        assert max(f[2], f[3]) < 1e3 * rtol * 20.0 * BIG_STEM.distance  # slips: rtol × |v|
+        assert min(stemslip._roll_margins(sol.y[:, j], p)) > 0.0
+
+
+@pytest.mark.parametrize("which", [0, 1, 2], ids=["ball-cone", "stem-cone", "line-cone"])
+def test_leaving_both_rolling_restarts_the_slip_the_failing_cone_names(which):
+    # the exit jumps: across the line at the ball (stem) — that contact slips 2δ opposite its
+    # force across the line, the other keeps sticking; along the line — both slip together,
+    # 2δ opposite the total; both normal velocities stay 0 and the energy changes by O(m v δ)
+    law = Coulomb(0.3)
+    p = _params(law, BIG_STEM)
+    ev = {0: "both-stem-rolling", 1: "both-ball-rolling", 2: "both-sliding"}[which]
+    y = _rolling_state(BIG_STEM, 0.3, 20.0)
+    y[2] += 1e-4  # a force across the line (P_i ≠ 0): no longer exactly the symmetric cone
+    y = stemslip._stop_pair(y, p)
+    phase = {ph.name: ph for ph in stemslip.MODEL.phases}["both-rolling"]
+    jump = next(e for e in phase.events if e.target == ev).jump
+    out = jump(y, p)
+    assert stemslip.BOTH_FLAGS[float(round(out[10]))] == ev
+    e, w, L, _ = _body(BIG_STEM, out)
+    V = np.array([out[2], out[3], 0.0])
+    nus = [V + np.cross(w, a) for _, a in _arms(BIG_STEM, e)]
+    d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+    band = p[ix.BAND]
+    for nu in nus:
+        assert abs(nu[2]) < 1e-12
+    _, _, _, P1, P2, T = stemslip._roll_both(y, p)
+    if which == 2:
+        for nu in nus:
+            np.testing.assert_allclose(nu[:2], -2 * band * np.sign(T) * d[:2], atol=1e-3 * band)
+    else:
+        P = (P1, P2)[which]
+        n = np.cross(Z, d)
+        np.testing.assert_allclose(nus[which][:2], -2 * band * np.sign(P) * n[:2], atol=1e-3 * band)
+        assert np.linalg.norm(nus[1 - which][:2]) < 1e-3 * band
+
+
+# --- the near-stop pass (the thesis body's double contact under Coulomb(0.01)) ---------------
+
+THESIS_STEM = mett.presets.get("rutstam2013").with_stem(radius=0.004, distance=0.026)
+# a state of its run from θ0 = 0.1, ω3 = 155 (60 s) at t = 55.620000108 s: both contacts sliding
+# (flag 2, L_z form), the ball's slip 8.6 δ and falling; once per half nutation it swings down
+# to 1.0–1.3 δ and up again without reaching the band δ
+NEAR_STOP_T0 = 55.620000108017976
+NEAR_STOP_Y0 = [
+    -0.38653592500861905, 0.3165689977011036, 0.0002505732621477875, 0.0030093098556673178,
+    -2.804761986782444e-05, 2.335140432733643e-06, 0.00011867848574785954, 0.7855092623401435,
+    -0.06539857739880163, -0.6153846153846154, 2.0,
+]  # fmt: skip
+
+
+def _continue(top, law, y0, t0, t_end, backend="auto"):
+    """A run of the stemmed dry model from the raw state ``y0`` at ``t0`` (its phase by flag)."""
+    from mett.dynamics import simulation
+
+    prep = simulation.prepare_run(
+        top.ball, mett.State(theta=0.1, omega3=155.0), t_end, model=stem.MODEL,
+        stem_radius=top.radius, stem_distance=top.distance, rtol=1e-10, atol=None,
+        t_eval=None, events=None, method="DOP853", backend=backend, max_step=math.inf,
+        friction=law,
+    )  # fmt: skip
+    prep.run.y0 = np.array(y0, dtype=float)
+    prep.run.t0 = t0
+    prep.run.phase = prep[1][stemslip.BOTH_FLAGS[float(y0[10])]]
+    return simulation.run_prepared(prep)
+
+
+def test_a_near_stop_pass_is_stopped_inside_the_cone():
+    # the pass that stalled the run: the ball's slip falls to ~1.3 δ and hovers there (steps of
+    # 6e-8 s, the slip zigzagging from step to step at the integrator's stability limit) without
+    # reaching the band δ; the near-stop event stops it at 1.5 δ, where sticking is admissible;
+    # the ball then rolls, the stem slides
+    law = Coulomb(0.01)
+    tr = _continue(THESIS_STEM, law, NEAR_STOP_Y0, NEAR_STOP_T0, NEAR_STOP_T0 + 0.003)
+    assert tr.status == "completed", tr.message
+    p = tr.params
+    band = p[ix.BAND]
+    sw = tr.switches[0]
+    assert (sw.before, sw.after, sw.reason) == ("both-sliding", "both-ball-rolling", "stop")
+    y_ev, y_sw = tr.jumps[0]
+    s_ev = stemslip._slips(np.asarray(y_ev), p)[0]
+    # at the gate k δ (to the event location's tolerance: the slip moves by ≤ 1e-6 δ there)
+    assert abs(s_ev - stemslip.NEAR_STOP * band) < 1e-3 * band
+    # the slip fell to it from above: every sample before has a larger slip
+    before = np.flatnonzero(tr.t < sw.t)
+    assert min(stemslip._slips(tr.states[:, j], p)[0] for j in before) > s_ev
+    # the jump: the ball's slip removed, the stem's kept, both normal velocities 0, the state
+    # changed by at most that slip, the energy not raised
+    y_sw = np.asarray(y_sw)
+    assert stemslip._slips(y_sw, p)[0] < 1e-6 * band
+    assert abs(stemslip._slips(y_sw, p)[1] - stemslip._slips(np.asarray(y_ev), p)[1]) < 2 * s_ev
+    e, w, L, _ = _body(THESIS_STEM, y_sw)
+    V = np.array([y_sw[2], y_sw[3], 0.0])
+    for _, a in _arms(THESIS_STEM, e):
+        assert abs((V + np.cross(w, a))[2]) < 1e-12
+    assert np.max(np.abs(y_sw[2:4] - np.asarray(y_ev)[2:4])) <= s_ev
+    # the loss, ½ m (1.5 δ)² ~ 1e-19 J, lies below the rounding of E (~1e-18 J): not raised
+    E_ev = _energy(THESIS_STEM, y_ev)
+    assert _energy(THESIS_STEM, y_sw) <= E_ev * (1 + 8 * np.finfo(float).eps)
+    # sticking admissible there, by this file's KKT solve: both normal forces ≥ 0, the ball's
+    # sticking force inside its cone
+    lam, F, _, _, _ = _kkt(THESIS_STEM, law, y_sw, (True, False))
+    assert min(lam) >= 0.0 and math.hypot(F[0][0], F[0][1]) <= law.mu * lam[0]
+    # every sample: forces ≥ 0 summing to m g; the energy never rises beyond the step error
+    both = np.flatnonzero(tr.contact == "both")
+    mg = THESIS_STEM.ball.m * THESIS_STEM.ball.g
+    assert np.all(tr.gn_ball[both] >= 0.0) and np.all(tr.gn_stem[both] >= 0.0)
+    np.testing.assert_allclose(tr.gn_ball[both] + tr.gn_stem[both], mg, rtol=1e-12)
+    E = np.array([_energy(THESIS_STEM, tr.states[:, j]) for j in range(tr.t.size)])
+    assert np.all(np.diff(E) <= 10 * tr.rtol * E[0])
+    # the scipy backend runs the same event functions: the same stop, its time to the event
+    # tolerance (1e-9 s, as for the Friedl run's switches)
+    ref = _continue(THESIS_STEM, law, NEAR_STOP_Y0, NEAR_STOP_T0, NEAR_STOP_T0 + 0.003, "scipy")
+    assert [(w.before, w.after, w.reason) for w in ref.switches] == [
+        (w.before, w.after, w.reason) for w in tr.switches
+    ]
+    assert abs(ref.switches[0].t - sw.t) < 1e-9

@@ -8,7 +8,10 @@ sphere in contact in place of L_z, plus the contact flag ``y[10]``, 0 ball, 1 st
 exact stick–slip of :mod:`.stickslip` on whichever sphere touches: four phases, the contact ×
 the friction phase,
 
-    "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling".
+    "ball-sliding", "ball-rolling", "stem-sliding", "stem-rolling",
+
+and, with both spheres on the plane (flags 2–5), "both-sliding", "both-ball-rolling",
+"both-stem-rolling" and "both-rolling" (:data:`BOTH_FLAGS`).
 
 Every equation of a phase is stickslip's, called through its public contact interface with the
 geometry of the sphere in contact: stickslip's parameter tuple ``(m, R, l, I1, I3, mu, g, r*,
@@ -294,6 +297,60 @@ def _both_stem_stop(t: float, y: Any, p: Any) -> Any:
     return _slide_both(y, p)[4] - p[ix.BAND]
 
 
+NEAR_STOP = 1.5
+"""k of the near-stop event (1): where sticking is admissible, a slip of the double contact is
+stopped when it falls below k δ (docs/theory/stem.md#dry-friction, "The near-stop pass"): above
+the band (1), to catch a slip that hovers at a few δ, turning at the integrator's stability
+limit, and never reaches it; below the restart (2), so that a slip restarted at 2δ from the
+cone's edge (zero acceleration, zero margin) is not stopped again at once. The stop removes at
+most k δ of slip, less than the 3δ a "reversal" changes it by."""
+
+_CONE_SIDE = 1e6
+"""Weight of the admissibility term of the near-stop events (as the stop/reversal events of one
+contact, :mod:`.contact`): a margin of −1e-6 m g keeps the event k δ above its zero."""
+
+
+def _pos(x: Any) -> Any:
+    """max(x, 0) as plain arithmetic, (x + √(x²))/2: no branch on a state value."""
+    return 0.5 * (x + (x * x) ** 0.5)
+
+
+def _near_stop(y: Any, p: Any, s: Any) -> Any:
+    """The near-stop event of contact ``s`` (0 ball, 1 stem) while both slide (Coulomb):
+    |γ_s| − k δ, kept positive (by k δ × 1e6 per m g of violation) where sticking there is not
+    admissible: the sticking force of the mode "s sticks, the other slides" (:func:`_stick_both`)
+    outside its cone or a normal force < 0. Under Coulomb–Contensou (sticking needs ω_z = 0) and
+    at μ = 0 it never fires."""
+    if p[ix.MU] == 0.0 or p[ix.RSTAR] > 0.0:
+        return 1.0 + 0.0 * y[0]
+    d = _stick_both(y, p, s)
+    F = d[3]
+    mg = p[ix.M] * p[ix.G]
+    cone = (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) / mg
+    bad = _pos(-cone) + _pos(-d[1] / mg) + _pos(-d[2] / mg)
+    sl = _slips_plain(y, p)
+    speed = sl[0] + s * (sl[1] - sl[0])
+    band = NEAR_STOP * p[ix.BAND]
+    return speed - band + band * _CONE_SIDE * bad
+
+
+def _slips_plain(y: Any, p: Any) -> tuple:
+    """|ν_1|, |ν_2| (m/s) of a double-contact state (Coulomb). Plain arithmetic."""
+    kin = both_kinematics(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S])
+    n1, n2 = kin[3], kin[4]
+    return (n1[0] * n1[0] + n1[1] * n1[1]) ** 0.5, (n2[0] * n2[0] + n2[1] * n2[1]) ** 0.5
+
+
+def _both_ball_near(t: float, y: Any, p: Any) -> Any:
+    """The ball's near-stop event while both contacts slide (:func:`_near_stop`)."""
+    return _near_stop(y, p, 0.0)
+
+
+def _both_stem_near(t: float, y: Any, p: Any) -> Any:
+    """The stem's near-stop event while both contacts slide (:func:`_near_stop`)."""
+    return _near_stop(y, p, 1.0)
+
+
 def _solve3(A: tuple, b: tuple) -> tuple:
     """x with A x = b, A = (row0, row1, row2) of a 3×3 matrix: Cramer's rule (plain arithmetic)."""
     (a, b_, c), (d, e, f), (g, h, k) = A
@@ -455,10 +512,162 @@ def _ss_stop(t: float, y: Any, p: Any) -> Any:
     return _stick_both(y, p, 1.0)[4] - p[ix.BAND]
 
 
+def _roll_both(y: Any, p: Any) -> tuple:
+    """(rates[0:10], λ_1, λ_2, P_1, P_2, T) of the double contact with both contacts sticking
+    (Coulomb, flag 5, "both-rolling"): both contact points at rest, so ω × d = 0 with
+    d = a_2 − a_1 = l_s 3̂ − (r_s − R) ẑ (horizontal on the manifold): the body turns about the
+    line through the two contact points, as a cone rolls on the plane (ω_z = 0).
+
+    The forces F_1, F_2 are determined but for an internal compression f (d̂, −d̂) along that line
+    (no moment, no work: the motion does not depend on it). With n̂ = ẑ × d̂, the particular
+    solution F_2 = λ_2 ẑ + P_2 n̂ and F_1 from the ball's three sticking rows
+    (F_1 = −G_11⁻¹(h_1 + G_12 F_2), as :func:`_stick_both`) and the stem's rows ν̇_2·ẑ = 0,
+    ν̇_2·n̂ = 0 (a 2×2 solve); ν̇_2·d̂ = 0 follows from ω ∥ d. Returned: the normal forces, the
+    tangential components across the line P_i = F_i·n̂ (determined) and the total along it,
+    T = (F_1 + F_2)·d̂ (its split between the contacts is the indeterminate part). Plain
+    arithmetic."""
+    m, g = p[ix.M], p[ix.G]
+    R, l, I1, I3 = p[ix.R], p[ix.L], p[ix.I1], p[ix.I3]
+    r_s, l_s = p[ix.DRY_R_S], p[ix.DRY_L_S]
+    e, L, w, n1, n2, de = both_kinematics(y, R, l, I1, I3, r_s, l_s)
+    ex, ey, ez = e
+    Lx, Ly, Lz = L
+    wx, wy, wz = w
+    c = 1.0 / I3 - 1.0 / I1
+    l2 = l + l_s
+    a1x, a1y, a1z = l * ex, l * ey, l * ez - R
+    a2x, a2y, a2z = l2 * ex, l2 * ey, l2 * ez - r_s
+    hd = (ex * ex + ey * ey) ** 0.5
+    dx, dy = ex / hd, ey / hd  # d̂: the horizontal direction of the axis (d_z = 0)
+    nx, ny = -dy, dx  # n̂ = ẑ × d̂
+    tx, ty, tz = -(wy * Lz - wz * Ly), -(wz * Lx - wx * Lz), -(wx * Ly - wy * Lx)
+    te = tx * ex + ty * ey + tz * ez
+    ax0, ay0, az0 = tx / I1 + c * te * ex, ty / I1 + c * te * ey, tz / I1 + c * te * ez
+    we, ww = wx * ex + wy * ey + wz * ez, wx * wx + wy * wy + wz * wz
+    cx, cy, cz = we * wx - ww * ex, we * wy - ww * ey, we * wz - ww * ez
+    h1x = (ay0 * a1z - az0 * a1y) + l * cx
+    h1y = (az0 * a1x - ax0 * a1z) + l * cy
+    h1z = -g + (ax0 * a1y - ay0 * a1x) + l * cz
+    h2x = (ay0 * a2z - az0 * a2y) + l2 * cx
+    h2y = (az0 * a2x - ax0 * a2z) + l2 * cy
+    h2z = -g + (ax0 * a2y - ay0 * a2x) + l2 * cz
+
+    def resp(Fx: Any, Fy: Any, Fz: Any, bx: Any, by: Any, bz: Any, ox: Any, oy: Any, oz: Any):
+        # F/m + (I⁻¹(b × F)) × o: the acceleration at arm o of the force F at arm b
+        qx, qy, qz = by * Fz - bz * Fy, bz * Fx - bx * Fz, bx * Fy - by * Fx
+        qe = qx * ex + qy * ey + qz * ez
+        jx, jy, jz = qx / I1 + c * qe * ex, qy / I1 + c * qe * ey, qz / I1 + c * qe * ez
+        return (
+            Fx / m + (jy * oz - jz * oy),
+            Fy / m + (jz * ox - jx * oz),
+            Fz / m + (jx * oy - jy * ox),
+        )
+
+    G0 = resp(1.0, 0.0, 0.0, a1x, a1y, a1z, a1x, a1y, a1z)
+    G1 = resp(0.0, 1.0, 0.0, a1x, a1y, a1z, a1x, a1y, a1z)
+    G2 = resp(0.0, 0.0, 1.0, a1x, a1y, a1z, a1x, a1y, a1z)
+    A = ((G0[0], G1[0], G2[0]), (G0[1], G1[1], G2[1]), (G0[2], G1[2], G2[2]))
+    Ah = _solve3(A, (h1x, h1y, h1z))
+    Az = _solve3(A, resp(0.0, 0.0, 1.0, a2x, a2y, a2z, a1x, a1y, a1z))
+    An = _solve3(A, resp(nx, ny, 0.0, a2x, a2y, a2z, a1x, a1y, a1z))
+    # the stem's rows u·ν̇_2 = 0, u ∈ (ẑ, n̂): u·(h_2 + G_21 F_1 + G_22 F_2) with F_1 = −(Ah +
+    # Az λ_2 + An P_2), F_2 = λ_2 ẑ + P_2 n̂
+    gh = resp(Ah[0], Ah[1], Ah[2], a1x, a1y, a1z, a2x, a2y, a2z)
+    gz = resp(Az[0], Az[1], Az[2], a1x, a1y, a1z, a2x, a2y, a2z)
+    gn = resp(An[0], An[1], An[2], a1x, a1y, a1z, a2x, a2y, a2z)
+    kz = resp(0.0, 0.0, 1.0, a2x, a2y, a2z, a2x, a2y, a2z)
+    kn = resp(nx, ny, 0.0, a2x, a2y, a2z, a2x, a2y, a2z)
+    b11 = kz[2] - gz[2]
+    b12 = kn[2] - gn[2]
+    b21 = nx * (kz[0] - gz[0]) + ny * (kz[1] - gz[1])
+    b22 = nx * (kn[0] - gn[0]) + ny * (kn[1] - gn[1])
+    r1 = gh[2] - h2z
+    r2 = nx * (gh[0] - h2x) + ny * (gh[1] - h2y)
+    det = b11 * b22 - b12 * b21
+    lam2 = (r1 * b22 - b12 * r2) / det
+    P2 = (b11 * r2 - b21 * r1) / det
+    F1x = -(Ah[0] + Az[0] * lam2 + An[0] * P2)
+    F1y = -(Ah[1] + Az[1] * lam2 + An[1] * P2)
+    F1z = -(Ah[2] + Az[2] * lam2 + An[2] * P2)
+    F2x, F2y, F2z = P2 * nx, P2 * ny, lam2
+    rates = (
+        y[2],
+        y[3],
+        (F1x + F2x) / m,
+        (F1y + F2y) / m,
+        (a1y * F1z - a1z * F1y) + (a2y * F2z - a2z * F2y),
+        (a1z * F1x - a1x * F1z) + (a2z * F2x - a2x * F2z),
+        (a1x * F1y - a1y * F1x) + (a2x * F2y - a2y * F2x),
+        de[0],
+        de[1],
+        0.0,
+    )
+    P1 = F1x * nx + F1y * ny
+    T = F1x * dx + F1y * dy
+    return rates, F1z, lam2, P1, P2, T
+
+
+def _roll_margins(y: Any, p: Any) -> tuple:
+    """The admissibility of both contacts sticking, (μ λ_1 − |P_1|, μ λ_2 − |P_2|, ρ_1 + ρ_2 − |T|)
+    (N) with ρ_i = √((μ λ_i)² − P_i²)₊: some split T = t_1 + t_2 of the force along the contact
+    line with each F_i = (P_i n̂ + t_i d̂, λ_i) in its cone exists if and only if all three are
+    ≥ 0 (|t_i| ≤ ρ_i for both is possible exactly when |T| ≤ ρ_1 + ρ_2)."""
+    _, lam1, lam2, P1, P2, T = _roll_both(y, p)
+    mu = p[ix.MU]
+    q1 = (mu * lam1) * (mu * lam1) - P1 * P1
+    q2 = (mu * lam2) * (mu * lam2) - P2 * P2
+    rho1 = (0.5 * (q1 + (q1 * q1) ** 0.5)) ** 0.5
+    rho2 = (0.5 * (q2 + (q2 * q2) ** 0.5)) ** 0.5
+    return (
+        mu * lam1 - (P1 * P1) ** 0.5,
+        mu * lam2 - (P2 * P2) ** 0.5,
+        rho1 + rho2 - (T * T) ** 0.5,
+    )
+
+
+def _both_rolling_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = _roll_both(y, p)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _br_contact(t: float, y: Any, p: Any) -> Any:
+    d = _roll_both(y, p)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _br_ball_lift(t: float, y: Any, p: Any) -> Any:
+    return _roll_both(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _br_stem_lift(t: float, y: Any, p: Any) -> Any:
+    return _roll_both(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _br_ball_cone(t: float, y: Any, p: Any) -> Any:
+    """(μ λ_1 − |P_1|)/(m g): the ball's force across the contact line reaches its cone."""
+    return _roll_margins(y, p)[0] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _br_stem_cone(t: float, y: Any, p: Any) -> Any:
+    """(μ λ_2 − |P_2|)/(m g): the stem's force across the contact line reaches its cone."""
+    return _roll_margins(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _br_line_cone(t: float, y: Any, p: Any) -> Any:
+    """(ρ_1 + ρ_2 − |T|)/(m g): no split of the force along the contact line fits both cones."""
+    return _roll_margins(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
 def both_forces(y: Any, p: tuple) -> tuple:
     """(λ_1, λ_2, |γ_1|, |γ_2|) of a state ``y`` of the double contact in the mode of its flag
     (:data:`BOTH_FLAGS`; both sliding for an array of states): the normal forces (N) of the
     ball and the stem and their generalised slip speeds (m/s)."""
+    if np.ndim(y) == 1 and round(float(y[10])) == 5:
+        d = _roll_both(y, p)
+        slips = _slips(y, p)
+        return d[1], d[2], slips[0], slips[1]
     if np.ndim(y) == 1 and round(float(y[10])) in (3, 4):
         s = round(float(y[10])) - 3
         d = _stick_both(y, p, float(s))
@@ -491,7 +700,8 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
     a sliding one carries −μ λ_i γ̂_i. The Newton–Euler equations with the two normal rows
     (g̈_i = 0) and the sticking rows, solved as one linear system (least squares where both
     stick under Coulomb: the compression between the two contacts along their line is
-    indeterminate, the minimum-norm force taken).
+    indeterminate; its total is split by :func:`_split_line`, which fits both cones whenever
+    any split does).
 
     Returns ``{"lam": (λ_1, λ_2), "Ft": [(F_x, F_y, M/r*) per contact], "margin": [μ λ_i − |F_t,i|]}``
     (N); a sliding contact's margin is 0.
@@ -561,16 +771,31 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
     x = dc * np.linalg.lstsq(A * dr[:, None] * dc[None, :], b * dr, rcond=None)[0]
     lam = (float(x[c["l1"]]), float(x[c["l2"]]))
     Ft: list[np.ndarray | None] = []
-    margin: list[float] = []
     for i in (0, 1):
         if sticking[i]:
-            f = np.array([x[c[f"t{i}{k}"]] for k in range(n_t)] + [0.0] * (3 - n_t))
-            Ft.append(f)
-            margin.append(mu * lam[i] - float(np.linalg.norm(f)))
+            Ft.append(np.array([x[c[f"t{i}{k}"]] for k in range(n_t)] + [0.0] * (3 - n_t)))
         else:
             Ft.append(None)
-            margin.append(0.0)
+    if all(sticking) and n_t == 2:
+        Ft = _split_line(Ft, e, lam, mu)
+    margin = [mu * lam[i] - float(np.linalg.norm(Ft[i])) if sticking[i] else 0.0 for i in (0, 1)]
     return {"lam": lam, "Ft": Ft, "margin": margin}
+
+
+def _split_line(Ft: list, e: np.ndarray, lam: tuple, mu: float) -> list:
+    """The tangential forces of both contacts sticking (Coulomb) with the force along the contact
+    line d̂ (the horizontal direction of 3̂) split in proportion to what each cone leaves for it,
+    t_i = T ρ_i/(ρ_1 + ρ_2), ρ_i = √((μ λ_i)² − P_i²)₊, P_i = F_i·n̂ (n̂ = ẑ × d̂): only the total
+    T is determined (an internal compression along the line has no moment and does no work),
+    and this split puts both forces inside their cones whenever any split does
+    (docs/theory/stem.md#dry-friction, "Both contacts sticking")."""
+    d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+    n = np.array([-d[1], d[0], 0.0])
+    P = [float(Ft[i] @ n) for i in (0, 1)]
+    T = float(Ft[0] @ d + Ft[1] @ d)
+    rho = [math.sqrt(max((mu * lam[i]) ** 2 - P[i] ** 2, 0.0)) for i in (0, 1)]
+    share = [r / (rho[0] + rho[1]) for r in rho] if rho[0] + rho[1] > 0.0 else [0.5, 0.5]
+    return [P[i] * n + T * share[i] * d for i in (0, 1)]
 
 
 # --- the jumps ---------------------------------------------------------------------------------
@@ -954,6 +1179,26 @@ def _restart_both(
     return out
 
 
+def _stop_pair(y2: np.ndarray, p: tuple, targets: np.ndarray | None = None) -> np.ndarray:
+    """``y2`` after the impulse at both contacts (Coulomb) that sets both normal velocities to 0
+    and the horizontal slips to ``targets`` (ν_1x, ν_1y, ν_2x, ν_2y; default 0: both stopped).
+    The Delassus matrix of the two contacts is singular (an impulse pair ±f d̂ along the
+    contact line moves nothing), and the targets are consistent with it when ν_2 − ν_1 has no
+    part along d̂ (ν_2 − ν_1 = (ω × d) is always ⊥ d): least squares is then exact; the
+    minimum-norm impulse is taken. The flag kept."""
+    e, L, w, V, Iinv = _both_body(y2, p)
+    arms = _arms(e, p)
+    W = _delassus2(e, Iinv, p[ix.M], arms, 0.0)
+    g0 = _gvel(V, w, arms, 0.0)
+    want = np.zeros(6)
+    if targets is not None:
+        want[[0, 1, 3, 4]] = targets
+    Pi = np.linalg.lstsq(W, want - g0, rcond=None)[0]
+    out = _apply2(y2, p, L, arms, Pi)
+    out[10] = y2[10]
+    return out
+
+
 def _slips(y2: np.ndarray, p: tuple) -> tuple[float, float]:
     """|γ_1|, |γ_2| (m/s) of a double-contact state (any mode)."""
     e, L, w, n1, n2, _ = both_kinematics(
@@ -964,9 +1209,15 @@ def _slips(y2: np.ndarray, p: tuple) -> tuple[float, float]:
     return math.hypot(n1[0], n1[1], sw), math.hypot(n2[0], n2[1], sw)
 
 
-BOTH_FLAGS = {2.0: "both-sliding", 3.0: "both-ball-rolling", 4.0: "both-stem-rolling"}
+BOTH_FLAGS = {
+    2.0: "both-sliding",
+    3.0: "both-ball-rolling",
+    4.0: "both-stem-rolling",
+    5.0: "both-rolling",
+}
 """The double contact's modes by the state's flag: both contacts sliding, the ball rolling
-(sticking) with the stem sliding, the stem rolling with the ball sliding."""
+(sticking) with the stem sliding, the stem rolling with the ball sliding, both rolling (the
+body turning about the line through the two contact points; Coulomb)."""
 
 
 def _slip_acceleration(y2: np.ndarray, p: tuple, i: int, u: np.ndarray) -> np.ndarray:
@@ -1031,12 +1282,17 @@ def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
     chosen by consistency (Pfeiffer & Glocker 1996; Leine & Glocker 2003: a mode is admissible
     when its normal forces are ≥ 0 and each sticking contact's force lies in its cone).
 
-    Sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
+    Both slips within the band (or the other contact already sticking): both sticking is tried
+    first; admissible (normal forces ≥ 0, some split of the force along the contact line in both
+    cones, :func:`_split_line`), both slips are stopped (:func:`_stop_pair`) and the rolling
+    about the contact line runs ("both-rolling", flag 5; never admissible when r_s < R, the
+    stem's normal force is then negative: docs/theory/stem.md#dry-friction). One contact
+    sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
     both normal velocities 0) and the mode "both-ball-rolling" / "both-stem-rolling" runs (flag
-    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0) and for both contacts sticking (an
-    indeterminate force under Coulomb) the run ends with :class:`JumpFailed` naming the mode.
-    Not admissible: the slip restarts (2δ) opposite to the force sticking would need (where the
-    excess force drives it; exact at the cone's edge)."""
+    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0, which makes both contacts rest:
+    the same rolling) the run ends with :class:`JumpFailed` naming the mode. Not admissible:
+    the slip restarts (2δ) opposite to the force sticking would need (where the excess force
+    drives it; exact at the cone's edge)."""
     if dry.frictionless(p) or p[ix.LAW] != dry.LAW_COULOMB:
         return y2
     flag = float(round(y2[10]))
@@ -1049,19 +1305,29 @@ def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
         if not slow:
             return y2
         i = slow[0]
+        if len(slow) == 2 and p[ix.RSTAR] == 0.0:  # both at rest: both sticking first
+            sol = both_stick_forces(y2, p, (True, True))
+            if min(sol["lam"]) >= 0.0 and min(sol["margin"]) >= 0.0:
+                y2 = _stop_pair(y2, p)
+                y2[10] = 5.0
+                return y2
         stuck = (i == 0 or flag == 3.0, i == 1 or flag == 4.0)
         sol = both_stick_forces(y2, p, stuck)
         if min(sol["lam"]) >= 0.0 and all(sol["margin"][j] >= 0.0 for j in range(2) if stuck[j]):
-            if all(stuck) or p[ix.RSTAR] > 0.0:
+            if p[ix.RSTAR] > 0.0:
                 which = "both contacts" if all(stuck) else f"the {('ball', 'stem')[i]} contact"
                 raise JumpFailed(
-                    f"{which} stick in the double contact (forces inside the cones, both normal "
-                    "forces ≥ 0): a sticking mode of the dry double contact that is not "
-                    "continued yet"
+                    f"{which} stick in the double contact under Coulomb–Contensou friction "
+                    "(forces inside the cones, both normal forces ≥ 0; it needs ω_z = 0): a "
+                    "sticking mode of the dry double contact that is not continued"
                 )
+            if all(stuck):  # both at rest: the body rolls about the contact line
+                y2 = _stop_pair(y2, p)
+                y2[10] = 5.0
+                return y2
             y2 = _restart_both(y2, p, i, np.zeros(3), 0.0)
-            y2[10] = 3.0 + i
-            return y2
+            y2[10] = flag = 3.0 + i
+            continue  # the other contact's slip may be within the band too
         Ft = sol["Ft"][i]
         if p[ix.RSTAR] > 0.0:  # Contensou: opposite the force sticking needs (the cone's edge)
             u = -Ft / np.linalg.norm(Ft)
@@ -1089,6 +1355,20 @@ def _both_stop(y: np.ndarray, p: tuple) -> np.ndarray:
     return _settle_both(y2, p, at)
 
 
+def _both_near(i: int) -> Any:
+    """The jump of contact ``i``'s near-stop event: the mode selection of :func:`_settle_both` at
+    that contact, its slip (below k δ) treated as at the band: stopped where sticking is
+    admissible, else restarted (2δ) along the excess force."""
+
+    def jump(y: np.ndarray, p: tuple) -> np.ndarray:
+        y2 = on_both(y, _viscous(p))
+        y2[10] = y[10]
+        return _settle_both(y2, p, i)
+
+    jump.__name__ = f"_both_{('ball', 'stem')[i]}_near_jump"
+    return jump
+
+
 def _both_cone(y: np.ndarray, p: tuple) -> np.ndarray:
     """The sticking contact's force reaches its cone: its slip starts (2δ) opposite to the
     tangential force sticking needs, both contacts sliding (flag 2)."""
@@ -1099,6 +1379,38 @@ def _both_cone(y: np.ndarray, p: tuple) -> np.ndarray:
     y2[10] = 2.0
     u = _excess_both(y2, p, i)  # where the slip grows (−F/|F| exactly at the cone's edge)
     return _restart_both(y2, p, i, -F[:2] / np.linalg.norm(F[:2]) if u is None else u)
+
+
+def _roll_cone(which: int) -> Any:
+    """The jump where both contacts stick and a cone condition of :func:`_roll_margins` fails:
+    0 (1), the ball's (stem's) force across the line: that contact's slip starts (2δ) across
+    the line opposite to it, the other keeps sticking (flag 4, 3); 2, no split along the line
+    fits: both slip together along the line (ν_2 − ν_1 ⊥ d̂ forces equal slips along it),
+    opposite to the total T (flag 2)."""
+
+    def jump(y: np.ndarray, p: tuple) -> np.ndarray:
+        y2 = on_both(y, _viscous(p))
+        y2[10] = 5.0
+        _, _, _, P1, P2, T = _roll_both(y2, p)
+        e = y2[7:10] / np.linalg.norm(y2[7:10])
+        d = np.array([e[0], e[1]]) / math.hypot(e[0], e[1])
+        n = np.array([-d[1], d[0]])
+        band = 2.0 * p[ix.BAND]
+        if which == 2:
+            u = -math.copysign(1.0, T) * d
+            out = _stop_pair(y2, p, np.concatenate((band * u, band * u)))
+            out[10] = 2.0
+            return out
+        P = (P1, P2)[which]
+        u = -math.copysign(1.0, P) * n
+        t = np.zeros(4)
+        t[2 * which : 2 * which + 2] = band * u
+        out = _stop_pair(y2, p, t)
+        out[10] = 4.0 - which
+        return out
+
+    jump.__name__ = f"_roll_cone_{which}"
+    return jump
 
 
 def _select(y: np.ndarray, p: tuple) -> str:
@@ -1189,6 +1501,20 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
             out["F_x"][mask] = d[3][0] + fk * nu[0]
             out["F_y"][mask] = d[3][1] + fk * nu[1]
             out["margin"][mask] = p[ix.MU] * d[3][2] - np.hypot(d[3][0], d[3][1])
+    roll = flag == 5
+    if roll.any():  # both sticking: the normal forces, the total tangential force, the margin
+        Yr = Y[:, roll]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            _, l1, l2, P1, P2, T = _roll_both(Yr, p)
+            m3 = _roll_margins(Yr, p)
+        e = Yr[7:10] / np.linalg.norm(Yr[7:10], axis=0)
+        hd = np.hypot(e[0], e[1])
+        dx, dy = e[0] / hd, e[1] / hd
+        out["gn_ball"][roll], out["gn_stem"][roll] = l1, l2
+        out["gn"][roll] = l1 + l2
+        out["F_x"][roll] = T * dx - (P1 + P2) * dy
+        out["F_y"][roll] = T * dy + (P1 + P2) * dx
+        out["margin"][roll] = np.minimum(np.minimum(m3[0], m3[1]), m3[2])
     both = flag == 2
     if both.any():  # both contacts sliding: the sums of their forces, margin 0
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -1266,13 +1592,8 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         c1, f1 = after.split("-", 1)
         margin, speed, t_sw, t_event = math.nan, math.nan, t, t
         if c0 == "both" and c1 == "both":  # a mode of the double contact changes
-            why = (
-                "stop"
-                if f0 == "sliding" and f1 != f0
-                else "cone"
-                if f1 == "sliding" and f1 != f0
-                else "reversal"
-            )
+            n0, n1 = _STUCK[f0], _STUCK[f1]  # sticking contacts before and after
+            why = "stop" if n1 > n0 else "cone" if n1 < n0 else "reversal"
         elif c0 == "both":
             why = _LIFT_REASONS[c1]
         elif c0 != c1:
@@ -1313,6 +1634,7 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
 
 
 _LIFT_REASONS = {"ball": "stem lifts off", "stem": "ball lifts off"}
+_STUCK = {"sliding": 0, "ball-rolling": 1, "stem-rolling": 1, "rolling": 2}
 
 
 PHASES = (
@@ -1323,6 +1645,7 @@ PHASES = (
     "both-sliding",
     "both-ball-rolling",
     "both-stem-rolling",
+    "both-rolling",
 )
 
 _TOUCHDOWN = Event(
@@ -1449,6 +1772,8 @@ MODEL = register(
                     _both_switch(_both_stem_lift, "ball-sliding", _stem_lifts),
                     _both_switch(_both_ball_stop, "both-sliding", _both_stop),
                     _both_switch(_both_stem_stop, "both-sliding", _both_stop),
+                    _both_switch(_both_ball_near, "both-sliding", _both_near(0)),
+                    _both_switch(_both_stem_near, "both-sliding", _both_near(1)),
                 ),
             ),
             Phase(
@@ -1473,6 +1798,19 @@ MODEL = register(
                     _both_switch(_ss_stem_lift, "ball-sliding", _stem_lifts),
                     _both_switch(_ss_cone, "both-sliding", _both_cone, grazing=True),
                     _both_switch(_ss_stop, "both-stem-rolling", _both_stop),
+                ),
+            ),
+            Phase(
+                "both-rolling",
+                _python(_both_rolling_into),
+                _both_rolling_into,
+                (
+                    Event(_br_contact, -1.0, "contact_lost"),
+                    _both_switch(_br_ball_lift, "stem-rolling", _ball_lifts),
+                    _both_switch(_br_stem_lift, "ball-rolling", _stem_lifts),
+                    _both_switch(_br_ball_cone, "both-stem-rolling", _roll_cone(0), grazing=True),
+                    _both_switch(_br_stem_cone, "both-ball-rolling", _roll_cone(1), grazing=True),
+                    _both_switch(_br_line_cone, "both-sliding", _roll_cone(2), grazing=True),
                 ),
             ),
         ),
