@@ -778,7 +778,10 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
             Ft.append(None)
     if all(sticking) and n_t == 2:
         Ft = _split_line(Ft, e, lam, mu)
-    margin = [mu * lam[i] - float(np.linalg.norm(Ft[i])) if sticking[i] else 0.0 for i in (0, 1)]
+    margin = [
+        mu * lam[i] - float(np.linalg.norm(f)) if sticking[i] and (f := Ft[i]) is not None else 0.0
+        for i in (0, 1)
+    ]
     return {"lam": lam, "Ft": Ft, "margin": margin}
 
 
