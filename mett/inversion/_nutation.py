@@ -144,7 +144,11 @@ CLEAR, SPLIT, DEPTH = 0.3, 8, 3
 
 
 def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
-    """The nutation's eigenvalue at ``theta`` by continuity from ``history`` [(θ, λ_n), ...]."""
+    """The nutation's eigenvalue at ``theta`` by continuity from ``history`` [(θ, λ_n), ...].
+
+    The direct form, one :func:`_fast_spectra` call per split: :func:`lift_off` takes the same
+    picks from batched calls (:func:`_walk`); kept as the reference that it is checked against.
+    """
     fast = _fast_spectra(top, law, lam, theta).tolist()
     out = []
     for th, (a, b) in zip(theta.tolist(), fast, strict=True):
@@ -164,6 +168,54 @@ def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
     return out
 
 
+def _walk(theta, history, spectra, missing, depth=0) -> list[complex]:
+    """:func:`_follow`'s picks from the stored spectra {θ: (a, b)}, without computing any.
+
+    A split whose nodes are not stored is appended to ``missing`` as (index in ``theta``, its
+    nodes) and the step taken without it (a guess, to find the later splits too); the caller computes them all in one call and walks
+    again, until nothing it needs is missing. The arithmetic is :func:`_follow`'s, so are the
+    picks once every split is stored.
+    """
+    out = []
+    for th in theta:
+        a, b = spectra[th]
+        (t1, l1), (t0, l0) = history[-1], history[-2] if len(history) > 1 else history[-1]
+        guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0) if t1 != t0 else l1
+        da, db = abs(a - guess), abs(b - guess)
+        if min(da, db) > CLEAR * max(da, db) and depth < DEPTH and len(history) > 1:
+            sub = _split(t1, th)
+            if all(x in spectra for x in sub):
+                deeper: list = []
+                inner = _walk(sub, history[-2:], spectra, deeper, depth + 1)
+                missing.extend((len(out), nodes) for _, nodes in deeper)
+                history = history + list(zip(sub, inner, strict=True))
+                (t1, l1), (t0, l0) = history[-1], history[-2]
+                guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0)
+                da, db = abs(a - guess), abs(b - guess)
+            else:
+                missing.append((len(out), sub))
+        pick = a if da <= db else b
+        history = [*history[-1:], (th, pick)]
+        out.append(pick)
+    return out
+
+
+def _split(t1: float, th: float) -> tuple[float, ...]:
+    """``np.linspace(t1, th, SPLIT + 1)[1:-1]`` as floats, by its arithmetic (k·step + t1, the
+    same roundings) without its call: the walk asks for it at every unclear step of every pass."""
+    step = (th - t1) / SPLIT
+    if step == 0.0:
+        return tuple(np.linspace(t1, th, SPLIT + 1)[1:-1].tolist())
+    return tuple(k * step + t1 for k in range(1, SPLIT))
+
+
+def _store(top, law, lam, spectra, nodes) -> None:
+    """Add the spectra of ``nodes`` (θ values) to ``spectra``, in one :func:`_fast_spectra` call."""
+    todo = np.array(sorted(set(nodes) - spectra.keys()))
+    if len(todo):
+        spectra.update(zip(todo.tolist(), _fast_spectra(top, law, lam, todo).tolist(), strict=True))
+
+
 def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> LiftOff:
     """The lift-off criterion along the balance path (module docstring).
 
@@ -179,18 +231,24 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
     theta = np.asarray(theta, dtype=float)
     phidot0 = float(np.real(balance_state(top, lam, theta[0])[0]))
     start = complex(rate0.real, phidot0 + abs(rate0.imag))
-    lam_n = np.array(_follow(top, law, lam, theta, [(float(theta[0]), start)]))
-    omega = lam_n.imag
     M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
-    growth = np.concatenate(
-        ([0.0], np.cumsum(0.5 * (lam_n.real[1:] + lam_n.real[:-1]) * np.diff(t)))
-    )
-    # in logarithms: a growing nutation may pass any float range long after it lifts the top
-    # (then inf: the ratio is past 1 there anyway)
-    with np.errstate(over="ignore", invalid="ignore"):
-        amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
-        ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
-    over = np.flatnonzero(ratio >= 1.0)
+    nodes = theta.tolist()
+    spectra: dict = {}
+    _store(top, law, lam, spectra, nodes)
+    while True:
+        # Walk with what is stored; the picks are final up to the first node past the criterion
+        # (or the last) once no split up to there is missing: only there is t_lift decided.
+        missing: list = []
+        lam_n = np.array(_walk(nodes, [(nodes[0], start)], spectra, missing))
+        ratio, amp = _ratio(top, t, theta, M, lam_n, amp0)
+        over = np.flatnonzero(ratio >= 1.0)
+        last = int(over[0]) if len(over) else len(t) - 1
+        need = [x for i, sub in missing if i <= last for x in sub]
+        if not need:
+            break
+        _store(top, law, lam, spectra, need)
+    n = last + 1
+    t, ratio, amp, lam_n = t[:n], ratio[:n], amp[:n], lam_n[:n]
     if not len(over):
         t_lift = math.inf
     elif over[0] == 0:
@@ -201,3 +259,17 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
         a, b = math.log(ratio[j - 1]), math.log(ratio[j])
         t_lift = float(t[j - 1] + (t[j] - t[j - 1]) * (0.0 - a) / (b - a))
     return LiftOff(t_lift, t, ratio, amp, lam_n)
+
+
+def _ratio(top, t, theta, M, lam_n, amp0):
+    """The criterion's ratio l |λ_n|² Z / g and the amplitude Θ at the nodes (module docstring)."""
+    omega = lam_n.imag
+    growth = np.concatenate(
+        ([0.0], np.cumsum(0.5 * (lam_n.real[1:] + lam_n.real[:-1]) * np.diff(t)))
+    )
+    # in logarithms: a growing nutation may pass any float range long after it lifts the top
+    # (then inf: the ratio is past 1 there anyway)
+    with np.errstate(over="ignore", invalid="ignore"):
+        amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
+        ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
+    return ratio, amp
