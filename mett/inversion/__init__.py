@@ -37,7 +37,7 @@ from ..classification import asymptotic_state
 from ..dynamics.flight import VISCOUS_ARTEFACT
 from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
 from ..integrals import jellett, modified_energy, routh
-from ..stability import escape_time
+from ..stability import escape_modes
 from ..state import State
 from ..top import TippeTop
 from . import _averaged, _nutation
@@ -331,7 +331,7 @@ def predict_inversion(
     mu_lin = _linear_mu(top, law, state)
     top_lin = top.replace(mu=mu_lin)
     try:
-        esc = escape_time(top_lin, state)
+        esc, modes = escape_modes(top_lin, state)
     except ValueError as exc:
         if lam <= top.lambda_0:
             return empty(
@@ -413,7 +413,7 @@ def predict_inversion(
     up = np.flatnonzero(theta <= 0.5 * math.pi)
     up = np.unique(np.r_[up[::3], up[-1:]])
     try:
-        amp0, rate0 = _nutation.upright_nutation(top, state, lam, top_lin)
+        amp0, rate0 = _nutation.upright_nutation(modes)
         t_lift = _nutation.lift_off(top, law, lam, t[up], theta[up], amp0, rate0).t_lift
     except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
         t_lift = math.nan

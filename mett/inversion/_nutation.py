@@ -40,15 +40,10 @@ from typing import NamedTuple
 import numpy as np
 
 from ..dynamics.gliding import gliding_core
-from ..dynamics.registry import MODELS
 from ..friction import RegularisedCoulomb, Viscous
-from ..stability import spin_jacobian
-from ..thresholds import pole_spins
+from ..stability import UprightModes
 from ..top import TippeTop
 from ._gyroscopic import balance_state
-
-# ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y: the horizontal perturbations of the upright spin (mett.stability)
-_HORIZONTAL = [2, 3, 4, 5, 7, 8]
 
 
 class LiftOff(NamedTuple):
@@ -66,24 +61,17 @@ class LiftOff(NamedTuple):
     """λ_n (1/s), the nutation's eigenvalue in the precessing frame."""
 
 
-def upright_nutation(top: TippeTop, state, lam: float, lin: TippeTop) -> tuple[float, complex]:
+def upright_nutation(modes: UprightModes) -> tuple[float, complex]:
     """Amplitude Θ(0) (rad) of the start in the upright spin's nutation mode, and its eigenvalue.
 
-    The start is split into the eigenmodes of the gliding model linearised at the upright spin
-    with the same λ, ``lin`` being ``top`` with the viscous coefficient of the law linearised
-    there (``top.mu`` replaced), as :func:`mett.escape_time` does:
+    ``modes``: the start split into the eigenmodes of the gliding model linearised at the upright
+    spin with the same λ, with the viscous coefficient of the law linearised there, as
+    :func:`mett.escape_time` computes it (:func:`mett.stability.escape_modes`):
     the growing pair (largest real part) is the inversion mode; of the other two pairs, the one
     with the real part nearest zero is the nutation (the other is the slip, damped at ≈ μ g κ).
     Its size is that of its 3̂_x, 3̂_y components (the radius of the axis's circle).
     """
-    model = MODELS["gliding"]
-    A = spin_jacobian(lin, lam, "upright")[np.ix_(_HORIZONTAL, _HORIZONTAL)]
-    ev, vecs = np.linalg.eig(A)
-    up = np.zeros(10)
-    up[6] = top.I3 * pole_spins(top, lam)[0]
-    up[9] = 1.0
-    dy = model.initial(state, model.params(lin, {})) - up
-    coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+    ev, vecs, coef = modes
     order = np.argsort(-ev.real, kind="stable")
     rest = order[2:]  # without the growing pair
     nut = rest[np.argsort(np.abs(ev.real[rest]), kind="stable")[:2]]
