@@ -156,17 +156,19 @@ def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
     return out
 
 
-def _walk(theta, history, spectra, missing, depth=0) -> list[complex]:
+def _walk(theta, history, spectra, missing, depth=0, resume=None) -> list[complex]:
     """:func:`_follow`'s picks from the stored spectra {θ: (a, b)}, without computing any.
 
     A split whose nodes are not stored is appended to ``missing`` as (index in ``theta``, its
-    nodes) and the step taken without it (a guess, to find the later splits too); the caller computes them all in one call and walks
-    again, until nothing it needs is missing. The arithmetic is :func:`_follow`'s, so are the
-    picks once every split is stored.
+    nodes) and the step taken without it (a guess, to find the later splits too); the caller
+    computes them all in one call and walks again, until nothing it needs is missing. The arithmetic is :func:`_follow`'s, so are the
+    picks once every split is stored. ``resume`` (a list) receives (index, history) at the first
+    missing split: the picks before it are final, and the next walk may start there.
     """
     out = []
     for th in theta:
         a, b = spectra[th]
+        before = history
         (t1, l1), (t0, l0) = history[-1], history[-2] if len(history) > 1 else history[-1]
         guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0) if t1 != t0 else l1
         da, db = abs(a - guess), abs(b - guess)
@@ -176,11 +178,15 @@ def _walk(theta, history, spectra, missing, depth=0) -> list[complex]:
                 deeper: list = []
                 inner = _walk(sub, history[-2:], spectra, deeper, depth + 1)
                 missing.extend((len(out), nodes) for _, nodes in deeper)
+                if deeper and resume is not None and not resume:
+                    resume.append((len(out), before))
                 history = history + list(zip(sub, inner, strict=True))
                 (t1, l1), (t0, l0) = history[-1], history[-2]
                 guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0)
                 da, db = abs(a - guess), abs(b - guess)
             else:
+                if resume is not None and not resume:
+                    resume.append((len(out), before))
                 missing.append((len(out), sub))
         pick = a if da <= db else b
         history = [*history[-1:], (th, pick)]
@@ -223,18 +229,24 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
     nodes = theta.tolist()
     spectra: dict = {}
     _store(top, law, lam, spectra, nodes)
+    final: list = []  # picks that no missing split precedes
+    history = [(nodes[0], start)]
     while True:
         # Walk with what is stored; the picks are final up to the first node past the criterion
         # (or the last) once no split up to there is missing: only there is t_lift decided.
         missing: list = []
-        lam_n = np.array(_walk(nodes, [(nodes[0], start)], spectra, missing))
+        resume: list = []
+        picks = _walk(nodes[len(final) :], history, spectra, missing, 0, resume)
+        lam_n = np.array(final + picks)
         ratio, amp = _ratio(top, t, theta, M, lam_n, amp0)
         over = np.flatnonzero(ratio >= 1.0)
         last = int(over[0]) if len(over) else len(t) - 1
-        need = [x for i, sub in missing if i <= last for x in sub]
+        need = [x for i, sub in missing if len(final) + i <= last for x in sub]
         if not need:
             break
         _store(top, law, lam, spectra, need)
+        j, history = resume[0]  # the next walk starts at the first missing split
+        final += picks[:j]
     n = last + 1
     t, ratio, amp, lam_n = t[:n], ratio[:n], amp[:n], lam_n[:n]
     if not len(over):
