@@ -122,7 +122,7 @@ def _fast_spectra(top: TippeTop, law, lam: float, theta) -> np.ndarray:
         A[:, i, i + 1] += phidot
         A[:, i + 1, i] -= phidot
     ev = np.linalg.eigvals(A)
-    return np.take_along_axis(ev, np.argsort(-ev.imag, axis=1)[:, :2], axis=1)
+    return ev[np.arange(n)[:, None], np.argsort(-ev.imag, axis=1)[:, :2]]
 
 
 # A choice between the two fast eigenvalues is taken when the nearer is within this fraction of
