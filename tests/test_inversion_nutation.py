@@ -75,6 +75,9 @@ def test_batched_lift_off_equals_the_direct_evaluation(name, index, scale):
     amp0 *= scale  # a larger start moves the lift-off earlier: the early stop engages
     got = _nutation.lift_off(top, law, lam, t, theta, amp0, rate0)
     t_lift, lam_n = _direct(top, law, lam, t, theta, amp0, rate0)
+    # the prediction's form: inf from the bound over both fast eigenvalues where it is far below
+    # 1, else lift_off's
+    assert _nutation.lift_off_time(top, law, lam, t, theta, amp0, rate0) == got.t_lift
     n = len(got.t)
     # ratio within rounding of the direct one (its amplitude is summed in another order), so
     # t_lift to rounding of the log-linear interpolation; the nutation's picks exactly
@@ -99,3 +102,20 @@ def test_regularised_coulomb_batched_equals_direct():
     t_lift, lam_n = _direct(top, law, lam, t, theta, amp0, rate0)
     assert got.t_lift == pytest.approx(t_lift, rel=1e-12) or got.t_lift == t_lift
     assert np.array_equal(got.rate, lam_n[: len(got.t)])
+    assert _nutation.lift_off_time(top, law, lam, t, theta, amp0, rate0) == got.t_lift
+
+
+@pytest.mark.parametrize(("scale", "lifts"), [(1.0, False), (8.0, False), (12.0, False),
+                                             (15.0, True), (30.0, True)])  # fmt: skip
+def test_the_bound_decides_only_where_the_ratio_stays_below_one(scale, lifts):
+    # The thesis top at mu = 0.2 s/m: the ratio peaks at ~0.07 from its own start (the bound
+    # answers: no lift-off); starts 8 and 12 times larger bring it to 0.55 and 0.83, past the
+    # bound's threshold 1/2 but not to 1 (the exact criterion answers: none), 15 and 30 times
+    # past 1 (a finite t_lift).
+    top, state, law = _benchmark_case(0.2)
+    lam, t, theta = _nodes(top, state, law)
+    amp0, rate0 = _nutation.upright_nutation(escape_modes(top, state)[1])
+    exact = _direct(top, law, lam, t, theta, scale * amp0, rate0)[0]
+    got = _nutation.lift_off_time(top, law, lam, t, theta, scale * amp0, rate0)
+    assert math.isfinite(exact) == lifts
+    assert got == pytest.approx(exact, rel=1e-12)

@@ -210,14 +210,19 @@ def _store(top, law, lam, spectra, nodes) -> None:
         spectra.update(zip(todo.tolist(), _fast_spectra(top, law, lam, todo).tolist(), strict=True))
 
 
-def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> LiftOff:
+def lift_off(
+    top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex, *, spectra=None
+) -> LiftOff:
     """The lift-off criterion along the balance path (module docstring).
 
     ``t``, ``theta``: the slow path's nodes with θ̄ ≤ π/2 (Jellett integral ``lam``); ``amp0``,
     ``rate0``: :func:`upright_nutation`. The nutation is the fast eigenvalue continued from the
     upright spin's (where the precessing frame adds φ̇ to its small frequency, and friction
     damps the slip at ≈ μ g κ, far from it): by linear extrapolation from node to node, the
-    step split where the two fast eigenvalues are not clearly apart (:data:`CLEAR`).
+    step split where the two fast eigenvalues are not clearly apart (:data:`CLEAR`). ``spectra``:
+    those already computed, {θ: (a, b)} (:func:`lift_off_time`).
+
+    The arrays stop at the first node past the criterion (t_lift is decided there).
     """
     if not isinstance(law, (Viscous, RegularisedCoulomb)):
         raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
@@ -227,7 +232,7 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
     start = complex(rate0.real, phidot0 + abs(rate0.imag))
     M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
     nodes = theta.tolist()
-    spectra: dict = {}
+    spectra = {} if spectra is None else spectra
     _store(top, law, lam, spectra, nodes)
     final: list = []  # picks that no missing split precedes
     history = [(nodes[0], start)]
@@ -273,3 +278,37 @@ def _ratio(top, t, theta, M, lam_n, amp0):
         amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
         ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
     return ratio, amp
+
+
+# lift_off_time answers "no lift-off" from the bound when it stays below this: far from 1, so
+# that no rounding of the ratio (1e-13 relative) can reach 1 where the bound does not
+BOUND = 0.5
+
+
+def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> float:
+    """:func:`lift_off`'s t_lift, the nutation followed only where it may lift the top off.
+
+    The ratio at a node takes one of the two fast eigenvalues (a, b) there, so it is at most the
+    ratio with the larger |λ|² and Re λ of the two at every node, the larger frequency at the
+    first node and the smaller at the node (both positive). Where that bound stays below
+    :data:`BOUND` at every node, t_lift is ``inf`` whichever the picks are, and neither the splits
+    nor the walk are needed (the common case: a top far from hopping); otherwise :func:`lift_off`
+    decides, from the spectra already computed.
+    """
+    t = np.asarray(t, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    spectra: dict = {}
+    nodes = theta.tolist()
+    _store(top, law, lam, spectra, nodes)
+    ab = np.array([spectra[x] for x in nodes])  # (N, 2)
+    M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
+    re = ab.real.max(axis=1)
+    growth = np.concatenate(([0.0], np.cumsum(0.5 * (re[1:] + re[:-1]) * np.diff(t))))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        amp = amp0 * np.exp(
+            0.5 * np.log(M[0] * ab[0].imag.max() / (M * ab.imag.min(axis=1))) + growth
+        )
+        bound = top.R * top.alpha * (np.abs(ab) ** 2).max(axis=1) * amp * np.sin(theta) / top.g
+    if np.all(bound < BOUND):  # NaN (a frequency <= 0) falls through to the exact criterion
+        return math.inf
+    return lift_off(top, law, lam, t, theta, amp0, rate0, spectra=spectra).t_lift
