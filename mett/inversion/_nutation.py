@@ -297,10 +297,7 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
     """
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
-    spectra: dict = {}
-    nodes = theta.tolist()
-    _store(top, law, lam, spectra, nodes)
-    ab = np.array([spectra[x] for x in nodes])  # (N, 2)
+    ab = _fast_spectra(top, law, lam, theta)  # (N, 2)
     M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
     re = ab.real.max(axis=1)
     growth = np.concatenate(([0.0], np.cumsum(0.5 * (re[1:] + re[:-1]) * np.diff(t))))
@@ -311,4 +308,5 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
         bound = top.R * top.alpha * (np.abs(ab) ** 2).max(axis=1) * amp * np.sin(theta) / top.g
     if np.all(bound < BOUND):  # NaN (a frequency <= 0) falls through to the exact criterion
         return math.inf
+    spectra = dict(zip(theta.tolist(), ab.tolist(), strict=True))
     return lift_off(top, law, lam, t, theta, amp0, rate0, spectra=spectra).t_lift
