@@ -47,7 +47,7 @@ from ._gyroscopic import balance_state
 
 
 class LiftOff(NamedTuple):
-    """The criterion along the slow path (nodes with θ̄ ≤ π/2)."""
+    """The criterion along the slow path (nodes with θ̄ ≤ π/2, up to the first past it)."""
 
     t_lift: float
     """First time (s) with l |λ_n|² Z ≥ g before π/2; ``inf`` if none."""
