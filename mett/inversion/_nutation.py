@@ -295,6 +295,8 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
     nor the walk are needed (the common case: a top far from hopping); otherwise :func:`lift_off`
     decides, from the spectra already computed.
     """
+    if not isinstance(law, (Viscous, RegularisedCoulomb)):
+        raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
     ab = _fast_spectra(top, law, lam, theta)  # (N, 2)
