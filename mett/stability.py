@@ -32,6 +32,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EscapeEstimate",
+    "UprightModes",
+    "escape_modes",
     "escape_time",
     "spin_eigenvalues",
     "spin_jacobian",
@@ -154,6 +156,31 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
         If the state's Jellett integral is not positive, the upright spin is not unstable
         (λ <= λ_0), or the state is not near it (no unstable component, or one of size >= 1).
     """
+    return escape_modes(top, state)[0]
+
+
+class UprightModes(NamedTuple):
+    """The upright spin's horizontal eigenmodes and a start's components in them."""
+
+    eigenvalues: np.ndarray
+    """(6,) complex (1/s): of the horizontal block (ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y) of the Jacobian."""
+    vectors: np.ndarray
+    """(6, 6) complex: the eigenvectors, as columns."""
+    coefficients: np.ndarray
+    """(6,) complex: the start's deviation from the spin with its λ, in the eigenvectors."""
+
+
+def escape_modes(top: TippeTop, state: State) -> tuple[EscapeEstimate, UprightModes]:
+    """:func:`escape_time` and the mode decomposition it is computed from.
+
+    For a caller that needs the start's other modes too (:func:`mett.predict_inversion` takes
+    the nutation's amplitude from them), without linearising the spin twice.
+
+    Raises
+    ------
+    ValueError
+        As :func:`escape_time`.
+    """
     lam = float(jellett(top, state))  # checks the types of top and state
     J = spin_jacobian(top, lam, "upright")
     A = J[np.ix_(_HORIZONTAL, _HORIZONTAL)]
@@ -189,7 +216,8 @@ def escape_time(top: TippeTop, state: State) -> EscapeEstimate:
             f"the state is not near the upright spin (unstable-mode amplitude {amplitude:.3g} "
             ">= 1): the linear escape prediction does not apply"
         )
-    return EscapeEstimate(math.log(1.0 / amplitude) / sigma, sigma, amplitude)
+    estimate = EscapeEstimate(math.log(1.0 / amplitude) / sigma, sigma, amplitude)
+    return estimate, UprightModes(ev, vecs, coef)
 
 
 def _state_at(top: TippeTop, th: float) -> TumblingState:

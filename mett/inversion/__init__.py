@@ -37,7 +37,7 @@ from ..classification import asymptotic_state
 from ..dynamics.flight import VISCOUS_ARTEFACT
 from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
 from ..integrals import jellett, modified_energy, routh
-from ..stability import escape_time
+from ..stability import escape_modes
 from ..state import State
 from ..top import TippeTop
 from . import _averaged, _nutation
@@ -331,7 +331,7 @@ def predict_inversion(
     mu_lin = _linear_mu(top, law, state)
     top_lin = top.replace(mu=mu_lin)
     try:
-        esc = escape_time(top_lin, state)
+        esc, modes = escape_modes(top_lin, state)
     except ValueError as exc:
         if lam <= top.lambda_0:
             return empty(
@@ -409,12 +409,13 @@ def predict_inversion(
     # Does the nutation lift the top off before π/2 (g_n = m g fails)? First-order criterion
     # along the path (mett.inversion._nutation, docs/theory/inversion.md#verification), on every
     # third node up to π/2 (steps <= 0.3 in ln tan(θ/2)) and the last: t_lift moves by <= 1 %
-    # from the full path on the verification cases, at a third of the cost.
+    # from the full path on the verification cases, at a third of the cost. Far from lifting off
+    # (a bound over both fast eigenvalues below 1/2) the nutation is not followed at all.
     up = np.flatnonzero(theta <= 0.5 * math.pi)
     up = np.unique(np.r_[up[::3], up[-1:]])
     try:
-        amp0, rate0 = _nutation.upright_nutation(top, state, lam, top_lin)
-        t_lift = _nutation.lift_off(top, law, lam, t[up], theta[up], amp0, rate0).t_lift
+        amp0, rate0 = _nutation.upright_nutation(modes)
+        t_lift = _nutation.lift_off_time(top, law, lam, t[up], theta[up], amp0, rate0)
     except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
         t_lift = math.nan
     if t_lift < t_half:

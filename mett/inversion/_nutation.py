@@ -40,19 +40,14 @@ from typing import NamedTuple
 import numpy as np
 
 from ..dynamics.gliding import gliding_core
-from ..dynamics.registry import MODELS
 from ..friction import RegularisedCoulomb, Viscous
-from ..stability import spin_jacobian
-from ..thresholds import pole_spins
+from ..stability import UprightModes
 from ..top import TippeTop
 from ._gyroscopic import balance_state
 
-# ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y: the horizontal perturbations of the upright spin (mett.stability)
-_HORIZONTAL = [2, 3, 4, 5, 7, 8]
-
 
 class LiftOff(NamedTuple):
-    """The criterion along the slow path (nodes with θ̄ ≤ π/2)."""
+    """The criterion along the slow path (nodes with θ̄ ≤ π/2, up to the first past it)."""
 
     t_lift: float
     """First time (s) with l |λ_n|² Z ≥ g before π/2; ``inf`` if none."""
@@ -66,24 +61,17 @@ class LiftOff(NamedTuple):
     """λ_n (1/s), the nutation's eigenvalue in the precessing frame."""
 
 
-def upright_nutation(top: TippeTop, state, lam: float, lin: TippeTop) -> tuple[float, complex]:
+def upright_nutation(modes: UprightModes) -> tuple[float, complex]:
     """Amplitude Θ(0) (rad) of the start in the upright spin's nutation mode, and its eigenvalue.
 
-    The start is split into the eigenmodes of the gliding model linearised at the upright spin
-    with the same λ, ``lin`` being ``top`` with the viscous coefficient of the law linearised
-    there (``top.mu`` replaced), as :func:`mett.escape_time` does:
+    ``modes``: the start split into the eigenmodes of the gliding model linearised at the upright
+    spin with the same λ, with the viscous coefficient of the law linearised there, as
+    :func:`mett.escape_time` computes it (:func:`mett.stability.escape_modes`):
     the growing pair (largest real part) is the inversion mode; of the other two pairs, the one
     with the real part nearest zero is the nutation (the other is the slip, damped at ≈ μ g κ).
     Its size is that of its 3̂_x, 3̂_y components (the radius of the axis's circle).
     """
-    model = MODELS["gliding"]
-    A = spin_jacobian(lin, lam, "upright")[np.ix_(_HORIZONTAL, _HORIZONTAL)]
-    ev, vecs = np.linalg.eig(A)
-    up = np.zeros(10)
-    up[6] = top.I3 * pole_spins(top, lam)[0]
-    up[9] = 1.0
-    dy = model.initial(state, model.params(lin, {})) - up
-    coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+    ev, vecs, coef = modes
     order = np.argsort(-ev.real, kind="stable")
     rest = order[2:]  # without the growing pair
     nut = rest[np.argsort(np.abs(ev.real[rest]), kind="stable")[:2]]
@@ -134,7 +122,7 @@ def _fast_spectra(top: TippeTop, law, lam: float, theta) -> np.ndarray:
         A[:, i, i + 1] += phidot
         A[:, i + 1, i] -= phidot
     ev = np.linalg.eigvals(A)
-    return np.take_along_axis(ev, np.argsort(-ev.imag, axis=1)[:, :2], axis=1)
+    return ev[np.arange(n)[:, None], np.argsort(-ev.imag, axis=1)[:, :2]]
 
 
 # A choice between the two fast eigenvalues is taken when the nearer is within this fraction of
@@ -144,7 +132,11 @@ CLEAR, SPLIT, DEPTH = 0.3, 8, 3
 
 
 def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
-    """The nutation's eigenvalue at ``theta`` by continuity from ``history`` [(θ, λ_n), ...]."""
+    """The nutation's eigenvalue at ``theta`` by continuity from ``history`` [(θ, λ_n), ...].
+
+    The direct form, one :func:`_fast_spectra` call per split: :func:`lift_off` takes the same
+    picks from batched calls (:func:`_walk`); kept as the reference that it is checked against.
+    """
     fast = _fast_spectra(top, law, lam, theta).tolist()
     out = []
     for th, (a, b) in zip(theta.tolist(), fast, strict=True):
@@ -164,14 +156,73 @@ def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
     return out
 
 
-def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> LiftOff:
+def _walk(theta, history, spectra, missing, depth=0, resume=None) -> list[complex]:
+    """:func:`_follow`'s picks from the stored spectra {θ: (a, b)}, without computing any.
+
+    A split whose nodes are not stored is appended to ``missing`` as (index in ``theta``, its
+    nodes) and the step taken without it (a guess, to find the later splits too); the caller
+    computes them all in one call and walks again, until nothing it needs is missing. The arithmetic is :func:`_follow`'s, so are the
+    picks once every split is stored. ``resume`` (a list) receives (index, history) at the first
+    missing split: the picks before it are final, and the next walk may start there.
+    """
+    out = []
+    for th in theta:
+        a, b = spectra[th]
+        before = history
+        (t1, l1), (t0, l0) = history[-1], history[-2] if len(history) > 1 else history[-1]
+        guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0) if t1 != t0 else l1
+        da, db = abs(a - guess), abs(b - guess)
+        if min(da, db) > CLEAR * max(da, db) and depth < DEPTH and len(history) > 1:
+            sub = _split(t1, th)
+            if all(x in spectra for x in sub):
+                deeper: list = []
+                inner = _walk(sub, history[-2:], spectra, deeper, depth + 1)
+                missing.extend((len(out), nodes) for _, nodes in deeper)
+                if deeper and resume is not None and not resume:
+                    resume.append((len(out), before))
+                history = history + list(zip(sub, inner, strict=True))
+                (t1, l1), (t0, l0) = history[-1], history[-2]
+                guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0)
+                da, db = abs(a - guess), abs(b - guess)
+            else:
+                if resume is not None and not resume:
+                    resume.append((len(out), before))
+                missing.append((len(out), sub))
+        pick = a if da <= db else b
+        history = [*history[-1:], (th, pick)]
+        out.append(pick)
+    return out
+
+
+def _split(t1: float, th: float) -> tuple[float, ...]:
+    """``np.linspace(t1, th, SPLIT + 1)[1:-1]`` as floats, by its arithmetic (k·step + t1, the
+    same roundings) without its call: the walk asks for it at every unclear step of every pass."""
+    step = (th - t1) / SPLIT
+    if step == 0.0:
+        return tuple(np.linspace(t1, th, SPLIT + 1)[1:-1].tolist())
+    return tuple(k * step + t1 for k in range(1, SPLIT))
+
+
+def _store(top, law, lam, spectra, nodes) -> None:
+    """Add the spectra of ``nodes`` (θ values) to ``spectra``, in one :func:`_fast_spectra` call."""
+    todo = np.array(sorted(set(nodes) - spectra.keys()))
+    if len(todo):
+        spectra.update(zip(todo.tolist(), _fast_spectra(top, law, lam, todo).tolist(), strict=True))
+
+
+def lift_off(
+    top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex, *, spectra=None
+) -> LiftOff:
     """The lift-off criterion along the balance path (module docstring).
 
     ``t``, ``theta``: the slow path's nodes with θ̄ ≤ π/2 (Jellett integral ``lam``); ``amp0``,
     ``rate0``: :func:`upright_nutation`. The nutation is the fast eigenvalue continued from the
     upright spin's (where the precessing frame adds φ̇ to its small frequency, and friction
     damps the slip at ≈ μ g κ, far from it): by linear extrapolation from node to node, the
-    step split where the two fast eigenvalues are not clearly apart (:data:`CLEAR`).
+    step split where the two fast eigenvalues are not clearly apart (:data:`CLEAR`). ``spectra``:
+    those already computed, {θ: (a, b)} (:func:`lift_off_time`).
+
+    The arrays stop at the first node past the criterion (t_lift is decided there).
     """
     if not isinstance(law, (Viscous, RegularisedCoulomb)):
         raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
@@ -179,18 +230,30 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
     theta = np.asarray(theta, dtype=float)
     phidot0 = float(np.real(balance_state(top, lam, theta[0])[0]))
     start = complex(rate0.real, phidot0 + abs(rate0.imag))
-    lam_n = np.array(_follow(top, law, lam, theta, [(float(theta[0]), start)]))
-    omega = lam_n.imag
     M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
-    growth = np.concatenate(
-        ([0.0], np.cumsum(0.5 * (lam_n.real[1:] + lam_n.real[:-1]) * np.diff(t)))
-    )
-    # in logarithms: a growing nutation may pass any float range long after it lifts the top
-    # (then inf: the ratio is past 1 there anyway)
-    with np.errstate(over="ignore", invalid="ignore"):
-        amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
-        ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
-    over = np.flatnonzero(ratio >= 1.0)
+    nodes = theta.tolist()
+    spectra = {} if spectra is None else spectra
+    _store(top, law, lam, spectra, nodes)
+    final: list = []  # picks that no missing split precedes
+    history = [(nodes[0], start)]
+    while True:
+        # Walk with what is stored; the picks are final up to the first node past the criterion
+        # (or the last) once no split up to there is missing: only there is t_lift decided.
+        missing: list = []
+        resume: list = []
+        picks = _walk(nodes[len(final) :], history, spectra, missing, 0, resume)
+        lam_n = np.array(final + picks)
+        ratio, amp = _ratio(top, t, theta, M, lam_n, amp0)
+        over = np.flatnonzero(ratio >= 1.0)
+        last = int(over[0]) if len(over) else len(t) - 1
+        need = [x for i, sub in missing if len(final) + i <= last for x in sub]
+        if not need:
+            break
+        _store(top, law, lam, spectra, need)
+        j, history = resume[0]  # the next walk starts at the first missing split
+        final += picks[:j]
+    n = last + 1
+    t, ratio, amp, lam_n = t[:n], ratio[:n], amp[:n], lam_n[:n]
     if not len(over):
         t_lift = math.inf
     elif over[0] == 0:
@@ -201,3 +264,51 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
         a, b = math.log(ratio[j - 1]), math.log(ratio[j])
         t_lift = float(t[j - 1] + (t[j] - t[j - 1]) * (0.0 - a) / (b - a))
     return LiftOff(t_lift, t, ratio, amp, lam_n)
+
+
+def _ratio(top, t, theta, M, lam_n, amp0):
+    """The criterion's ratio l |λ_n|² Z / g and the amplitude Θ at the nodes (module docstring)."""
+    omega = lam_n.imag
+    growth = np.concatenate(
+        ([0.0], np.cumsum(0.5 * (lam_n.real[1:] + lam_n.real[:-1]) * np.diff(t)))
+    )
+    # in logarithms: a growing nutation may pass any float range long after it lifts the top
+    # (then inf: the ratio is past 1 there anyway)
+    with np.errstate(over="ignore", invalid="ignore"):
+        amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
+        ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
+    return ratio, amp
+
+
+# lift_off_time answers "no lift-off" from the bound when it stays below this: far from 1, so
+# that no rounding of the ratio (1e-13 relative) can reach 1 where the bound does not
+BOUND = 0.5
+
+
+def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> float:
+    """:func:`lift_off`'s t_lift, the nutation followed only where it may lift the top off.
+
+    The ratio at a node takes one of the two fast eigenvalues (a, b) there, so it is at most the
+    ratio with the larger |λ|² and Re λ of the two at every node, the larger frequency at the
+    first node and the smaller at the node (both positive). Where that bound stays below
+    :data:`BOUND` at every node, t_lift is ``inf`` whichever the picks are, and neither the splits
+    nor the walk are needed (the common case: a top far from hopping); otherwise :func:`lift_off`
+    decides, from the spectra already computed.
+    """
+    if not isinstance(law, (Viscous, RegularisedCoulomb)):
+        raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
+    t = np.asarray(t, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    ab = _fast_spectra(top, law, lam, theta)  # (N, 2)
+    M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
+    re = ab.real.max(axis=1)
+    growth = np.concatenate(([0.0], np.cumsum(0.5 * (re[1:] + re[:-1]) * np.diff(t))))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        amp = amp0 * np.exp(
+            0.5 * np.log(M[0] * ab[0].imag.max() / (M * ab.imag.min(axis=1))) + growth
+        )
+        bound = top.R * top.alpha * (np.abs(ab) ** 2).max(axis=1) * amp * np.sin(theta) / top.g
+    if np.all(bound < BOUND):  # NaN (a frequency <= 0) falls through to the exact criterion
+        return math.inf
+    spectra = dict(zip(theta.tolist(), ab.tolist(), strict=True))
+    return lift_off(top, law, lam, t, theta, amp0, rate0, spectra=spectra).t_lift
