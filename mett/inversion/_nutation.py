@@ -161,11 +161,11 @@ def _walk(theta, history, spectra, missing, depth=0, resume=None) -> list[comple
 
     A split whose nodes are not stored is appended to ``missing`` as (index in ``theta``, its
     nodes) and the step taken without it (a guess, to find the later splits too); the caller
-    computes them all in one call and walks again, until nothing it needs is missing. The arithmetic is :func:`_follow`'s, so are the
-    picks once every split is stored. ``resume`` (a list) receives (index, history) at the first
+    computes them all in one call and walks again, until nothing it needs is missing. The
+    arithmetic is :func:`_follow`'s, so are the picks once every split is stored. ``resume`` (a list) receives (index, history) at the first
     missing split: the picks before it are final, and the next walk may start there.
     """
-    out = []
+    out: list[complex] = []
     for th in theta:
         a, b = spectra[th]
         before = history
