@@ -13,7 +13,8 @@ Zou 2005, §2):
     (sin a)_k = (1/k) Σ_{j=1}^{k} j a_j (cos a)_{k−j},   (cos a)_k = −(1/k) Σ_{j=1}^{k} j a_j (sin a)_{k−j},
     y_{k+1} = f_k / (k + 1),
 
-unrolled into straight-line LLVM IR (each sum of products one chain of fused multiply-adds) and
+unrolled into straight-line LLVM IR (each sum of products one chain of fused multiply-adds; the
+chains of products that share a factor interleaved, term by term, so it is read once) and
 compiled to machine code with llvmlite, which numba already depends on. The machine code is
 cached in the user's own cache directory (:func:`cache_dir`), keyed by the IR, llvmlite's version,
 the target and the CPU with its features, and loaded only after its owner, permissions and sha256
