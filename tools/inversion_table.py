@@ -76,6 +76,15 @@ def _covers(ref: dict, t_end: float) -> bool:
     return ref["t_end"] == t_end or (math.isfinite(ref["t_half"]) and ref["t_half"] <= t_end)
 
 
+def _lift_rows(rows: list[dict]):
+    """(row, gyroscopic prediction, reference) of the cases the lift-off criterion is judged on:
+    a reference that got far enough, and a t_lift that was evaluated."""
+    for r in rows:
+        p = r["pred"]["gyroscopic"]
+        if _kind(r) != "none" and not math.isnan(p["t_lift"]):
+            yield r, p, r["ref"]
+
+
 def _kind(row: dict) -> str:
     """How the case enters: "contact" / "hops" (a crossing, before/after a lift-off), "late" (no
     crossing by twice every finite prediction: their t_half is wrong by more than half), or
@@ -145,12 +154,7 @@ def lift_offs(rows: list[dict]) -> dict:
     of the hits; ``artefact`` the hits and misses whose simulated lift-off is the viscous law's
     artefact (μ|v_A| > 1)."""
     out: dict = {k: [] for k in ("hit", "quiet", "false", "miss", "dt", "artefact")}
-    for r in rows:
-        if _kind(r) == "none":
-            continue
-        p, ref = r["pred"]["gyroscopic"], r["ref"]
-        if math.isnan(p["t_lift"]):
-            continue
+    for r, p, ref in _lift_rows(rows):
         pred = p["t_lift"] < p["t_half"]
         sim = ref["hops"] > 0
         key = {(True, True): "hit", (False, False): "quiet", (True, False): "false",
@@ -316,12 +320,7 @@ def figure(rows: list[dict]) -> pathlib.Path:
     # come before π/2 (hits); misses and false alarms on the frame's edges
     ax = axes[2]
     lo, hi = 0.01, 200.0
-    for r in rows:
-        if _kind(r) == "none":
-            continue
-        p, ref = r["pred"]["gyroscopic"], r["ref"]
-        if math.isnan(p["t_lift"]):
-            continue
+    for r, p, ref in _lift_rows(rows):
         pred = p["t_lift"] if p["t_lift"] < p["t_half"] else math.inf
         sim = ref["t_contact_lost"] if ref["hops"] > 0 else math.inf
         if math.isinf(pred) and math.isinf(sim):
