@@ -41,6 +41,7 @@ __all__ = [
 ]
 
 _HORIZONTAL = [2, 3, 4, 5, 7, 8]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y in the gliding model's state
+_HORIZONTAL_BLOCK = np.ix_(_HORIZONTAL, _HORIZONTAL)  # built once: escape_modes runs per prediction
 _POLES = ("upright", "inverted")
 
 
@@ -126,7 +127,7 @@ def spin_eigenvalues(top: TippeTop, lam: float, pole: str = "inverted") -> np.nd
         ``pole`` is not one of the two names.
     """
     J = spin_jacobian(top, lam, pole)
-    ev = np.linalg.eigvals(J[np.ix_(_HORIZONTAL, _HORIZONTAL)])
+    ev = np.linalg.eigvals(J[_HORIZONTAL_BLOCK])
     return ev[np.argsort(-ev.real, kind="stable")]
 
 
@@ -183,7 +184,7 @@ def escape_modes(top: TippeTop, state: State) -> tuple[EscapeEstimate, UprightMo
     """
     lam = float(jellett(top, state))  # checks the types of top and state
     J = spin_jacobian(top, lam, "upright")
-    A = J[np.ix_(_HORIZONTAL, _HORIZONTAL)]
+    A = J[_HORIZONTAL_BLOCK]
     ev, vecs = np.linalg.eig(A)
     sigma = float(ev.real.max())
     if sigma <= 0.0:

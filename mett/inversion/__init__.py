@@ -329,7 +329,8 @@ def predict_inversion(
                 lam=lam,
             )
     mu_lin = _linear_mu(top, law, state)
-    top_lin = top.replace(mu=mu_lin)
+    # the viscous default linearises at the top's own μ: the top itself, not a copy
+    top_lin = top if mu_lin == top.mu else top._with_mu(mu_lin)
     try:
         esc, modes = escape_modes(top_lin, state)
     except ValueError as exc:
@@ -412,7 +413,10 @@ def predict_inversion(
     # from the full path on the verification cases, at a third of the cost. Far from lifting off
     # (a bound over both fast eigenvalues below 1/2) the nutation is not followed at all.
     up = np.flatnonzero(theta <= 0.5 * math.pi)
-    up = np.unique(np.r_[up[::3], up[-1:]])
+    if up.size and (len(up) - 1) % 3:  # the last node, unless every third already has it
+        up = np.r_[up[::3], up[-1]]
+    else:
+        up = up[::3]
     try:
         amp0, rate0 = _nutation.upright_nutation(modes)
         t_lift = _nutation.lift_off_time(top, law, lam, t[up], theta[up], amp0, rate0)
