@@ -20,6 +20,7 @@ adds a force or torque at the contact (:mod:`.resistance`) builds on :func:`kine
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -35,6 +36,7 @@ __all__ = [
     "contact_quantities",
     "delassus",
     "derivatives",
+    "excess_angle",
     "excess_direction",
     "frictionless",
     "from_gliding",
@@ -350,25 +352,22 @@ def slip(y: np.ndarray, p: tuple) -> np.ndarray:
     return np.array([k[4][0], k[4][1], p[ix.RSTAR] * k[1][2]])
 
 
-def excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarray:
-    """Unit u with v̇_A(u) = s u, s > 0, under the sliding force −μ g_n u (slip start at v_A = 0).
+def excess_angle(accel: Callable[[float, float], Any]) -> tuple[float, float] | None:
+    """Unit (u_x, u_y) with v̇(u) = s u, s > 0, largest s; None if there is none.
 
-    Scans the angle of u and refines the sign changes of (u × v̇_A(u))_z by Brent's method; among
-    the solutions with s > 0 the one of largest s. ``fallback`` if there is none (stick feasible).
-    Returned as the generalised direction (u_x, u_y, 0). With Contensou friction, the direction
-    opposite to the generalised force stick needs (``fallback``; exact at the cone's edge).
+    ``accel(u_x, u_y)`` is the slip acceleration (v̇_x, v̇_y) under the sliding force along −u.
+    Scans the angle of u on 72 intervals and refines the sign changes of (u × v̇(u))_z by Brent's
+    method (one implementation for one contact, :func:`excess_direction`, and for a contact of
+    the stemmed top's double contact).
     """
-    mu = p[ix.MU]
-    if p[ix.RSTAR] > 0.0:
-        return np.asarray(fallback, dtype=float) / np.linalg.norm(fallback)
 
-    def vdot(phi: float) -> tuple[float, float, float]:
+    def cross(phi: float) -> float:
         ux, uy = math.cos(phi), math.sin(phi)
-        v = slide(y, p, -mu * ux, -mu * uy, 0.0)[4]
-        return ux * v[1] - uy * v[0], ux * v[0] + uy * v[1], 0.0
+        v = accel(ux, uy)
+        return ux * v[1] - uy * v[0]
 
     grid = np.linspace(0.0, 2.0 * math.pi, 73)
-    cr = np.array([vdot(ph)[0] for ph in grid])
+    cr = np.array([cross(ph) for ph in grid])
     best, best_s = None, 0.0
     sign = np.sign(cr)  # not cr[:-1] * cr[1:]: that product underflows to 0 near a pole
     for i in np.flatnonzero(sign[:-1] * sign[1:] <= 0.0):
@@ -377,13 +376,30 @@ def excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarra
         elif cr[i + 1] == 0.0:
             continue
         else:
-            phi = brentq(lambda ph: vdot(ph)[0], grid[i], grid[i + 1], xtol=1e-15)
-        s = vdot(phi)[1]
+            phi = brentq(cross, grid[i], grid[i + 1], xtol=1e-15)
+        ux, uy = math.cos(phi), math.sin(phi)
+        v = accel(ux, uy)
+        s = ux * v[0] + uy * v[1]
         if s > best_s:
-            best, best_s = phi, s
+            best, best_s = (ux, uy), s
+    return best
+
+
+def excess_direction(y: np.ndarray, p: tuple, fallback: np.ndarray) -> np.ndarray:
+    """Unit u with v̇_A(u) = s u, s > 0, under the sliding force −μ g_n u (slip start at v_A = 0).
+
+    Among the solutions with s > 0 the one of largest s (:func:`excess_angle`). ``fallback`` if
+    there is none (stick feasible). Returned as the generalised direction (u_x, u_y, 0). With
+    Contensou friction, the direction opposite to the generalised force stick needs
+    (``fallback``; exact at the cone's edge).
+    """
+    mu = p[ix.MU]
+    if p[ix.RSTAR] > 0.0:
+        return np.asarray(fallback, dtype=float) / np.linalg.norm(fallback)
+    best = excess_angle(lambda ux, uy: slide(y, p, -mu * ux, -mu * uy, 0.0)[4])
     if best is None:
         return np.asarray(fallback, dtype=float) / np.linalg.norm(fallback)
-    return np.array([math.cos(best), math.sin(best), 0.0])
+    return np.array([best[0], best[1], 0.0])
 
 
 def set_slip(y: np.ndarray, p: tuple, target: np.ndarray) -> np.ndarray:

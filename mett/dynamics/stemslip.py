@@ -56,7 +56,6 @@ from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from ..friction import Coulomb
 from . import _params as ix
@@ -1253,31 +1252,10 @@ def _slip_acceleration(y2: np.ndarray, p: tuple, i: int, u: np.ndarray) -> np.nd
 
 def _excess_both(y2: np.ndarray, p: tuple, i: int) -> np.ndarray | None:
     """The direction u in which the slip of contact ``i`` (at rest) starts under sliding
-    friction −μ λ_i u: ν̇_i = s u with s > 0, the largest such s (the angle of u scanned and
-    the zeros of (u × ν̇_i)_z refined by Brent's method, as :func:`mett.dynamics.contact.
-    excess_direction` for one contact); None if there is none (Coulomb)."""
-
-    def cross(phi: float) -> float:
-        u = np.array([math.cos(phi), math.sin(phi)])
-        v = _slip_acceleration(y2, p, i, u)
-        return float(u[0] * v[1] - u[1] * v[0])
-
-    grid = np.linspace(0.0, 2.0 * math.pi, 73)
-    cr = np.array([cross(ph) for ph in grid])
-    sign = np.sign(cr)
-    best, best_s = None, 0.0
-    for j in np.flatnonzero(sign[:-1] * sign[1:] <= 0.0):
-        if cr[j] == 0.0:
-            phi = grid[j]
-        elif cr[j + 1] == 0.0:
-            continue
-        else:
-            phi = brentq(cross, grid[j], grid[j + 1], xtol=1e-15)
-        u = np.array([math.cos(phi), math.sin(phi)])
-        sp = float(u @ _slip_acceleration(y2, p, i, u))
-        if sp > best_s:
-            best, best_s = u, sp
-    return best
+    friction −μ λ_i u: ν̇_i = s u with s > 0, the largest such s
+    (:func:`mett.dynamics.contact.excess_angle`); None if there is none (Coulomb)."""
+    best = dry.excess_angle(lambda ux, uy: _slip_acceleration(y2, p, i, np.array([ux, uy])))
+    return None if best is None else np.array(best)
 
 
 def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
