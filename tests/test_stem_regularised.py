@@ -268,14 +268,13 @@ def test_large_eps_is_the_viscous_law_through_impacts_and_landings(state, reason
         assert abs(order - 2.0) <= 0.05, errors
 
 
-def test_the_cli_runs_the_stemmed_top_with_the_regularised_law(tmp_path):
-    import subprocess
-    import sys
+def test_the_cli_runs_the_stemmed_top_with_the_regularised_law(tmp_path, capsys):
+    from mett.cli import main
 
-    cmd = [sys.executable, "-m", "mett", "simulate", "--preset", "friedl1997", "--friction",
-           "regularised:0.3,0.01", "--theta0", "0.1", "--omega3", "180", "--t-end", "0.01",
-           "--out", str(tmp_path / "run.npz")]  # fmt: skip
-    out = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    assert out.returncode == 0, out.stderr
+    argv = ["simulate", "--preset", "friedl1997", "--friction", "regularised:0.3,0.01",
+            "--theta0", "0.1", "--omega3", "180", "--t-end", "0.01",
+            "--out", str(tmp_path / "run.npz")]  # fmt: skip
+    assert main(argv) == 0, capsys.readouterr().err
     tr = mett.Trajectory.load(tmp_path / "run.npz")
     assert tr.model == NAME and tr.status == "completed"
+    assert tr.options["friction"] == RegularisedCoulomb(0.3, 0.01)
