@@ -284,6 +284,10 @@ class Coulomb:
         return label(self)
 
 
+# the regularised models of mett.dynamics.stickslip and .stemreg, by the model asked for
+_REGULARISED_MODELS = {"gliding": "coulomb-regularised", "stemmed": "stemmed-coulomb-regularised"}
+
+
 @dataclass(frozen=True)
 class RegularisedCoulomb:
     """Smoothed Coulomb friction F_t = −μ g_n v_A/√(|v_A|² + ε²) (Ueda et al. 2005; Or 1994).
@@ -324,8 +328,9 @@ class RegularisedCoulomb:
         return top, self
 
     def model_for(self, base: str) -> str:
-        """ "coulomb-regularised" for "gliding", ``base`` for any other model."""
-        return "coulomb-regularised" if base == "gliding" else base
+        """ "coulomb-regularised" for "gliding", "stemmed-coulomb-regularised" for "stemmed",
+        ``base`` for any other model."""
+        return _REGULARISED_MODELS.get(base, base)
 
     def describe(self) -> str:
         """E.g. ``"RegularisedCoulomb(mu=0.3, eps=0.001)"``."""

@@ -208,6 +208,7 @@ def test_check_run_does_not_integrate_for_a_viscous_law(monkeypatch):
         ("stemmed", friction.Coulomb(0.3), "stemmed-coulomb"),
         ("stemmed", friction.Coulomb(0.3, contensou_radius=5e-4), "stemmed-coulomb-contensou"),
         ("gliding", friction.RegularisedCoulomb(0.3, eps=1e-3), "coulomb-regularised"),
+        ("stemmed", friction.RegularisedCoulomb(0.3, eps=1e-3), "stemmed-coulomb-regularised"),
         ("gliding", RollingResistance(1e-4), "rolling-resistance"),
     ],
 )

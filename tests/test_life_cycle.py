@@ -19,7 +19,7 @@ import pytest
 import mett
 from mett.dynamics import stem
 from mett.dynamics.simulation import SIMULATE_DEFAULTS
-from mett.friction import Coulomb, Viscous
+from mett.friction import Coulomb, RegularisedCoulomb, Viscous
 from mett.stem import StemmedTop
 
 _SPEC = importlib.util.spec_from_file_location(
@@ -72,7 +72,9 @@ def check_life(top, traj) -> None:
 
 # (top, law, θ0, spin factor, start): each kind of life once — the stem reached through an
 # accumulation and a double contact (friedl, thesis-stem), hops on the ball (thesis), a stem
-# touchdown that lifts off at once (thesis-stem Contensou at 5×), dry rolling (cohen)
+# touchdown that lifts off at once (thesis-stem Contensou at 5×), dry rolling (cohen), and the
+# stemmed top under the regularised law (an accumulation and a double contact; hops from the
+# stem with the regularised landing)
 FAST = [
     ("friedl", "contensou", 0.1, 1.5, "cm"),
     ("friedl", "viscous", 0.5, 1.5, "cm"),
@@ -80,6 +82,8 @@ FAST = [
     ("thesis-stem", "contensou", 0.05, 5.0, "cm"),
     ("thesis", "viscous", 0.1, 5.0, "cm"),
     ("thesis", "regularised", 0.5, 1.5, "nu0"),
+    ("thesis-stem", "regularised", 0.1, 1.5, "nu0"),
+    ("friedl", "regularised", 0.5, 1.5, "cm"),
     ("cohen", "coulomb", 0.1, 5.0, "nu0"),
 ]
 
@@ -113,8 +117,9 @@ def _free_acceleration(top, y, sphere: int) -> float:
 
 
 @pytest.mark.parametrize(
-    "law", [Viscous(0.3), Coulomb(0.3), Coulomb(0.3, contensou_radius=5e-4)],
-    ids=["viscous", "coulomb", "contensou"],
+    "law", [Viscous(0.3), Coulomb(0.3), Coulomb(0.3, contensou_radius=5e-4),
+            RegularisedCoulomb(0.3, eps=1e-2)],
+    ids=["viscous", "coulomb", "contensou", "regularised"],
 )  # fmt: skip
 def test_a_touchdown_that_needs_a_pulling_force_lifts_off(law):
     """Defect: after the stem's touchdown impact the stem's contact would need a pulling force
@@ -153,9 +158,6 @@ ALL = [
 @pytest.mark.slow
 @pytest.mark.parametrize("case", ALL, ids=["-".join(map(str, c)) for c in ALL])
 def test_the_full_matrix(case):
-    tname, lname = case[:2]
-    if lname == "regularised" and isinstance(TOPS[tname], StemmedTop):
-        pytest.skip("no stemmed model for the regularised law (ValueError naming the laws)")
     top, traj = _run(*case)
     check_life(top, traj)
 

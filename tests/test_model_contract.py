@@ -294,6 +294,31 @@ class TestStemmedCoulombContensou(ModelContract):
     }
 
 
+class TestStemmedCoulombRegularised(ModelContract):
+    """The stemmed top under the regularised Coulomb law: ball, stem and double-contact phases
+    compiled and checked (the states start on the ball, touchdown at 2.21 rad)."""
+
+    name = "stemmed-coulomb-regularised"
+    states = (_SPUN, _TILTED)
+    options = {  # noqa: RUF012
+        "friction": mett.friction.RegularisedCoulomb(0.3, eps=1e-2),
+        "stem_radius": 0.005,
+        "stem_distance": 0.025,
+    }
+    bad_options = (
+        (
+            {"stem_distance": 0.01, "stem_radius": 0.005, "friction": options["friction"]},
+            ValueError,
+        ),
+        ({"friction": mett.friction.Coulomb(0.3), "stem_radius": 0.005}, ValueError),
+    )
+
+    def test_selected_by_the_law_on_a_stemmed_top(self):
+        top = TOP.with_stem(radius=0.005, distance=0.025)
+        tr = simulate(top, _SPUN, 0.01, friction=self.options["friction"])
+        assert tr.model == self.name and set(tr.contact) == {"ball"}
+
+
 class TestCoulomb(ModelContract):
     """Exact Coulomb stick–slip (friction=Coulomb(mu)): both phases compiled and checked."""
 

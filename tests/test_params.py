@@ -52,6 +52,7 @@ CASES = {
         MU_DRY,
         False,
     ),
+    "stemmed-coulomb-regularised": ({"friction": REGULARISED, **STEM}, MU_DRY, False),
     "rolling-resistance": ({"friction": ROLLING}, TOP.mu, False),
 }
 
@@ -98,6 +99,9 @@ def test_the_stem_tails_by_name():
     p = MODELS["stemmed-coulomb"].parameters(TOP, friction=COULOMB, stopping_band=BAND, **STEM)
     assert (p[ix.DRY_R_S], p[ix.DRY_L_S]) == (R_S, L_S) and len(p) == ix.DRY_L_S + 1
     assert p[ix.BAND] == BAND
+    p = MODELS["stemmed-coulomb-regularised"].parameters(TOP, friction=REGULARISED, **STEM)
+    assert (p[ix.R_S], p[ix.L_S], p[ix.STEM_EPS]) == (R_S, L_S, REGULARISED.eps)
+    assert len(p) == ix.STEM_EPS + 1
 
 
 def test_the_rolling_resistance_and_routhian_tails_by_name():

@@ -218,9 +218,12 @@ def test_bad_input():
         simulate(TOP, s, 1.0, model="rolling")
     with pytest.raises(ValueError, match="stem_radius"):
         simulate(TOP, s, 1.0, stem_radius=0.004)
-    # dry friction runs (tests/test_stem_friction.py); a law without a stemmed model is refused
+    # dry friction runs (tests/test_stem_friction.py), so does the regularised law
+    # (tests/test_stem_regularised.py); a law without a stemmed model is refused
+    from mett.dynamics.resistance import RollingResistance
+
     with pytest.raises(ValueError, match="model 'stemmed' takes friction="):
-        simulate(TOP, s, 1.0, friction=mett.friction.RegularisedCoulomb(0.3, eps=1e-3))
+        simulate(TOP, s, 1.0, friction=RollingResistance(1e-4))
     with pytest.raises(ValueError, match="stem_radius and stem_distance"):
         simulate(BALL, s, 1.0, model="stemmed")
 

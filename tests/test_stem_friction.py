@@ -269,8 +269,10 @@ def test_compiled_equals_python(run):
 
 def test_bad_laws_on_a_stemmed_top():
     s = mett.State(theta=0.1, omega3=180.0)
+    from mett.dynamics.resistance import RollingResistance
+
     with pytest.raises(ValueError, match="model 'stemmed' takes friction="):
-        simulate(TOP, s, 1.0, friction=mett.friction.RegularisedCoulomb(0.3, eps=1e-3))
+        simulate(TOP, s, 1.0, friction=RollingResistance(1e-4))  # no stemmed model
     with pytest.raises(ValueError, match="stopping_band"):
         simulate(TOP, s, 1.0, friction=LAW, stopping_band=-1.0)
 

@@ -173,7 +173,8 @@ STARTS = {
 
 # models that need options of their own are checked separately (stem, dry friction: below)
 _OWN_TEST = {"stemmed", "coulomb", "coulomb-contensou", "coulomb-regularised", "stemmed-coulomb",
-             "stemmed-coulomb-contensou", "rolling-resistance"}  # fmt: skip
+             "stemmed-coulomb-contensou", "stemmed-coulomb-regularised",
+             "rolling-resistance"}  # fmt: skip
 
 
 @pytest.mark.parametrize("name", sorted(STARTS))

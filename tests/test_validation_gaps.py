@@ -84,8 +84,13 @@ def test_every_model_and_law_pair_runs_or_is_refused_with_value_or_type_error(mo
 
 
 def test_a_stemmed_top_names_the_laws_it_takes():
+    from mett.dynamics.resistance import RollingResistance
+
     with pytest.raises(ValueError, match=r"model 'stemmed' takes friction=None .*Viscous.*Coulomb"):
-        mett.simulate(TOP.with_stem(0.004, 0.02), S, 0.01, friction=LAWS["regularised"])
+        mett.simulate(TOP.with_stem(0.004, 0.02), S, 0.01, friction=RollingResistance(1e-4))
+    # the regularised law has its stemmed model
+    tr = mett.simulate(TOP.with_stem(0.004, 0.02), S, 0.01, friction=LAWS["regularised"])
+    assert tr.model == "stemmed-coulomb-regularised"
 
 
 def test_a_sweep_of_a_dry_model_without_a_law_is_refused_before_any_run(tmp_path):

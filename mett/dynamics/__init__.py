@@ -13,7 +13,8 @@ Models (docs/theory/equations.md#equations-of-motion, docs/theory/equations.md#i
   ``simulate(..., friction=...)`` (:mod:`.stickslip`);
 * ``"stemmed"`` — the top with a stem, ball and stem contacts with impacts (:mod:`.stem`), and
   ``"stemmed-coulomb"``, ``"stemmed-coulomb-contensou"`` — the same under dry friction
-  (:mod:`.stemslip`), chosen by ``simulate(top.with_stem(...), ..., friction=Coulomb(...))``;
+  (:mod:`.stemslip`), chosen by ``simulate(top.with_stem(...), ..., friction=Coulomb(...))``,
+  and ``"stemmed-coulomb-regularised"`` under ``RegularisedCoulomb(...)`` (:mod:`.stemreg`);
 * ``"rolling-resistance"`` — viscous sliding with a rolling-resistance couple, chosen by
   ``simulate(..., friction=RollingResistance(mu_r))`` (:mod:`.resistance`).
 
@@ -30,7 +31,8 @@ first compiled run so that ``import mett`` does not import numba.
 
 # the registry first, then the built-in models, which register themselves in MODELS in this order
 from . import registry  # noqa: F401, I001
-from . import gliding, rolling, reduced, euler, routhian, stickslip, stem, stemslip, resistance  # noqa: F401
+from . import gliding, rolling, reduced, euler, routhian, stickslip  # noqa: F401
+from . import stem, stemslip, stemreg, resistance  # noqa: F401
 from .euler import euler_normal_force, euler_rhs
 from .gliding import gliding_normal_force, gliding_rhs
 from .reduced import cylinder_rhs, hst_euler_rhs

@@ -18,6 +18,8 @@ The tuples (positions after the prefix):
 * ``"frictionless-routhian"``: ``ALPHA`` = α, ``MU`` = 0 (no friction), ``VERTICAL`` (1 or 0);
 * ``"stemmed"`` (viscous): ``R_S``, ``L_S``: the stem sphere's radius and the distance from the
   ball's centre to the stem sphere's centre along 3̂ (m);
+* ``"stemmed-coulomb-regularised"``: the ``"stemmed"`` tuple with ``MU`` the law's μ, then
+  ``STEM_EPS`` (regularisation speed ε, m/s);
 * the dry models (``"coulomb"``, ``"coulomb-contensou"``, ``"coulomb-regularised"``): ``MU`` is
   the law's μ, then ``RSTAR`` (Contensou radius r*, m), ``EPS`` (regularisation speed, m/s),
   ``LAW`` (a law code of :mod:`.contact`), ``BAND`` (stopping band δ, m/s);
@@ -50,6 +52,7 @@ __all__ = [
     "PREFIX",
     "RSTAR",
     "R_S",
+    "STEM_EPS",
     "VERTICAL",
     "W_EPS",
     "G",
@@ -74,6 +77,7 @@ PREFIX = 7  # length of the shared prefix
 # "stemmed" (viscous): the stem sphere
 R_S = 7  # stem sphere radius (m)
 L_S = 8  # ball centre to stem sphere centre along 3̂ (m)
+STEM_EPS = 9  # "stemmed-coulomb-regularised": regularisation speed epsilon (m/s)
 
 # the dry-law tail (stickslip / contact)
 RSTAR = 7  # Contensou radius r* (m); 0 without Contensou

@@ -30,7 +30,8 @@ normal direction, the friction law in impulse form: the viscous law's Darboux–
 (the same Darboux–Keller integration with its force). After it the contact model resumes; if
 the force it needs is again ≤ 0 the top flies again at once.
 
-The top with a stem (models "stemmed", "stemmed-coulomb", "stemmed-coulomb-contensou") flies
+The top with a stem (models "stemmed", "stemmed-coulomb", "stemmed-coulomb-contensou",
+"stemmed-coulomb-regularised") flies
 the same way from the sphere in contact, (R, l) or (r_s, l + l_s): the other sphere's gap
 z_G + l_o 3̂_z − R_o is the same formula with its own (h, ḣ) at the lift-off (:func:`_other_hop`)
 and the touchdown is the earlier of the two first roots; the landing impact is that sphere's
@@ -149,6 +150,9 @@ class _Flier:
     dry: bool
     stem: tuple[int, int] | None = None
     """The stemmed top's: the indices of (r_s, l_s) in its parameters; None for the ball top."""
+    eps: int | None = None
+    """The index of ε in the parameters of a model in the viscous layout whose landing is the
+    regularised law's (:func:`regularised_impulse`); None: the layout's own law."""
 
     @property
     def stemmed(self) -> bool:
@@ -205,10 +209,13 @@ _FLIERS = {
     "stemmed": _Flier(_first_ten, _flagged, False, (ix.R_S, ix.L_S)),
     "stemmed-coulomb": _Flier(_dry_stem_body, _flagged, True, (ix.DRY_R_S, ix.DRY_L_S)),
     "stemmed-coulomb-contensou": _Flier(_dry_stem_body, _flagged, True, (ix.DRY_R_S, ix.DRY_L_S)),
+    "stemmed-coulomb-regularised": _Flier(
+        _first_ten, _flagged, False, (ix.R_S, ix.L_S), ix.STEM_EPS
+    ),
 }
 
 
-_VISCOUS = frozenset(name for name, flier in _FLIERS.items() if not flier.dry)
+_VISCOUS = frozenset(n for n, f in _FLIERS.items() if not f.dry and f.eps is None)
 """The viscous models that fly, whose losses of contact :func:`warn_if_artefact` judges."""
 
 
@@ -460,8 +467,9 @@ def _first_root(coeffs: list[float]) -> float | None:
 
 
 def land(
-    y: np.ndarray, vz: float, p: tuple, dry: bool, sphere: tuple[float, float] | None = None
-) -> tuple[np.ndarray, np.ndarray, float, float]:
+    y: np.ndarray, vz: float, p: tuple, dry: bool, sphere: tuple[float, float] | None = None,
+    eps: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, float, float]:  # fmt: skip
     """The landing impact of the sphere: state after it (gliding layout), P (N s), Q (N m s)
     and the cone margin of the impulse ((μP_n − |Π_t|)/(μP_n), NaN for the viscous law).
 
@@ -471,7 +479,9 @@ def land(
     (:func:`viscous_impulse`, :func:`mett.dynamics.stem.darboux_keller` in closed form) or
     Coulomb (–Contensou)
     (:func:`mett.dynamics.stemslip.dry_impulse`) in impulse form. ``sphere`` = (radius, distance
-    from G to its centre) of the sphere that lands (m); default the ball's (R, l).
+    from G to its centre) of the sphere that lands (m); default the ball's (R, l). ``eps``
+    (m/s): the regularised law's ε, for a model in the viscous layout with that law (the
+    stemmed top's "stemmed-coulomb-regularised").
     """
     m, R, l, I1, I3, mu = p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU]
     if sphere is not None:
@@ -487,7 +497,9 @@ def land(
     f = stem.ImpactFrame(e, L, w, V, a, Iinv, W, V + _cross(w, a))
     P, Q, margin = np.zeros(3), 0.0, math.nan
     if f.v[2] < 0.0:
-        if dry and p[ix.LAW] == contact.LAW_REGULARISED:
+        if eps is not None:
+            P = regularised_impulse(f.v, f.W, mu, eps)
+        elif dry and p[ix.LAW] == contact.LAW_REGULARISED:
             P = regularised_impulse(f.v, f.W, mu, p[ix.EPS])
         elif dry:
             r_star = p[ix.RSTAR]
@@ -760,7 +772,8 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
         sphere = _sphere_body(p, lands_on, flier.stem)[1:3] if flier.stemmed else None
         try:
             landed = (None if tau is None
-                      else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere))  # fmt: skip
+                      else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere,
+                                None if flier.eps is None else p[flier.eps]))  # fmt: skip
         except JumpFailed as exc:  # the run ends at the touchdown, the flight kept
             status, message = "failed", f"landing at t = {t + tau_end:.9g} s: {exc}"
             pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True, flag=on,

@@ -40,6 +40,7 @@ Coulomb law in the impulse equations.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -66,8 +67,10 @@ __all__ = [
     "BOTH_FORCE_MIN",
     "MODEL",
     "PHASE_NAMES",
+    "VISCOUS_LAW",
     "Accumulation",
     "ImpactFrame",
+    "StemLaw",
     "accumulation",
     "apply_impulse",
     "ball_clearance",
@@ -78,6 +81,7 @@ __all__ = [
     "close_both",
     "compression_impulse",
     "darboux_keller",
+    "finish",
     "impact",
     "impact_frame",
     "normal_forces",
@@ -599,11 +603,24 @@ def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
     return float(d[1]), float(d[2])
 
 
-def _settle_both(y: np.ndarray, p: tuple) -> np.ndarray:
+class StemLaw(NamedTuple):
+    """What the jumps and the records of a stemmed model need of its friction law, beyond its
+    compiled phases: the impact at a new contact and the normal forces. The viscous law's is
+    :data:`VISCOUS_LAW`; :mod:`.stemreg` gives the regularised Coulomb law's."""
+
+    impact: Callable[[np.ndarray, tuple, str], tuple[np.ndarray, np.ndarray]]
+    """``impact(y, p, to)``: the state after the impact of contact ``to`` and the impulse P."""
+    both_forces: Callable[[np.ndarray, tuple], tuple[float, float]]
+    """``both_forces(y, p)``: (λ_1, λ_2) (N) of a state of the double contact."""
+    normal_forces: Callable[[np.ndarray, tuple], tuple[np.ndarray, np.ndarray]]
+    """``normal_forces(Y, p)``: the ball's and the stem's normal forces of states ``Y`` (N)."""
+
+
+def _settle_both(y: np.ndarray, p: tuple, law: StemLaw | None = None) -> np.ndarray:
     """A state on both contacts (flag 2) if both normal forces exceed :data:`BOTH_FORCE_MIN` m g;
     else the same state on the contact whose force is larger (the other lifts off with zero
-    normal velocity)."""
-    f1, f2 = _both_forces(y, p)
+    normal velocity). ``law``: the model's (:class:`StemLaw`; default the viscous law's)."""
+    f1, f2 = (VISCOUS_LAW if law is None else law).both_forces(y, p)
     mg = p[ix.M] * p[ix.G]
     if min(f1, f2) > BOTH_FORCE_MIN * mg:
         return y
@@ -613,7 +630,7 @@ def _settle_both(y: np.ndarray, p: tuple) -> np.ndarray:
 
 
 def transition(
-    y: np.ndarray, p: tuple, to: str, switches: Any = ()
+    y: np.ndarray, p: tuple, to: str, switches: Any = (), law: StemLaw | None = None
 ) -> tuple[np.ndarray, str, float]:
     """The state after the contact ``to`` ("ball" or "stem") closes on state ``y`` (on the other
     contact), the reason and the accumulation point (s; NaN if none).
@@ -624,18 +641,22 @@ def transition(
       of ``switches``, the run's (time, from, to) so far, form a geometric sequence:
       :func:`accumulation`) or "closure" (the old contact would not separate); the double
       contact starts if both normal forces are positive (:func:`_settle_both`).
+
+    ``law`` is the model's friction law where the impact and the forces need it
+    (:class:`StemLaw`; default :data:`VISCOUS_LAW`).
     """
+    law = VISCOUS_LAW if law is None else law
     old = "ball" if to == "stem" else "stem"
     single = "touchdown" if to == "stem" else "landing"
     acc = accumulation(_impact_times(switches)) if len(switches) else None
-    after, _ = impact(y, p, to)
+    after, _ = law.impact(y, p, to)
     v_ball, v_stem = _normal_speed(after, p, to)
     v_old = v_ball if old == "ball" else v_stem
     if acc is None and v_old > 0.0:
         return after, single, math.nan
     closed, _ = close_both(y, p, old)
     reason = "accumulation" if acc is not None else "closure"
-    return _settle_both(closed, p), reason, (acc.t_limit if acc is not None else math.nan)
+    return _settle_both(closed, p, law), reason, (acc.t_limit if acc is not None else math.nan)
 
 
 def _to_stem(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
@@ -718,6 +739,10 @@ def _normal_force(y: np.ndarray, p: tuple) -> Any:
     return ball + stem
 
 
+VISCOUS_LAW = StemLaw(impact, _both_forces, normal_forces)
+"""The viscous law's :class:`StemLaw`: :func:`impact`, the forces of :func:`both_core`."""
+
+
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
     """Series of each sample on its own contact: ν, g_n, E, λ of the sphere in contact; in the
     double contact those of the ball (ν, λ) with g_n = λ_1 + λ_2."""
@@ -758,7 +783,12 @@ _LIFT_REASONS = {"ball": "stem lifts off", "stem": "ball lifts off"}
 
 
 def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """``Model.finish``: the contact of each sample ("ball", "stem" or "both", also for a run
+    return finish(traj, VISCOUS_LAW)
+
+
+def finish(traj: Any, law: StemLaw) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``Model.finish`` of a stemmed model whose law is ``law`` (:class:`StemLaw`): the
+    contact of each sample ("ball", "stem" or "both", also for a run
     that ended at t = 0, before any phase ran), the normal forces ``gn_ball`` and ``gn_stem``
     (N) of each sample, ``touchdowns`` (the times the stem touched down, s), ``switches``
     (:class:`mett.dynamics.stickslip.Switch` records with their reasons: "touchdown",
@@ -770,7 +800,7 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     p = traj.params
     flag = np.round(traj.states[10]).astype(int)
     contact = np.array(PHASE_NAMES)[np.clip(flag, 0, 2)]
-    gb, gs = normal_forces(traj.states, p)
+    gb, gs = law.normal_forces(traj.states, p)
     records = []
     seen: list[tuple[float, str, str]] = []
     for (t, before, after), (y_ev, _) in zip(traj.switches, traj.jumps, strict=True):
@@ -779,7 +809,7 @@ def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
             reason = _LIFT_REASONS[after]
         else:  # the jump saw the switches so far and this one with its event's target
             to = "stem" if before == "ball" else "ball"
-            _, reason, t_limit = transition(y_ev, p, to, [*seen, (t, before, to)])
+            _, reason, t_limit = transition(y_ev, p, to, [*seen, (t, before, to)], law)
             if reason == "accumulation":
                 t_event = t_limit
         records.append(Switch(t, before, after, reason, math.nan, math.nan, t_event))

@@ -1,0 +1,406 @@
+"""The top with a stem under the regularised Coulomb law: the registered model
+"stemmed-coulomb-regularised" (docs/theory/stem.md#regularised-coulomb-friction).
+
+``mett.simulate(top.with_stem(...), state, t_end, friction=RegularisedCoulomb(mu, eps))`` runs
+this hybrid model (the one :meth:`mett.friction.RegularisedCoulomb.model_for` names for
+"stemmed"). It is the viscous stemmed top of :mod:`.stem` with one change: at each contact the
+tangential force per unit normal force is
+
+    −c(|ν|) ν,   c(|ν|) = μ/√(|ν|² + ε²)   (s/m),
+
+where the viscous law has the constant c = μ: the regularised force −μ g_n ν/√(|ν|² + ε²)
+(Ueda, Sasaki & Watanabe 2005; :class:`mett.friction.RegularisedCoulomb`). Everything else is
+stem.py's, called with this coefficient: the state (the gliding state plus the contact flag
+``y[10]``: 0 ball, 1 stem, 2 both), the phases "ball", "stem" and "both" with their clearances
+and lift-off events, the double contact's two normal forces from the constraints
+(:func:`mett.dynamics.stem.both_solve`, each contact with its own c(|ν_i|)), the accumulation
+of impacts and the closure (:func:`mett.dynamics.stem.transition`). The parameters are those of
+"stemmed" with μ the law's (dimensionless) and ε appended (``STEM_EPS``); the viscous model and
+its tuple are untouched.
+
+The impact at a new contact (touchdown, landing) is the perfectly inelastic Darboux–Keller
+impact of the stem page with this law in impulse form,
+
+    dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp,   dv = W dP,   until v_z = 0,
+
+(:func:`impact`; :func:`mett.dynamics.flight.regularised_impulse`), whose energy change
+∫ (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp is ≤ 0 during compression. Flights and landings are those
+of :mod:`.flight` with the same landing law.
+
+Limits (tests/test_stem_regularised.py): for |ν| ≪ ε the law is the viscous one with
+μ_visc = μ/ε (s/m); as ε → 0 it tends to Coulomb's sliding force −μ g_n ν̂ while the contact
+slips. Stiffness: where |ν| ≲ ε the slip relaxes at a rate ~ μ g |W| m/ε, so a small ε makes
+the phases stiff; the law is analytic (``RegularisedCoulomb.analytic``), so ``backend="auto"``
+runs it on the Taylor backend, as the ball top's "coulomb-regularised".
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..friction import RegularisedCoulomb
+from . import _params as ix
+from . import stem
+from .gliding import gliding_core, gliding_series
+from .registry import Event, Model, Option, Phase, friction_law, register
+from .stem import (
+    STEM_DISTANCE,
+    STEM_RADIUS,
+    StemLaw,
+    apply_impulse,
+    ball_clearance,
+    both_kinematics,
+    both_solve,
+    impact_frame,
+    on_both,
+    stem_clearance,
+    stem_params,
+)
+
+__all__ = [
+    "LAW",
+    "MODEL",
+    "both_core",
+    "impact",
+    "normal_forces",
+    "slip_coefficient",
+]
+
+_VISCOUS_LEN = 9
+"""Length of the viscous "stemmed" tuple, the prefix of this model's (ε appended)."""
+
+
+def _params(top: Any, options: dict) -> tuple:
+    """(m, R, l, I1, I3, μ, g, r_s, l_s, ε): "stemmed"'s tuple, μ and ε of the law."""
+    law = options["friction"]
+    m, R, l, I1, I3, _, g, r_s, l_s = stem_params(top, options)
+    return (m, R, l, I1, I3, law.mu, g, r_s, l_s, law.eps)
+
+
+def _viscous(p: tuple) -> tuple:
+    """The "stemmed" tuple of ``p`` (its geometry; μ is not read where it is used)."""
+    return tuple(p[:_VISCOUS_LEN])
+
+
+# --- the coefficient c(|ν|) and the phases: plain arithmetic, compiled ---------------------------
+
+
+def slip_coefficient(y: Any, R: Any, l: Any, I1: Any, I3: Any, mu: Any, eps: Any) -> Any:
+    """c = μ/√(|ν|² + ε²) (s/m) of the sphere (R, l) in contact: ν the horizontal velocity of
+    its contact point, ν = ṙ + l 3̂̇ − R ω × ẑ (the arithmetic of
+    :func:`mett.dynamics.gliding.gliding_core`). Plain arithmetic (floats or equal-shape arrays)."""
+    n = (y[7] * y[7] + y[8] * y[8] + y[9] * y[9]) ** 0.5
+    ex, ey, ez = y[7] / n, y[8] / n, y[9] / n
+    Lx, Ly, Lz = y[4], y[5], y[6]
+    cLe = (1.0 / I3 - 1.0 / I1) * (Lx * ex + Ly * ey + Lz * ez)
+    wx = Lx / I1 + cLe * ex
+    wy = Ly / I1 + cLe * ey
+    dex = (Ly * ez - Lz * ey) / I1
+    dey = (Lz * ex - Lx * ez) / I1
+    nux = y[2] + l * dex - R * wy
+    nuy = y[3] + l * dey + R * wx
+    return mu / (nux * nux + nuy * nuy + eps * eps) ** 0.5
+
+
+def _ball_q(y: Any, p: Any) -> tuple:
+    """The gliding parameters of the ball contact with μ → c(|ν|) of state(s) ``y``."""
+    c = slip_coefficient(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.STEM_EPS])
+    return (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], c, p[ix.G])
+
+
+def _stem_q(y: Any, p: Any) -> tuple:
+    """The gliding parameters of the stem contact (r_s, l + l_s) with μ → c(|ν|)."""
+    l2 = p[ix.L] + p[ix.L_S]
+    c = slip_coefficient(y, p[ix.R_S], l2, p[ix.I1], p[ix.I3], p[ix.MU], p[ix.STEM_EPS])
+    return (p[ix.M], p[ix.R_S], l2, p[ix.I1], p[ix.I3], c, p[ix.G])
+
+
+def ball_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
+    """Gliding on the ball under the regularised law; the phase flag stays constant."""
+    return np.array((*gliding_core(y, _ball_q(y, p))[:10], 0.0))
+
+
+def _ball_into(t: float, y: Any, p: Any, out: Any) -> None:
+    c = slip_coefficient(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.STEM_EPS])
+    d = gliding_core(y, (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], c, p[ix.G]))
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _ball_contact(t: float, y: Any, p: Any) -> Any:
+    """g_n/(m g) of the ball contact."""
+    c = slip_coefficient(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.MU], p[ix.STEM_EPS])
+    d = gliding_core(y, (p[ix.M], p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], c, p[ix.G]))
+    return d[10] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _touchdown(t: float, y: Any, p: Any) -> Any:
+    """Stem clearance while the ball touches (:func:`mett.dynamics.stem.stem_clearance`)."""
+    return stem_clearance(y, p[ix.R], p[ix.R_S], p[ix.L_S])
+
+
+def stem_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
+    """Gliding on the stem sphere under the regularised law; the phase flag stays constant."""
+    return np.array((*gliding_core(y, _stem_q(y, p))[:10], 0.0))
+
+
+def _stem_into(t: float, y: Any, p: Any, out: Any) -> None:
+    l2 = p[ix.L] + p[ix.L_S]
+    c = slip_coefficient(y, p[ix.R_S], l2, p[ix.I1], p[ix.I3], p[ix.MU], p[ix.STEM_EPS])
+    d = gliding_core(y, (p[ix.M], p[ix.R_S], l2, p[ix.I1], p[ix.I3], c, p[ix.G]))
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _stem_contact(t: float, y: Any, p: Any) -> Any:
+    """g_n/(m g) of the stem contact."""
+    l2 = p[ix.L] + p[ix.L_S]
+    c = slip_coefficient(y, p[ix.R_S], l2, p[ix.I1], p[ix.I3], p[ix.MU], p[ix.STEM_EPS])
+    d = gliding_core(y, (p[ix.M], p[ix.R_S], l2, p[ix.I1], p[ix.I3], c, p[ix.G]))
+    return d[10] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _landing(t: float, y: Any, p: Any) -> Any:
+    """Ball clearance while the stem touches (:func:`mett.dynamics.stem.ball_clearance`)."""
+    return ball_clearance(y, p[ix.R], p[ix.R_S], p[ix.L_S])
+
+
+def both_core(y: Any, p: Any) -> tuple:
+    """Rates and normal forces of the double contact under the regularised law; plain arithmetic.
+
+    :func:`mett.dynamics.stem.both_core` with the force per unit normal force −c_i ν_i at each
+    contact, c_i = μ/√(|ν_i|² + ε²) of its own slip ν_i (ball i = 1, stem i = 2), read on the
+    double-contact manifold. Returns ``(rates[0:10], λ_1, λ_2)``.
+    """
+    mu, eps = p[ix.MU], p[ix.STEM_EPS]
+    e, L, w, n1, n2, de = both_kinematics(
+        y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.R_S], p[ix.L_S]
+    )
+    n1x, n1y = n1
+    n2x, n2y = n2
+    c1 = mu / (n1x * n1x + n1y * n1y + eps * eps) ** 0.5
+    c2 = mu / (n2x * n2x + n2y * n2y + eps * eps) ** 0.5
+    zero = 0.0 * n1x
+    rates, lam1, lam2 = both_solve(
+        y, p[ix.M], p[ix.G], p[ix.R], p[ix.L], p[ix.R_S], p[ix.L_S], e, L, de,
+        (-c1 * n1x, -c1 * n1y, zero), (-c2 * n2x, -c2 * n2y, zero),
+    )  # fmt: skip
+    return (rates, lam1, lam2)
+
+
+def both_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
+    """Right-hand side of the double contact (:func:`both_core`); the flag stays constant."""
+    return np.array((*both_core(y, p)[0], 0.0))
+
+
+def _both_into(t: float, y: Any, p: Any, out: Any) -> None:
+    d = both_core(y, p)[0]
+    out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
+    out[5], out[6], out[7], out[8], out[9] = d[5], d[6], d[7], d[8], d[9]
+    out[10] = 0.0
+
+
+def _both_contact(t: float, y: Any, p: Any) -> Any:
+    """(λ_1 + λ_2)/(m g) = 1 (v̇_z = 0): each lift-off is its own switch."""
+    d = both_core(y, p)
+    return (d[1] + d[2]) * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _ball_lift(t: float, y: Any, p: Any) -> Any:
+    """λ_1/(m g): the ball lifts off at 0."""
+    return both_core(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+def _stem_lift(t: float, y: Any, p: Any) -> Any:
+    """λ_2/(m g): the stem lifts off at 0."""
+    return both_core(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
+
+
+# --- the impact, the forces and the jumps (plain Python, between phases) ------------------------
+
+
+def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
+    """State after the impact of the contact ``to`` ("ball" or "stem") and the impulse P (N s):
+    the perfectly inelastic Darboux–Keller impact with the regularised law in impulse form
+    (module docstring; :func:`mett.dynamics.flight.regularised_impulse`), the new contact's
+    normal velocity 0 afterwards."""
+    from .flight import regularised_impulse  # flight imports the stem modules
+
+    f = impact_frame(y, _viscous(p), to)
+    if f.v[2] < 0.0:
+        P = regularised_impulse(f.v, f.W, p[ix.MU], p[ix.STEM_EPS])
+    else:
+        P = np.zeros(3)
+    return apply_impulse(y, f, p[ix.M], P, to), P
+
+
+def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
+    d = both_core(np.asarray(y, dtype=float), p)
+    return float(d[1]), float(d[2])
+
+
+def normal_forces(Y: np.ndarray, p: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """The normal forces (N) of the ball and of the stem of states ``Y`` (11, k) or (11,): the
+    single contact's g_n and 0, or λ_1, λ_2 of the double contact (:func:`both_core`)."""
+    Y = np.asarray(Y, dtype=float)
+    flag = np.round(Y[10])
+    gb = np.asarray(gliding_core(Y, _ball_q(Y, p))[10], dtype=float)
+    gs = np.asarray(gliding_core(Y, _stem_q(Y, p))[10], dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = both_core(Y, p)
+    l1, l2 = np.asarray(d[1], dtype=float), np.asarray(d[2], dtype=float)
+    ball = np.where(flag == 0, gb, np.where(flag == 2, l1, 0.0))
+    stem_ = np.where(flag == 1, gs, np.where(flag == 2, l2, 0.0))
+    return ball, stem_
+
+
+LAW = StemLaw(impact, _both_forces, normal_forces)
+"""The regularised law's :class:`mett.dynamics.stem.StemLaw` (impacts and forces)."""
+
+
+def _to_stem(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
+    return stem.transition(y, p, "stem", switches, LAW)[0]
+
+
+def _to_ball(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:
+    return stem.transition(y, p, "ball", switches, LAW)[0]
+
+
+def _lift(y: np.ndarray, p: tuple, to: float) -> np.ndarray:
+    out = on_both(y, _viscous(p))  # the manifold's geometry: no friction read
+    out[10] = to
+    return out
+
+
+def _ball_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Lift-off of the ball (λ_1 = 0): the state of the double contact, on the stem."""
+    return _lift(y, p, 1.0)
+
+
+def _stem_lifts(y: np.ndarray, p: tuple) -> np.ndarray:
+    """Lift-off of the stem (λ_2 = 0): the state of the double contact, on the ball."""
+    return _lift(y, p, 0.0)
+
+
+def _select(y: np.ndarray, p: tuple) -> str:
+    """The phase of a state by its flag: 0 ball, 1 stem, 2 both."""
+    return stem.PHASE_NAMES[round(float(y[10]))]
+
+
+# --- conversions and series ----------------------------------------------------------------------
+
+
+def _initial(state: Any, p: tuple) -> np.ndarray:
+    return stem.MODEL.initial(state, _viscous(p))
+
+
+def _start_phase(y0: np.ndarray, p: tuple) -> str:
+    return _select(y0, p)
+
+
+def _scales(y0: np.ndarray, p: tuple) -> np.ndarray:
+    return stem.MODEL.scales(y0, _viscous(p))
+
+
+def _theta(Y: np.ndarray, p: tuple) -> np.ndarray:
+    return stem.MODEL.theta(Y, _viscous(p))
+
+
+def _normal_force(y: np.ndarray, p: tuple) -> Any:
+    """The total normal force (N): that of the contact, or λ_1 + λ_2 = m g in the double contact."""
+    ball, stem_ = normal_forces(y, p)
+    return ball + stem_
+
+
+def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:
+    """Series of each sample on its own contact (as "stemmed"): ν, g_n, E, λ of the sphere in
+    contact; in the double contact those of the ball with g_n = λ_1 + λ_2."""
+    Y = np.array(Y, dtype=float)
+    both = Y[10] > 1.5
+    if np.any(both):  # the double-contact samples on their manifold, as both_core reads them
+        Y[:, both] = on_both(Y[:, both], _viscous(p))
+    ball, stem_ = gliding_series(Y, _ball_q(Y, p)), gliding_series(Y, _stem_q(Y, p))
+    on = np.round(Y[10]) == 1
+    out = {k: np.where(on, stem_[k], np.asarray(ball[k], dtype=float)) for k in ball}
+    out["gn"] = np.asarray(_normal_force(Y, p), dtype=float)
+    out["x"], out["y"] = Y[0], Y[1]
+    return out
+
+
+def _finish(traj: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``Model.finish``: that of "stemmed" (:func:`mett.dynamics.stem.finish`) with this law."""
+    return stem.finish(traj, LAW)
+
+
+MODEL = register(
+    Model(
+        name="stemmed-coulomb-regularised",
+        summary="tippe top with a spherical stem under regularised Coulomb friction "
+        "μ g_n ν/√(|ν|² + ε²): ball, stem and double contact, inelastic impacts "
+        "(docs/theory/stem.md; Leine & Glocker 2003; Ueda et al. 2005)",
+        rhs=ball_rhs,
+        rhs_into=_ball_into,
+        normal_force=_normal_force,
+        params=_params,
+        initial=_initial,
+        derive=_derive,
+        theta=_theta,
+        scales=_scales,
+        conserved_lengths=((7, 8, 9),),
+        events=(
+            Event(_ball_contact, -1.0, "contact_lost"),
+            Event(
+                _touchdown,
+                -1.0,
+                "switch",
+                target="stem",
+                jump=_to_stem,
+                select=_select,
+                history=True,
+            ),
+        ),
+        options=(
+            STEM_RADIUS,
+            STEM_DISTANCE,
+            Option("friction", friction_law, None, "the regularised Coulomb law"),
+        ),
+        friction=(RegularisedCoulomb,),
+        phase="ball",
+        phases=(
+            Phase(
+                "stem",
+                stem_rhs,
+                _stem_into,
+                (
+                    Event(_stem_contact, -1.0, "contact_lost"),
+                    Event(
+                        _landing,
+                        -1.0,
+                        "switch",
+                        target="ball",
+                        jump=_to_ball,
+                        select=_select,
+                        history=True,
+                    ),
+                ),
+            ),
+            Phase(
+                "both",
+                both_rhs,
+                _both_into,
+                (
+                    Event(_both_contact, -1.0, "contact_lost"),
+                    Event(_ball_lift, -1.0, "switch", target="stem", jump=_ball_lifts),
+                    Event(_stem_lift, -1.0, "switch", target="ball", jump=_stem_lifts),
+                ),
+            ),
+        ),
+        start_phase=_start_phase,
+        finish=_finish,
+    )
+)
+"""The stemmed top under ``friction=RegularisedCoulomb(mu, eps)`` (module docstring)."""
