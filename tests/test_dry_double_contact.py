@@ -200,11 +200,24 @@ def test_sticking_modes_match_an_independent_kkt_solve(law, mode):
         lam, F, M, _, _ = _kkt(TOP, law, y, mode)
         got = stemslip.both_stick_forces(y, p, mode)
         scale = b.m * b.g + float(np.sum(np.abs(lam)))
-        if mode == (True, True) and law.contensou_radius == 0.0:
-            # indeterminate: the total force and its moment are determined
+        if mode == (True, True):
+            # indeterminate (the split: test_contensou_both_sticking_forces_match_an_
+            # independent_minimax): the normal forces, the total force and, with Contensou,
+            # the total moment about the vertical are determined
+            np.testing.assert_allclose(got["lam"], lam, atol=1e-10 * scale)
             tot = sum(F)
             tot_got = sum(np.array([*got["Ft"][i][:2], got["lam"][i]]) for i in range(2))
             np.testing.assert_allclose(tot_got, tot, atol=1e-10 * scale)
+            rs = law.contensou_ratio * law.contensou_radius
+            if rs > 0.0:
+                e = _body(TOP, y)[0]
+                arms = [a for _, a in _arms(TOP, e)]
+                Kz = sum(np.cross(arms[i], F[i])[2] + M[i] for i in range(2))
+                Kz_got = sum(
+                    np.cross(arms[i], [*got["Ft"][i][:2], got["lam"][i]])[2] + rs * got["Ft"][i][2]
+                    for i in range(2)
+                )
+                assert abs(Kz_got - Kz) < 1e-10 * scale * TOP.distance
             continue
         np.testing.assert_allclose(got["lam"], lam, atol=1e-10 * scale)
         rs = law.contensou_ratio * law.contensou_radius
