@@ -1352,7 +1352,8 @@ BOTH_FLAGS = {
 }
 """The double contact's modes by the state's flag: both contacts sliding, the ball rolling
 (sticking) with the stem sliding, the stem rolling with the ball sliding, both rolling (the
-body turning about the line through the two contact points; Coulomb)."""
+body turning about the line through the two contact points; Coulomb, and Coulomb–Contensou
+for r_s > R, where it is the only sticking mode)."""
 
 
 def _slip_acceleration(y2: np.ndarray, p: tuple, i: int, u: np.ndarray) -> np.ndarray:
