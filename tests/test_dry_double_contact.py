@@ -950,3 +950,11 @@ def test_a_contensou_double_contact_that_sticks_rolls_on_instead_of_failing():
     y_ev, y_sw = tr.jumps[0]
     assert max(stemslip._slips(np.asarray(y_sw), tr.params)) < 1e-6 * band
     assert _energy(BIG_STEM, y_sw) <= _energy(BIG_STEM, y_ev) * (1 + 8 * np.finfo(float).eps)
+    # the compiled backend runs the same event functions: the same stop, its time to the event
+    # tolerance (1e-9 s, as for the Friedl run's switches)
+    comp = _continue(BIG_STEM, law, y0, 0.0, 1.0, backend="compiled")
+    assert comp.status == "completed"
+    assert [(w.before, w.after, w.reason) for w in comp.switches] == [
+        (sw.before, sw.after, sw.reason)
+    ]
+    assert abs(comp.switches[0].t - sw.t) < 1e-9
