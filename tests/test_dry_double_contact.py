@@ -200,11 +200,24 @@ def test_sticking_modes_match_an_independent_kkt_solve(law, mode):
         lam, F, M, _, _ = _kkt(TOP, law, y, mode)
         got = stemslip.both_stick_forces(y, p, mode)
         scale = b.m * b.g + float(np.sum(np.abs(lam)))
-        if mode == (True, True) and law.contensou_radius == 0.0:
-            # indeterminate: the total force and its moment are determined
+        if mode == (True, True):
+            # indeterminate (the split: test_contensou_both_sticking_forces_match_an_
+            # independent_minimax): the normal forces, the total force and, with Contensou,
+            # the total moment about the vertical are determined
+            np.testing.assert_allclose(got["lam"], lam, atol=1e-10 * scale)
             tot = sum(F)
             tot_got = sum(np.array([*got["Ft"][i][:2], got["lam"][i]]) for i in range(2))
             np.testing.assert_allclose(tot_got, tot, atol=1e-10 * scale)
+            rs = law.contensou_ratio * law.contensou_radius
+            if rs > 0.0:
+                e = _body(TOP, y)[0]
+                arms = [a for _, a in _arms(TOP, e)]
+                Kz = sum(np.cross(arms[i], F[i])[2] + M[i] for i in range(2))
+                Kz_got = sum(
+                    np.cross(arms[i], [*got["Ft"][i][:2], got["lam"][i]])[2] + rs * got["Ft"][i][2]
+                    for i in range(2)
+                )
+                assert abs(Kz_got - Kz) < 1e-10 * scale * TOP.distance
             continue
         np.testing.assert_allclose(got["lam"], lam, atol=1e-10 * scale)
         rs = law.contensou_ratio * law.contensou_radius
@@ -669,3 +682,279 @@ def test_a_near_stop_pass_is_stopped_inside_the_cone():
         (w.before, w.after, w.reason) for w in tr.switches
     ]
     assert abs(ref.switches[0].t - sw.t) < 1e-9
+
+
+# --- both contacts sticking under Coulomb–Contensou (r_s > R): the same rolling ---------------
+
+CONTENSOU_BIG = Coulomb(0.3, contensou_radius=5e-4)
+
+
+def _minimax_reference(c, Aeq, beq, x0):
+    """min s subject to |g_i| ≤ s c_i (g_1 = x[0:3], g_2 = x[3:6]) and Aeq x = beq, by SLSQP on
+    (z, s), x = x_0 + N z over the null space N of Aeq (x_0 a particular solution), forces in
+    units of max c_i, the cone constraints squared (smooth): an independent convex solve."""
+    from scipy.linalg import null_space
+    from scipy.optimize import minimize
+
+    unit = max(c)
+    cs = np.asarray(c, dtype=float) / unit
+    xp = np.linalg.lstsq(Aeq, beq, rcond=None)[0] / unit
+    N = null_space(Aeq)
+
+    def cons(v):
+        x, s = xp + N @ v[:-1], v[-1]
+        return np.array([(s * cs[0]) ** 2 - x[0:3] @ x[0:3], (s * cs[1]) ** 2 - x[3:6] @ x[3:6]])
+
+    z0 = N.T @ (np.asarray(x0, dtype=float) / unit - xp)
+    x = xp + N @ z0
+    s0 = max(np.linalg.norm(x[0:3]) / cs[0], np.linalg.norm(x[3:6]) / cs[1]) * 1.01 + 1e-3
+    res = minimize(
+        lambda v: v[-1],
+        np.append(z0, s0),
+        method="SLSQP",
+        constraints=[{"type": "ineq", "fun": cons}],
+        bounds=[(None, None)] * N.shape[1] + [(0.0, None)],
+        options={"ftol": 1e-15, "maxiter": 1000},
+    )
+    # 8: no descent direction left at the precision asked for (ftol below rounding): accepted
+    # with the constraints checked
+    assert res.status in (0, 8), res.message
+    assert np.min(cons(res.x)) > -1e-10 * (1.0 + res.x[-1] ** 2)  # squared: s² scale
+    return res.x[-1], unit * (xp + N @ res.x[:-1])
+
+
+def test_contensou_split_is_the_minimax_of_an_independent_convex_solve():
+    # the split rule by itself on random totals (T along the line, P across it, K the moment
+    # about the vertical) and normal forces: both contacts at the same fraction s of their
+    # cones, that fraction the smallest any split reaches (SLSQP on the six unknowns)
+    rng = np.random.default_rng(21)
+    b = BIG_STEM.ball
+    mu, rs = 0.3, CONTENSOU_BIG.contensou_ratio * CONTENSOU_BIG.contensou_radius
+    st = math.sqrt(1.0 - ((BIG_STEM.radius - b.R) / BIG_STEM.distance) ** 2)
+    h1, h2 = b.R * b.alpha * st, (b.R * b.alpha + BIG_STEM.distance) * st
+    mg = b.m * b.g
+    # rows: t_1 + t_2 = T, P_1 + P_2 = P, h_1 P_1 + h_2 P_2 + r*(m_1 + m_2) = K
+    Aeq = np.array([[1, 0, 0, 1, 0, 0], [0, 1, 0, 0, 1, 0], [0, h1, rs, 0, h2, rs]], dtype=float)
+    for _ in range(12):
+        lam1 = rng.uniform(0.05, 0.95) * mg
+        lam = (lam1, mg - lam1)
+        T, P = rng.uniform(-0.3, 0.3, 2) * mg
+        K = rng.uniform(-0.3, 0.3) * mg * BIG_STEM.distance
+        got = stemslip._drill_split(lam[0], lam[1], T, P, K, h1, h2, rs, mu)
+        g = np.array(got[:6])
+        # the totals to rounding (scale: the forces, the moment's arm)
+        np.testing.assert_allclose(Aeq[:2] @ g, [T, P], atol=1e-13 * mg)
+        assert abs(Aeq[2] @ g - K) < 1e-13 * mg * BIG_STEM.distance
+        c = (mu * lam[0], mu * lam[1])
+        s = got[6]
+        # the same fraction of both cones (the bisection resolves the weight to 2^-64)
+        assert abs(np.linalg.norm(g[0:3]) / c[0] - s) < 1e-9 * s
+        assert abs(np.linalg.norm(g[3:6]) / c[1] - s) < 1e-9 * s
+        x0 = np.linalg.lstsq(Aeq, [T, P, K], rcond=None)[0]
+        s_ref, _ = _minimax_reference(c, Aeq, np.array([T, P, K]), x0)
+        # the model's split is feasible, so s ≥ the optimum; SLSQP's optimum is approached to
+        # its tolerance (1e-15 in s, the constraint rows to ~1e-8 relative after squaring)
+        assert s <= s_ref * (1.0 + 1e-6)
+        assert s >= s_ref * (1.0 - 1e-6)
+
+
+def _newton_euler_rows(top, law, y, Vdot, wdot):
+    """The six Newton–Euler rows for the contact forces (F_1, m_1, F_2, m_2), m_i = M_i/r*,
+    given the motion: Σ F_i = m V̇ + m g ẑ, Σ (a_i × F_i + r* m_i ẑ) = I ω̇ + ω × I ω."""
+    b = top.ball
+    rs = law.contensou_ratio * law.contensou_radius
+    e, w, L, I = _body(top, y)
+    A = np.zeros((6, 8))
+    for i, (_, a) in enumerate(_arms(top, e)):
+        for k in range(3):
+            u = np.eye(3)[k]
+            A[0:3, 4 * i + k] = u
+            A[3:6, 4 * i + k] = np.cross(a, u)
+        A[5, 4 * i + 3] = rs
+    rhs = np.concatenate((b.m * Vdot + b.m * b.g * Z, I @ wdot + np.cross(w, I @ w)))
+    return A, rhs
+
+
+@pytest.mark.parametrize("Om", [0.0, 10.0, 18.0, 20.0, 25.0, 40.0])
+def test_contensou_both_sticking_forces_match_an_independent_minimax(Om):
+    # on the rolling about the contact line: the motion from this file's KKT solve, the force
+    # systems consistent with it (a 3-dimensional family: compression along the line, a
+    # drilling couple, drilling against a couple across the line) from the Newton–Euler rows,
+    # the smallest common fraction of the cones over that family by SLSQP; the model's forces
+    # obey the same rows, reach that fraction at both contacts, and the mode selection enters
+    # "both-rolling" exactly where it is ≤ 1 with both normal forces ≥ 0
+    from scipy.linalg import null_space
+
+    law = CONTENSOU_BIG
+    p = _params(law, BIG_STEM)
+    b = BIG_STEM.ball
+    mg = b.m * b.g
+    y = _rolling_state(BIG_STEM, 1.1, Om)
+    lam, F, M, Vdot, wdot = _kkt(BIG_STEM, law, y, (True, True))
+    A, rhs = _newton_euler_rows(BIG_STEM, law, y, Vdot, wdot)
+    got = stemslip.both_stick_forces(y, p, (True, True))
+    x = np.concatenate(
+        [np.append(got["Ft"][i][:2], [got["lam"][i], got["Ft"][i][2]]) for i in (0, 1)]
+    )
+    scale = mg + abs(lam[0]) + abs(lam[1])
+    np.testing.assert_allclose(A[0:3] @ x, rhs[0:3], atol=1e-10 * scale)
+    np.testing.assert_allclose(A[3:6] @ x, rhs[3:6], atol=1e-10 * scale * BIG_STEM.distance)
+    np.testing.assert_allclose(got["lam"], lam, atol=1e-10 * scale)
+    # the rolling's closed form: no force across the line, none about the vertical, so no
+    # drilling torque; T split in proportion to the normal forces
+    lam1, lam2, T = _rolling_cone(BIG_STEM, Om)
+    assert abs(got["Ft"][0][2]) < 1e-9 * mg and abs(got["Ft"][1][2]) < 1e-9 * mg
+    e = y[7:10]
+    d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+    if min(lam1, lam2) > 0.0:
+        for i, lam_i in enumerate((lam1, lam2)):
+            assert abs(got["Ft"][i][:2] @ d[:2] - T * lam_i / mg) < 1e-9 * scale
+    # the family of force systems, reduced to (F_t,1, m_1, F_t,2, m_2) with λ fixed
+    N = null_space(A)
+    assert N.shape[1] == 3 and np.max(np.abs(N[[2, 6]])) < 1e-9  # λ_i determined
+    keep = [0, 1, 3, 4, 5, 7]
+    if min(lam) <= 0.0:
+        assert round(stemslip._settle_both(_nudged(y, p), p)[10]) != 5
+        return
+    c = (law.mu * lam[0], law.mu * lam[1])
+    # the free rows of the family: the totals of F_x, F_y and the moment about the vertical
+    Aeq = A[[0, 1, 5]][:, keep]
+    beq = Aeq @ x[keep]
+    s_ref, _ = _minimax_reference(c, Aeq, beq, x[keep])
+    s = max(np.linalg.norm(x[[0, 1, 3]]) / c[0], np.linalg.norm(x[[4, 5, 7]]) / c[1])
+    assert abs(s - s_ref) < 1e-6 * s_ref
+    assert abs(stemslip._roll_split(y, p)[8] - s) < 1e-9 * s
+    rolls = round(stemslip._settle_both(_nudged(y, p), p)[10]) == 5
+    assert rolls == (s_ref < 1.0), (Om, s_ref)
+
+
+def _nudged(y, p):
+    """A rolling state given a uniform slip of a third of the band, both contacts (flag 2)."""
+    y = np.array(y, dtype=float)
+    y[10] = 2.0
+    y[2] += 0.3 * p[ix.BAND]
+    return y
+
+
+def test_contensou_mode_selection_window_and_friedl_never():
+    # both sticking under Contensou is entered on the big-stem top in a window of Ω (its normal
+    # forces ≥ 0, |T| ≤ μ m g), never on friedl1997 (r_s < R: λ_2 < 0)
+    seen = set()
+    for top, oms in ((BIG_STEM, np.linspace(0.0, 40.0, 9)), (TOP, (0.0, 30.0, 200.0))):
+        p = _params(CONTENSOU_BIG, top)
+        for Om in oms:
+            y = _rolling_state(top, 0.7, Om)
+            l1, l2, T = _rolling_cone(top, Om)
+            fits = min(l1, l2) >= 0.0 and abs(T) <= CONTENSOU_BIG.mu * (l1 + l2)
+            try:
+                rolls = round(stemslip._settle_both(_nudged(y, p), p)[10]) == 5
+            except mett.dynamics.registry.JumpFailed:
+                rolls = False
+            # away from the window's edges (the nudge moves the forces by O(δ))
+            assert rolls == fits, (Om, l1, l2, T)
+            seen.add((top is BIG_STEM, rolls))
+    assert seen == {(True, True), (True, False), (False, False)}
+
+
+def test_contensou_both_rolling_is_a_steady_rolling_without_loss():
+    # the phase integrated by itself under Contensou: Ω constant, the closed-form forces, no
+    # drilling torque, both slips at the integration error, the margin μ m g − |T| > 0
+    from scipy.integrate import solve_ivp
+
+    law = CONTENSOU_BIG
+    p = _params(law, BIG_STEM)
+    phase = {ph.name: ph for ph in stemslip.CONTENSOU.phases}["both-rolling"]
+    y0 = _rolling_state(BIG_STEM, 0.3, 20.0)
+    rtol = 1e-10
+    sol = solve_ivp(phase.rhs, (0.0, 1.0), y0, args=(p,), method="DOP853", rtol=rtol, atol=1e-14)
+    E = np.array([_energy(BIG_STEM, sol.y[:, j]) for j in range(sol.t.size)])
+    assert np.max(np.abs(E - E[0])) < 1e3 * rtol * E[0]  # rtol per step, ≤ 10³ steps
+    lam1, lam2, T = _rolling_cone(BIG_STEM, 20.0)
+    mg = BIG_STEM.ball.m * BIG_STEM.ball.g
+    for j in range(0, sol.t.size, max(1, sol.t.size // 20)):
+        y = sol.y[:, j]
+        d = stemslip._roll_split(y, p)
+        assert abs(d[0] - lam1) < 1e-6 * mg and abs(d[1] - lam2) < 1e-6 * mg
+        assert abs(d[8] - abs(T) / (law.mu * mg)) < 1e-6
+        assert abs(d[4]) < 1e-6 * mg and abs(d[7]) < 1e-6 * mg  # drilling torques / r*
+        e, w, L, _ = _body(BIG_STEM, y)
+        assert abs(np.linalg.norm(w) - 20.0) < 1e3 * rtol * 20.0
+        assert max(stemslip._slips(y, p)) < 1e3 * rtol * 20.0 * BIG_STEM.distance
+        assert stemslip._br_line_cone(0.0, y, p) > 0.0
+    assert stemslip._br_ball_cone(0.0, y0, p) == stemslip._br_stem_cone(0.0, y0, p) == 1.0
+
+
+def test_contensou_cone_exit_slides_both_contacts_opposite_their_forces():
+    # the exit jump at s = 1: both slip, each opposite its force of the split (on the rolling,
+    # along the line opposite T, equal slips, ω_z = 0), the larger 2δ, normal velocities 0
+    law = CONTENSOU_BIG
+    p = _params(law, BIG_STEM)
+    y = _rolling_state(BIG_STEM, 0.3, 30.0)  # s > 1: past the edge
+    phase = {ph.name: ph for ph in stemslip.CONTENSOU.phases}["both-rolling"]
+    ev = next(e for e in phase.events if e.fn is stemslip._br_line_cone)
+    out = ev.jump(y, p)
+    assert round(out[10]) == 2
+    e, w, L, _ = _body(BIG_STEM, out)
+    V = np.array([out[2], out[3], 0.0])
+    d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+    T = _rolling_cone(BIG_STEM, 30.0)[2]
+    band = p[ix.BAND]
+    for _, a in _arms(BIG_STEM, e):
+        nu = V + np.cross(w, a)
+        assert abs(nu[2]) < 1e-12
+        np.testing.assert_allclose(nu[:2], -2 * band * np.sign(T) * d[:2], atol=1e-3 * band)
+    assert abs(w[2]) * law.contensou_ratio * law.contensou_radius < 1e-3 * band
+
+
+def _run_band(top, law):
+    """The stopping band δ (m/s) of a run of :func:`_continue` (it scales with the state)."""
+    from mett.dynamics import simulation
+
+    prep = simulation.prepare_run(
+        top.ball, mett.State(theta=0.1, omega3=155.0), 1.0, model=stem.MODEL,
+        stem_radius=top.radius, stem_distance=top.distance, rtol=1e-10, atol=None,
+        t_eval=None, events=None, method="DOP853", backend="scipy", max_step=math.inf,
+        friction=law,
+    )  # fmt: skip
+    return prep.run.params[ix.BAND]
+
+
+def test_a_contensou_double_contact_that_sticks_rolls_on_instead_of_failing():
+    # both contacts sliding at 5 δ on the big-stem top at Ω = 20 rad/s (inside the window):
+    # the slip stops, both stick, and the run completes rolling about the contact line (it
+    # ended "failed" before); every sample of the rolling: θ at θ_t, forces ≥ 0 summing to
+    # m g, Ω and E constant to the integration error, no drilling torque, margin > 0
+    law = CONTENSOU_BIG
+    band = _run_band(BIG_STEM, law)
+    y0 = _rolling_state(BIG_STEM, 0.3, 20.0)
+    y0[10] = 2.0
+    y0[2] += 5 * band
+    tr = _continue(BIG_STEM, law, y0, 0.0, 1.0, backend="scipy")
+    assert tr.status == "completed", tr.message
+    (sw,) = tr.switches
+    assert (sw.before, sw.after, sw.reason) == ("both-sliding", "both-rolling", "stop")
+    roll = np.flatnonzero(tr.phase == "rolling")
+    assert roll.size > 5 and set(tr.contact[roll]) == {"both"}
+    assert tr.t[roll[-1]] == 1.0
+    mg = BIG_STEM.ball.m * BIG_STEM.ball.g
+    assert np.all(tr.gn_ball[roll] > 0.0) and np.all(tr.gn_stem[roll] > 0.0)
+    np.testing.assert_allclose(tr.gn_ball[roll] + tr.gn_stem[roll], mg, rtol=1e-12)
+    assert np.max(np.abs(_gaps(BIG_STEM, tr.theta[roll]))) <= 8 * np.finfo(float).eps * 0.02
+    Om = [np.linalg.norm(_body(BIG_STEM, tr.states[:, j])[1]) for j in roll]
+    E = [_energy(BIG_STEM, tr.states[:, j]) for j in roll]
+    # ≤ 10³ steps of rtol each
+    assert np.ptp(Om) < 1e3 * tr.rtol * Om[0] and np.ptp(E) < 1e3 * tr.rtol * E[0]
+    assert np.max(np.abs(tr.M_n[roll])) < 1e-6 * mg * law.contensou_radius
+    assert np.all(tr.margin[roll] > 0.0)
+    # the jump removed the slip (≤ 5δ) and raised no energy
+    y_ev, y_sw = tr.jumps[0]
+    assert max(stemslip._slips(np.asarray(y_sw), tr.params)) < 1e-6 * band
+    assert _energy(BIG_STEM, y_sw) <= _energy(BIG_STEM, y_ev) * (1 + 8 * np.finfo(float).eps)
+    # the compiled backend runs the same event functions: the same stop, its time to the event
+    # tolerance (1e-9 s, as for the Friedl run's switches)
+    comp = _continue(BIG_STEM, law, y0, 0.0, 1.0, backend="compiled")
+    assert comp.status == "completed"
+    assert [(w.before, w.after, w.reason) for w in comp.switches] == [
+        (sw.before, sw.after, sw.reason)
+    ]
+    assert abs(comp.switches[0].t - sw.t) < 1e-9

@@ -318,18 +318,29 @@ def _near_stop(y: Any, p: Any, s: Any) -> Any:
     """The near-stop event of contact ``s`` (0 ball, 1 stem) while both slide (Coulomb):
     |γ_s| − k δ, kept positive (by k δ × 1e6 per m g of violation) where sticking there is not
     admissible: the sticking force of the mode "s sticks, the other slides" (:func:`_stick_both`)
-    outside its cone or a normal force < 0. Under Coulomb–Contensou (sticking needs ω_z = 0) and
-    at μ = 0 it never fires."""
-    if p[ix.MU] == 0.0 or p[ix.RSTAR] > 0.0:
+    outside its cone or a normal force < 0. Under Coulomb–Contensou sticking needs ω_z = 0, i.e.
+    both contacts rolling about the contact line: |γ_s| is the generalised slip and the test is
+    that mode's (:func:`_drill_margin`, its normal forces, at the state itself); for r_s < R that
+    mode is never admissible (λ_2 < 0, docs/theory/stem.md#dry-friction) and, as at μ = 0, the
+    event never fires."""
+    if p[ix.MU] == 0.0 or (p[ix.RSTAR] > 0.0 and p[ix.DRY_R_S] <= p[ix.R]):
         return 1.0 + 0.0 * y[0]
+    mg = p[ix.M] * p[ix.G]
+    band = NEAR_STOP * p[ix.BAND]
+    if p[ix.RSTAR] > 0.0:
+        r = _roll_split(y, p)
+        bad = _pos(r[8] - 1.0) * p[ix.MU] + _pos(-r[0] / mg) + _pos(-r[1] / mg)
+        kin = both_kinematics(y, p[ix.R], p[ix.L], p[ix.I1], p[ix.I3], p[ix.DRY_R_S], p[ix.DRY_L_S])
+        n1, n2, sw = kin[3], kin[4], p[ix.RSTAR] * kin[2][2]
+        g1 = (n1[0] * n1[0] + n1[1] * n1[1] + sw * sw) ** 0.5
+        g2 = (n2[0] * n2[0] + n2[1] * n2[1] + sw * sw) ** 0.5
+        return g1 + s * (g2 - g1) - band + band * _CONE_SIDE * bad
     d = _stick_both(y, p, s)
     F = d[3]
-    mg = p[ix.M] * p[ix.G]
     cone = (p[ix.MU] * F[2] - (F[0] * F[0] + F[1] * F[1]) ** 0.5) / mg
     bad = _pos(-cone) + _pos(-d[1] / mg) + _pos(-d[2] / mg)
     sl = _slips_plain(y, p)
     speed = sl[0] + s * (sl[1] - sl[0])
-    band = NEAR_STOP * p[ix.BAND]
     return speed - band + band * _CONE_SIDE * bad
 
 
@@ -624,6 +635,95 @@ def _roll_margins(y: Any, p: Any) -> tuple:
     )
 
 
+SPLIT_STEPS = 64
+"""Bisection steps of :func:`_drill_split` on the weight q ∈ [0, 1]: q to 2⁻⁶⁴ ≈ 5e-20, below
+the rounding of any double."""
+
+
+def _drill_split(
+    lam1: Any, lam2: Any, T: Any, Pt: Any, K: Any, h1: Any, h2: Any, rs: Any, mu: Any
+) -> tuple:
+    """The split of the contact forces of both contacts sticking under Coulomb–Contensou
+    (r* > 0): (t_1, P_1, m_1, t_2, P_2, m_2, s) with g_i = (t_i, P_i, m_i) = (F_i·d̂, F_i·n̂,
+    M_i/r*) the generalised tangential force of contact i (N) and s = |g_i|/(μ λ_i), the same
+    fraction of both cones, the smallest one any split reaches.
+
+    Only the totals are determined by the motion (docs/theory/stem.md#dry-friction, "Sticking
+    under Coulomb–Contensou"): t_1 + t_2 = T along the contact line, P_1 + P_2 = P across it,
+    and the moment about the vertical h_1 P_1 + h_2 P_2 + r* (m_1 + m_2) = K (h_i = l_i sin θ_t
+    the horizontal arm of contact i along d̂); three directions of internal forces remain (a
+    compression along the line, a drilling couple M_1 = −M_2, and drilling traded against a
+    couple of forces across the line). The reported split minimises max_i |g_i|/(μ λ_i): it
+    lies in both cones exactly when some split does (s ≤ 1). It is found on the curve of the
+    weighted minimum-norm splits, g_i = ν_i A_iᵀ w with ν = (1 − q, q) and w from
+    (ν_1 A_1A_1ᵀ + ν_2 A_2A_2ᵀ) w = (T, P, K), A_iᵀ w = (w_0, w_1 + h_i w_2, r* w_2): |g_1| falls
+    and |g_2| grows with q, and the root of μλ_2 |g_1| − μλ_1 |g_2| (bisection, SPLIT_STEPS) is
+    the minimax (a two-objective Pareto front). The optimality conditions make −A_iᵀ w a pair
+    of slips the kinematics allows (γ_2 − γ_1 = (0, |d| ω_z, 0)), each force opposite its own
+    slip: at s = 1 the split is the sliding law's forces for that slip pair
+    (:func:`_roll_cone`). Plain arithmetic (scalars)."""
+    c1 = mu * _pos(lam1)
+    c2 = mu * _pos(lam2)
+    lo, hi = 0.0, 1.0
+    for _ in range(SPLIT_STEPS):
+        q = 0.5 * (lo + hi)
+        g = _weighted_split(q, T, Pt, K, h1, h2, rs)
+        n1 = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) ** 0.5
+        n2 = (g[3] * g[3] + g[4] * g[4] + g[5] * g[5]) ** 0.5
+        if c2 * n1 - c1 * n2 > 0.0:
+            lo = q
+        else:
+            hi = q
+    g = _weighted_split(0.5 * (lo + hi), T, Pt, K, h1, h2, rs)
+    n1 = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) ** 0.5
+    n2 = (g[3] * g[3] + g[4] * g[4] + g[5] * g[5]) ** 0.5
+    return g[0], g[1], g[2], g[3], g[4], g[5], (n1 + n2) / (c1 + c2), g[6], g[7], g[8]
+
+
+def _weighted_split(q: Any, T: Any, Pt: Any, K: Any, h1: Any, h2: Any, rs: Any) -> tuple:
+    """(g_1, g_2, w) = (t_1, P_1, m_1, t_2, P_2, m_2, w_0, w_1, w_2) minimising
+    |g_1|²/(1 − q) + |g_2|²/q under the three totals of :func:`_drill_split`: g_i = ν_i A_iᵀ w,
+    w_0 = T and a 2×2 solve for (w_1, w_2) (its determinant Σν_i h_i² − (Σν_i h_i)² + r*² ≥
+    r*² > 0). Plain arithmetic."""
+    v1, v2 = 1.0 - q, q
+    m12 = v1 * h1 + v2 * h2
+    m22 = v1 * h1 * h1 + v2 * h2 * h2 + rs * rs
+    det = m22 - m12 * m12
+    w1 = (m22 * Pt - m12 * K) / det
+    w2 = (K - m12 * Pt) / det
+    return (
+        v1 * T,
+        v1 * (w1 + h1 * w2),
+        v1 * rs * w2,
+        v2 * T,
+        v2 * (w1 + h2 * w2),
+        v2 * rs * w2,
+        T,
+        w1,
+        w2,
+    )
+
+
+def _roll_split(y: Any, p: Any) -> tuple:
+    """(λ_1, λ_2, t_1, P_1, m_1, t_2, P_2, m_2, s, w_0, w_1, w_2) of the both-rolling state ``y`` under
+    Coulomb–Contensou: the motion and the normal forces of :func:`_roll_both` (the Coulomb
+    solution, M_i = 0, is one split of the same totals), split by :func:`_drill_split`. Plain
+    arithmetic (scalars)."""
+    _, lam1, lam2, P1, P2, T = _roll_both(y, p)
+    ez = (p[ix.DRY_R_S] - p[ix.R]) / p[ix.DRY_L_S]
+    st = (1.0 - ez * ez) ** 0.5  # sin θ_t: the horizontal part of 3̂ on the manifold
+    h1, h2 = p[ix.L] * st, (p[ix.L] + p[ix.DRY_L_S]) * st
+    d = _drill_split(lam1, lam2, T, P1 + P2, h1 * P1 + h2 * P2, h1, h2, p[ix.RSTAR], p[ix.MU])
+    return lam1, lam2, d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9]
+
+
+def _drill_margin(y: Any, p: Any) -> Any:
+    """μ(λ_1 + λ_2) − |g_1| − |g_2| = μ m g (1 − s) (N) of both contacts sticking under
+    Coulomb–Contensou (:func:`_roll_split`): ≥ 0 exactly when some split fits both cones."""
+    d = _roll_split(y, p)
+    return p[ix.MU] * p[ix.M] * p[ix.G] * (1.0 - d[8])
+
+
 def _both_rolling_into(t: float, y: Any, p: Any, out: Any) -> None:
     d = _roll_both(y, p)[0]
     out[0], out[1], out[2], out[3], out[4] = d[0], d[1], d[2], d[3], d[4]
@@ -645,17 +745,27 @@ def _br_stem_lift(t: float, y: Any, p: Any) -> Any:
 
 
 def _br_ball_cone(t: float, y: Any, p: Any) -> Any:
-    """(μ λ_1 − |P_1|)/(m g): the ball's force across the contact line reaches its cone."""
+    """(μ λ_1 − |P_1|)/(m g): the ball's force across the contact line reaches its cone.
+    Coulomb only: under Coulomb–Contensou one contact cannot stick alone (:func:`_br_line_cone`)."""
+    if p[ix.RSTAR] > 0.0:
+        return 1.0 + 0.0 * y[0]
     return _roll_margins(y, p)[0] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _br_stem_cone(t: float, y: Any, p: Any) -> Any:
-    """(μ λ_2 − |P_2|)/(m g): the stem's force across the contact line reaches its cone."""
+    """(μ λ_2 − |P_2|)/(m g): the stem's force across the contact line reaches its cone
+    (Coulomb only, as :func:`_br_ball_cone`)."""
+    if p[ix.RSTAR] > 0.0:
+        return 1.0 + 0.0 * y[0]
     return _roll_margins(y, p)[1] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
 def _br_line_cone(t: float, y: Any, p: Any) -> Any:
-    """(ρ_1 + ρ_2 − |T|)/(m g): no split of the force along the contact line fits both cones."""
+    """(ρ_1 + ρ_2 − |T|)/(m g): no split of the force along the contact line fits both cones.
+    Under Coulomb–Contensou μ(1 − s) (:func:`_drill_margin`): no split of the forces and the
+    drilling torques fits both cones."""
+    if p[ix.RSTAR] > 0.0:
+        return _drill_margin(y, p) * (1.0 / (p[ix.M] * p[ix.G]))
     return _roll_margins(y, p)[2] * (1.0 / (p[ix.M] * p[ix.G]))
 
 
@@ -777,11 +887,30 @@ def both_stick_forces(y: np.ndarray, p: tuple, sticking: tuple[bool, bool]) -> d
             Ft.append(None)
     if all(sticking) and n_t == 2:
         Ft = _split_line(Ft, e, lam, mu)
+    elif all(sticking):
+        Ft = _split_drill(Ft, e, lam, p)
     margin = [
         mu * lam[i] - float(np.linalg.norm(f)) if sticking[i] and (f := Ft[i]) is not None else 0.0
         for i in (0, 1)
     ]
     return {"lam": lam, "Ft": Ft, "margin": margin}
+
+
+def _split_drill(Ft: list, e: np.ndarray, lam: tuple, p: tuple) -> list:
+    """The generalised tangential forces (F_x, F_y, M/r*) of both contacts sticking under
+    Coulomb–Contensou, any particular solution ``Ft`` re-split by :func:`_drill_split` (the
+    totals T, P and the moment about the vertical K are what the motion determines)."""
+    d = np.array([e[0], e[1], 0.0]) / math.hypot(e[0], e[1])
+    n = np.array([-d[1], d[0], 0.0])
+    st = math.hypot(e[0], e[1])
+    rs = p[ix.RSTAR]
+    h = (p[ix.L] * st, (p[ix.L] + p[ix.DRY_L_S]) * st)
+    F = [np.array([f[0], f[1], 0.0]) for f in Ft]
+    T = float(F[0] @ d + F[1] @ d)
+    P = [float(F[i] @ n) for i in (0, 1)]
+    K = h[0] * P[0] + h[1] * P[1] + rs * float(Ft[0][2] + Ft[1][2])
+    g = _drill_split(lam[0], lam[1], T, P[0] + P[1], K, h[0], h[1], rs, p[ix.MU])
+    return [g[3 * i] * d + g[3 * i + 1] * n + np.array([0.0, 0.0, g[3 * i + 2]]) for i in (0, 1)]
 
 
 def _split_line(Ft: list, e: np.ndarray, lam: tuple, mu: float) -> list:
@@ -1187,7 +1316,9 @@ def _stop_pair(y2: np.ndarray, p: tuple, targets: np.ndarray | None = None) -> n
     The Delassus matrix of the two contacts is singular (an impulse pair ±f d̂ along the
     contact line moves nothing), and the targets are consistent with it when ν_2 − ν_1 has no
     part along d̂ (ν_2 − ν_1 = (ω × d) is always ⊥ d): least squares is then exact; the
-    minimum-norm impulse is taken. The flag kept."""
+    minimum-norm impulse is taken. The flag kept. Under Coulomb–Contensou the same impulse
+    (no drilling impulse): forces at two points of the contact line already span every impulse
+    with no moment about that line, the drilling ones included, and both slips 0 make ω_z = 0."""
     e, L, w, V, Iinv = _both_body(y2, p)
     arms = _arms(e, p)
     W = _delassus2(e, Iinv, p[ix.M], arms, 0.0)
@@ -1196,6 +1327,8 @@ def _stop_pair(y2: np.ndarray, p: tuple, targets: np.ndarray | None = None) -> n
     if targets is not None:
         want[[0, 1, 3, 4]] = targets
     Pi = np.linalg.lstsq(W, want - g0, rcond=None)[0]
+    if p[ix.RSTAR] > 0.0:  # _apply2's layout with Contensou: (P_1, Q_1/r*, P_2, Q_2/r*)
+        Pi = np.concatenate((Pi[0:3], [0.0], Pi[3:6], [0.0]))
     out = _apply2(y2, p, L, arms, Pi)
     out[10] = y2[10]
     return out
@@ -1219,7 +1352,8 @@ BOTH_FLAGS = {
 }
 """The double contact's modes by the state's flag: both contacts sliding, the ball rolling
 (sticking) with the stem sliding, the stem rolling with the ball sliding, both rolling (the
-body turning about the line through the two contact points; Coulomb)."""
+body turning about the line through the two contact points; Coulomb, and Coulomb–Contensou
+for r_s > R, where it is the only sticking mode)."""
 
 
 def _slip_acceleration(y2: np.ndarray, p: tuple, i: int, u: np.ndarray) -> np.ndarray:
@@ -1270,10 +1404,15 @@ def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
     stem's normal force is then negative: docs/theory/stem.md#dry-friction). One contact
     sticking admissible: under Coulomb the slip is stopped (an impulse at that contact keeping
     both normal velocities 0) and the mode "both-ball-rolling" / "both-stem-rolling" runs (flag
-    3 / 4); under Coulomb–Contensou (sticking needs ω_z = 0, which makes both contacts rest:
-    the same rolling) the run ends with :class:`JumpFailed` naming the mode. Not admissible:
-    the slip restarts (2δ) opposite to the force sticking would need (where the excess force
-    drives it; exact at the cone's edge)."""
+    3 / 4). Under Coulomb–Contensou sticking needs ω_z = 0, which makes both contacts rest: a
+    slip within the band at either contact tries that rolling, both slips stopped (the other's
+    is at most (1 + l_s sin θ_t/r*) δ) and admissible when both normal forces are ≥ 0 and
+    the minimax split of the forces and drilling torques fits both cones
+    (:func:`_drill_split`), checked at the stopped state it would run from; if it is not
+    admissible but the force of "that contact sticks, the other slides" (a mode the
+    kinematics does not allow under Contensou) lies in its cone, the run ends with
+    :class:`JumpFailed` naming it. Not admissible: the slip restarts (2δ) opposite to the
+    force sticking would need (where the excess force drives it; exact at the cone's edge)."""
     if dry.frictionless(p) or p[ix.LAW] != dry.LAW_COULOMB:
         return y2
     flag = float(round(y2[10]))
@@ -1286,6 +1425,12 @@ def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
         if not slow:
             return y2
         i = slow[0]
+        if p[ix.RSTAR] > 0.0:  # Contensou: sticking anywhere is the rolling about the line
+            ys = _stop_pair(y2, p)
+            ys[10] = 5.0
+            d = _roll_split(ys, p)
+            if min(d[0], d[1]) >= 0.0 and d[8] <= 1.0:
+                return ys
         if len(slow) == 2 and p[ix.RSTAR] == 0.0:  # both at rest: both sticking first
             sol = both_stick_forces(y2, p, (True, True))
             if min(sol["lam"]) >= 0.0 and min(sol["margin"]) >= 0.0:
@@ -1296,11 +1441,12 @@ def _settle_both(y2: np.ndarray, p: tuple, at: int | None = None) -> np.ndarray:
         sol = both_stick_forces(y2, p, stuck)
         if min(sol["lam"]) >= 0.0 and all(sol["margin"][j] >= 0.0 for j in range(2) if stuck[j]):
             if p[ix.RSTAR] > 0.0:
-                which = "both contacts" if all(stuck) else f"the {('ball', 'stem')[i]} contact"
                 raise JumpFailed(
-                    f"{which} stick in the double contact under Coulomb–Contensou friction "
-                    "(forces inside the cones, both normal forces ≥ 0; it needs ω_z = 0): a "
-                    "sticking mode of the dry double contact that is not continued"
+                    f"the {('ball', 'stem')[i]} contact of the double contact could stick with "
+                    "the other sliding, but under Coulomb–Contensou friction sticking needs "
+                    "ω_z = 0, which stops both contacts, and both sticking is not admissible "
+                    "(a normal force < 0 or no split of the forces in both cones): no "
+                    "consistent mode"
                 )
             if all(stuck):  # both at rest: the body rolls about the contact line
                 y2 = _stop_pair(y2, p)
@@ -1377,6 +1523,8 @@ def _roll_cone(which: int) -> Any:
         d = np.array([e[0], e[1]]) / math.hypot(e[0], e[1])
         n = np.array([-d[1], d[0]])
         band = 2.0 * p[ix.BAND]
+        if which == 2 and p[ix.RSTAR] > 0.0:
+            return _drill_restart(y2, p)
         if which == 2:
             u = -math.copysign(1.0, T) * d
             out = _stop_pair(y2, p, np.concatenate((band * u, band * u)))
@@ -1392,6 +1540,35 @@ def _roll_cone(which: int) -> Any:
 
     jump.__name__ = f"_roll_cone_{which}"
     return jump
+
+
+def _drill_restart(y2: np.ndarray, p: tuple) -> np.ndarray:
+    """Both contacts sticking under Coulomb–Contensou at the edge of admissibility (s = 1 in
+    :func:`_drill_split`): both start to slide (flag 2) with the slip pair γ_i ∝ −A_iᵀ w of the
+    minimax split, each opposite its contact's force there (so the sliding law's forces at
+    that instant are the sticking ones), the larger slip 2δ; set at that contact by
+    :func:`_restart_both` (both normal velocities 0), the other follows from the kinematics
+    (γ_2 − γ_1 = (|d| ω_z n̂, 0))."""
+    d = _roll_split(y2, p)
+    w0, w1, w2 = d[9], d[10], d[11]
+    e = y2[7:10] / np.linalg.norm(y2[7:10])
+    dh = np.array([e[0], e[1]]) / math.hypot(e[0], e[1])
+    nh = np.array([-dh[1], dh[0]])
+    st = math.hypot(e[0], e[1])
+    slips = []
+    for li in (p[ix.L], p[ix.L] + p[ix.DRY_L_S]):  # −A_iᵀ w in the world frame
+        a, b = -w0, -(w1 + li * st * w2)
+        slips.append(np.array([a * dh[0] + b * nh[0], a * dh[1] + b * nh[1], -p[ix.RSTAR] * w2]))
+    n = [float(np.linalg.norm(g)) for g in slips]
+    i = 0 if n[0] >= n[1] else 1
+    if not n[i] > 0.0:
+        raise JumpFailed(
+            "both contacts stick under Coulomb–Contensou and leave the cone without a force "
+            "to slide against: the run ends there"
+        )
+    out = _restart_both(y2, p, i, slips[i] / n[i])
+    out[10] = 2.0
+    return out
 
 
 def _select(y: np.ndarray, p: tuple) -> str:
@@ -1496,6 +1673,10 @@ def _quantities(Y: np.ndarray, p: tuple, rolling: np.ndarray) -> dict[str, np.nd
         out["F_x"][roll] = T * dx - (P1 + P2) * dy
         out["F_y"][roll] = T * dy + (P1 + P2) * dx
         out["margin"][roll] = np.minimum(np.minimum(m3[0], m3[1]), m3[2])
+        if p[ix.RSTAR] > 0.0:  # the drilling torques of the split, its margin μ m g (1 − s)
+            split = np.array([_roll_split(Yr[:, j], p) for j in range(Yr.shape[1])]).T
+            out["M_n"][roll] = p[ix.RSTAR] * (split[4] + split[7])
+            out["margin"][roll] = p[ix.MU] * (split[0] + split[1]) * (1.0 - split[8])
     both = flag == 2
     if both.any():  # both contacts sliding: the sums of their forces, margin 0
         with np.errstate(divide="ignore", invalid="ignore"):
