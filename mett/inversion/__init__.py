@@ -36,7 +36,7 @@ from ..asymptotics import high_spin
 from ..classification import asymptotic_state
 from ..dynamics.flight import VISCOUS_ARTEFACT
 from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
-from ..integrals import jellett, modified_energy, routh
+from ..integrals import jellett
 from ..stability import escape_modes
 from ..state import State
 from ..top import TippeTop
@@ -44,6 +44,7 @@ from . import _averaged, _nutation
 from ._gyroscopic import (
     NoBalance,
     balance_D_and_E_mod,
+    balance_state,
     contensou_path,
     nutation_period,
     slow_path,
@@ -570,15 +571,22 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
             theta0=theta0,
             lam=lam,
         )
-    D0, E0 = float(routh(top, state)), float(modified_energy(top, state))
-    target = theta_end - tol if theta_end > theta0 else theta_end + tol
+    # The flow starts where the gyroscopic one does: on the growing mode's amplitude θ_u(0) (the
+    # linear initiation), in the fast steady precession there (an empty band of the gliding top).
+    amp = esc.amplitude
+    phidot_0, w3_0, _, _, _ = balance_state(top, lam, amp)
+    if not math.isfinite(w3_0):
+        return empty(None, "no fast precession at the start's growing mode", "averaged",
+                     validity(math.nan), theta0=theta0, lam=lam)  # fmt: skip
+    target = theta_end - tol if theta_end > amp else theta_end + tol
     # The slow time scale is 1/(μ g) (the rates are proportional to the friction coefficient):
     # a few hundred of them bound any inversion the flow can describe.
     mu_lin = _linear_mu(top, law, state)
     t_max = 300.0 / (mu_lin * top.g)
     try:
-        t, theta, D, E_mod, t_half, t_end, _ = _averaged.slow_path(
-            top, law, lam, D0, E0, math.cos(theta0), target, t_max
+        n1, e = _averaged.start(top, float(phidot_0), float(w3_0), amp)
+        t, theta, D, E_mod, t_half, t_end, t_lift = _averaged.slow_path(
+            top, law, lam, n1, e, target, t_max
         )
     except _averaged.AveragingFails as exc:
         return empty(
@@ -591,7 +599,17 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         )
     T_n = nutation_period(top, float(state.omega3))
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
-    if kind == "inverted":
+    if t_lift < t_half:
+        # the band's own normal force vanishes: the nutation lifts the top off and the flow,
+        # which assumes contact, stops there
+        inverts, reason = (
+            None,
+            (
+                f"the nutation band lifts the top off at t = {t_lift:.3g} s (mean theta = "
+                f"{theta[-1]:.3g}), before pi/2: the averaged flow assumes contact"
+            ),
+        )
+    elif kind == "inverted":
         inverts, reason = (True, "inverts") if math.isfinite(t_half) else (None, "")
         if inverts is None:
             reason = f"the averaged flow does not reach pi/2 by t = {t[-1]:.3g} s"
@@ -613,6 +631,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         lam=np.full(len(t), lam),
         theta_end=theta_end,
         validity=validity(eps),
+        t_lift=t_lift,
     )
 
 
