@@ -245,8 +245,6 @@ def predict_inversion(
     name = _law_name(law)
     spin_ratio = lam / top.lambda_thres
     notes: list[str] = []
-    if method == "averaged":
-        notes.append("method averaged: not within the error target (docs/theory/inversion.md)")
     if name not in VERIFIED["laws"]:
         notes.append(f"law {name} not in the verification table")
     lo, hi = VERIFIED["theta0"]
@@ -271,8 +269,8 @@ def predict_inversion(
             f"{VERIFIED['theta0_moving_cm']} (verified: centre of mass at rest, or theta0 smaller)"
         )
 
-    def validity(eps: float) -> Validity:
-        n = list(notes)
+    def validity(eps: float, extra: Sequence[str] = ()) -> Validity:
+        n = [*notes, *extra]
         if math.isfinite(eps) and eps > VERIFIED["epsilon"]:
             n.append(f"epsilon = T_n/t_half above {VERIFIED['epsilon']}")
         return Validity(eps, spin_ratio, bool(n), tuple(n))
@@ -585,7 +583,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
     t_max = 300.0 / (mu_lin * top.g)
     try:
         n1, e = _averaged.start(top, float(phidot_0), float(w3_0), amp)
-        t, theta, D, E_mod, t_half, t_end, t_lift = _averaged.slow_path(
+        t, theta, D, E_mod, t_half, t_end, t_lift, slip = _averaged.slow_path(
             top, law, lam, n1, e, target, t_max
         )
     except _averaged.AveragingFails as exc:
@@ -597,6 +595,14 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
             theta0=theta0,
             lam=lam,
         )
+    extra = []
+    if isinstance(law, Viscous):
+        # the viscous law's dry coefficient μ|ν| before π/2, as for the gyroscopic method
+        coef = mu_lin * float(np.max(slip[theta <= 0.5 * math.pi], initial=0.0))
+        if coef > VISCOUS_ARTEFACT:
+            extra.append(f"viscous mu |v_A| = {coef:.3g} > {VISCOUS_ARTEFACT:g} before pi/2")
+    if t_lift < t_half:
+        extra.append(f"the nutation band lifts the top off before pi/2 (t_lift = {t_lift:.3g} s)")
     T_n = nutation_period(top, float(state.omega3))
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if t_lift < t_half:
@@ -630,7 +636,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         E_mod=np.asarray(E_mod),
         lam=np.full(len(t), lam),
         theta_end=theta_end,
-        validity=validity(eps),
+        validity=validity(eps, extra),
         t_lift=t_lift,
     )
 

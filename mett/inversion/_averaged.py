@@ -55,6 +55,7 @@ _CUM = (
     0.5 * math.pi * _L.legval(_X, _L.legint(np.linalg.inv(_L.legvander(_X, _N - 1)), lbnd=-1.0)).T
 )
 _SIN, _COS2 = np.sin(_UNODES), np.cos(_UNODES) ** 2
+_ONE = (np.zeros(1), np.ones(1), np.array([math.pi]))
 
 
 class AveragingFails(Exception):
@@ -173,12 +174,15 @@ class _Nodes:
         self.empty, self.dm = empty, da
         q = m * g * R * a
         c, h = 0.5 * (da + db), 0.5 * (db - da)
-        dl = c + h * _SIN
+        # an empty band is one point, the steady precession (the quadrature's ∑ weights = π
+        # gives its small-oscillation period)
+        sin_u, cos2_u, weights = (_SIN, _COS2, _WEIGHTS) if not empty else _ONE
+        dl = c + h * sin_u
         s2 = dl * (2.0 - dl)
         G = 0.5 * (I1 + m * R * R * a * a * s2)
-        P = q * h * h * _COS2 * (d3 - dl)
+        P = q * h * h * cos2_u * (d3 - dl)
         dtdu = np.sqrt(G / (q * (d3 - dl)))
-        w = _WEIGHTS * dtdu
+        w = weights * dtdu
         half = float(w.sum())
         self.T = 2.0 * half
         self.wt = w / half
@@ -194,7 +198,7 @@ class _Nodes:
         self.wx = -R * np.sqrt(P / (G * s2)) * (1.0 - a * self.z)
         self.Omega = float(self.wt @ self.phid)
         # δφ on the rising half: ∫ (φ̇ − Ω) dt from the turning point δ_a; −δφ on the other half
-        self.Delta = _CUM @ (dtdu * (self.phid - self.Omega))
+        self.Delta = _CUM @ (dtdu * (self.phid - self.Omega)) if not empty else np.zeros(1)
         self.half_w2 = 0.5 * m * (self.wx**2 + self.wy**2)
         # The answering slip's inverse mass (units 1/m) along x̂ and ŷ: the centre of mass's
         # alone. The rotation's share (K_x = 1 + m R² (1 − α z)²/I1, K_y = I3 d(z)/I1 for the
@@ -243,7 +247,7 @@ def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, w2b: flo
         return -num / den
     else:
         # the steady answer of a collapsed band, v_A = w/(1 − i κ K): |v_A|² from cm_slip2
-        K = float(wt @ (0.5 * (nodes.Kx + nodes.Ky)))
+        K = float(np.mean(0.5 * (nodes.Kx + nodes.Ky)))
         k2 = (mu * float(wt @ nodes.gn) * K / (m * nodes.Omega)) ** 2
         x = float(cm_slip2(w2b, eps * eps, k2, 1.0))
         c = mu * float(wt @ nodes.gn) / math.sqrt(x + eps * eps)
@@ -275,7 +279,8 @@ def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, w2b: flo
 
 
 def rates(top: TippeTop, law, lam: float, n1: float, e: float):
-    """(dn1/dt, de/dt, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, T, U, min g_n) of the averaged flow at (n1, e).
+    """(dn1/dt, de/dt, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, T, U, min g_n, de/dt before the floor, max |ν|) of the
+    averaged flow at (n1, e).
 
     n1 = λ − R I3 ω3 (1 − α) and e = E' − m g R (1 − α) carry the state near the upright spin
     without cancellation (both vanish there like θ²). Where the band is empty (e at or below the
@@ -294,8 +299,9 @@ def rates(top: TippeTop, law, lam: float, n1: float, e: float):
     # the centre of mass's share of the answer, i Ω m U_cm = ⟨e^{iδφ} F⟩; the rest, U − U_cm, is
     # the rotation's, and ω × a = w + e^{−iδφ} (U − U_cm) is what the force does work on
     U_cm = sum(-0.5 * (wt @ (ph * cg * nu)) for cg, nu, ph, _ in forces) / (1j * nodes.Omega * m)
-    torque, power = 0.0, 0.0
+    torque, power, slip = 0.0, 0.0, 0.0
     for cg, nu, ph, sign in forces:
+        slip = max(slip, float(np.max(np.abs(nu))))
         oxa = (sign * nodes.wx + 1j * nodes.wy) + (U - U_cm) / ph
         torque += 0.5 * float(wt @ (cg * R * nodes.s * nu.imag))
         power += 0.5 * float(wt @ (cg * (nu.real * oxa.real + nu.imag * oxa.imag)))
@@ -312,16 +318,17 @@ def rates(top: TippeTop, law, lam: float, n1: float, e: float):
     D = float(wt @ (I3 * w3 * np.sqrt(fm.d(top, nodes.z))))
     Et = e_floor + m * top.g * R * (1.0 - a) + 0.5 * I3 * w3 * w3 + float(wt @ nodes.half_w2)
     dn1 = -R * I3 * (1.0 - a) * dw3
-    return dn1, de, theta, D, Et, nodes.T, U, float(nodes.gn.min()), de_power
+    return dn1, de, theta, D, Et, nodes.T, U, float(nodes.gn.min()), de_power, slip
 
 
 def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: float, t_max: float,
               rtol: float = 1e-6):  # fmt: skip
     """Integrate the averaged flow from (n1, e) (see :func:`rates`) until ⟨θ⟩ = ``theta_to``.
 
-    Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift): arrays at the solver's steps, the times
-    ⟨θ⟩ passes π/2 and ``theta_to`` (inf if not by ``t_max``) and the time the band's normal
-    force first vanishes (the nutation lifts the top off; the path stops there, inf if never). Explicit Runge–Kutta 4(5) (scipy's
+    Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift, max |ν|): arrays at the solver's steps,
+    the times ⟨θ⟩ passes π/2 and ``theta_to`` (inf if not by ``t_max``), the time the band's
+    normal force first vanishes (the nutation lifts the top off; the path stops there, inf if
+    never) and the largest slip in the band at each step (m/s). Explicit Runge–Kutta 4(5) (scipy's
     RK45) with relative tolerance ``rtol`` (the absolute tolerance 1e-3 rtol of the start's
     values: n1 and e grow like θ² from a start that may be θ ~ 1e-5): with U slaved the flow is
     smooth and not stiff (its rates are O(μ g)), so its error is rtol-sized. Raises
@@ -360,6 +367,6 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
                     events=(half, end, lift))  # fmt: skip
     if sol.status < 0:
         raise AveragingFails(sol.message)
-    out = np.array([evaluate(y)[2:5] for y in sol.y.T])
+    out = np.array([[*evaluate(y)[2:5], evaluate(y)[9]] for y in sol.y.T])
     t_half, t_end, t_lift = (float(te[0]) if len(te) else math.inf for te in sol.t_events)
-    return sol.t, out[:, 0], out[:, 1], out[:, 2], t_half, t_end, t_lift
+    return sol.t, out[:, 0], out[:, 1], out[:, 2], t_half, t_end, t_lift, out[:, 3]
