@@ -14,9 +14,9 @@
 * for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
   make the top fall back before it inverts;
-* with ``method="averaged"``, instead of the balance flow: the flow of (D̄, Ẽ̄) averaged over the
-  nutation band of V(z, D, λ) (:mod:`mett.inversion._averaged`), which overestimates t_half and is
-  always flagged as unverified.
+* with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
+  (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
+  precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
 
 The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
 """
@@ -171,10 +171,11 @@ def predict_inversion(
         ``inverts=None`` where λ arrives below ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
-        gyroscopic-balance slow flow. ``"averaged"``: the flow of (D̄, Ẽ̄) averaged over the
-        nutation band of V(z, D, λ) from the state's own integrals (viscous and regularised
-        Coulomb laws; always flagged outside the verified range: it overestimates ``t_half``, see
-        the docs page).
+        gyroscopic-balance slow flow. ``"averaged"``: the same initiation, then the flow of the
+        gliding top's integrals (ω3, E') averaged over its exact nutation band, with the
+        centre of mass's answer to the friction force as the slow slip (viscous and regularised
+        Coulomb laws; verified range: the gyroscopic box for the viscous law; ``inverts=None``
+        with ``t_lift`` where the band's normal force vanishes before π/2).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
 
@@ -558,7 +559,7 @@ def _end_reason(top: TippeTop, theta_end: float) -> str:
 
 
 def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity, empty):
-    """method="averaged": the band-averaged flow of (D̄, Ẽ̄) from the state's integrals."""
+    """method="averaged": the band-averaged flow of (ω3, E') from the growing mode's start."""
     theta0 = float(state.theta)
     if not isinstance(law, (Viscous, RegularisedCoulomb)):
         return empty(
