@@ -363,8 +363,12 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
     end.terminal = True  # type: ignore[attr-defined]
     lift.terminal = True  # type: ignore[attr-defined]
     atol = [1e-3 * rtol * abs(n1), 1e-3 * rtol * abs(e)]
-    sol = solve_ivp(rhs, (0.0, t_max), [n1, e], method="RK45", rtol=rtol, atol=atol,
-                    events=(half, end, lift))  # fmt: skip
+    # The state spans many decades (n1, e grow like θ² from θ ~ 1e-5): a trial step may
+    # overflow the error norm or reach a pole; such values are rejected (the step shrinks) or
+    # caught by evaluate(), so numpy's warnings are silenced here, not passed on to the caller.
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        sol = solve_ivp(rhs, (0.0, t_max), [n1, e], method="RK45", rtol=rtol, atol=atol,
+                        events=(half, end, lift))  # fmt: skip
     if sol.status < 0:
         raise AveragingFails(sol.message)
     out = np.array([[*evaluate(y)[2:5], evaluate(y)[9]] for y in sol.y.T])
