@@ -231,7 +231,7 @@ def test_a_registered_law_without_a_reduction_is_no_prediction_not_an_error(thes
     assert p.validity.outside_verified_range
 
 
-# --- the averaged METT flow (method="averaged") -------------------------------------------------
+# --- the averaged flow (method="averaged") ------------------------------------------------------
 
 
 def test_band_average_matches_an_independent_quadrature(thesis):
@@ -265,14 +265,13 @@ def test_band_average_matches_an_independent_quadrature(thesis):
         band_average(thesis, E, D, lam, "z")
 
 
-def test_both_starts_share_the_integrals_so_the_averaged_flow_cannot_tell_them_apart(thesis):
+def test_both_starts_share_the_mett_integrals_so_no_flow_of_them_alone_tells_them_apart(thesis):
     # Ẽ = E + ½ m |ν|² − m ν·ṙ (docs/theory/equations.md#integrals) is the same for the start with the contact
     # point at rest (ν = 0, ṙ = −ω × a) and the one with the centre of mass at rest (ν = ω × a):
     # both equal the rotational energy + ½ m |ω × a|² (E itself differs by that term); D and λ do
-    # not involve ν. Any flow of
-    # (D, Ẽ, λ) alone predicts one t_half for both, while the simulated crossings differ (5.88 s
-    # and 5.07 s, docs/theory/inversion.md#the-averaged-mett-flow): the difference is in the
-    # centre of mass's velocity, not in the METT's integrals.
+    # not involve ν. Any flow of (D, Ẽ, λ) alone predicts one t_half for both, while the simulated
+    # crossings differ (5.88 s and 5.07 s, docs/theory/inversion.md#the-averaged-flow): the
+    # averaged flow therefore starts from the initiation's mode split, as the gyroscopic one does.
     a = mett.State(theta=0.1, omega3=155.0)
     b = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
     for q in (mett.modified_energy, mett.routh, mett.jellett):
@@ -280,26 +279,116 @@ def test_both_starts_share_the_integrals_so_the_averaged_flow_cannot_tell_them_a
     assert float(mett.energy(thesis, a)) > float(mett.energy(thesis, b))
 
 
+def _gliding_integrals(top, state):
+    """(λ, n1, e) of a state: n1 = λ − R I3 ω3 (1 − α), e = E' − m g R (1 − α), E' the energy
+    of the rotation and the height without ½ I3 ω3² (mett.inversion._averaged)."""
+    m, R, a, I1, I3, g = top.m, top.R, top.alpha, top.I1, top.I3, top.g
+    th, thd, phd, w3 = (float(getattr(state, k)) for k in ("theta", "thetadot", "phidot", "omega3"))
+    lam = float(mett.jellett(top, state))
+    s, z = math.sin(th), math.cos(th)
+    Ep = (
+        0.5 * I1 * (thd**2 + phd**2 * s**2)
+        + 0.5 * m * (R * a * s * thd) ** 2
+        + m * g * R * (1 - a * z)
+    )
+    return lam, lam - R * I3 * w3 * (1 - a), Ep - m * g * R * (1 - a)
+
+
+def test_gliding_band_is_the_frictionless_gliding_motion(thesis):
+    # The averaged flow's fast motion is the frictionless gliding top's band (a cubic in
+    # δ = 1 − cos θ). Independent reference: the full vector-form model integrated without
+    # friction (rtol 1e-11) from a nutating state: its extreme inclinations, its nutation period
+    # (between upward crossings of the band's middle, root-found on the dense output) and its
+    # mean precession (the azimuth of 3̂ over whole periods). Tolerances: the turning points are
+    # sampled every 1e-4 T (error ½ θ̈ (1e-4 T)² ≈ 1e-8 of the band), the rest is rtol-sized.
+    from mett.inversion import _averaged
+
+    top = thesis._with_mu(0.0)
+    state = mett.State.with_cm_at_rest(top, theta=0.4, omega3=120.0, thetadot=3.0, phidot=25.0)
+    lam, n1, e = _gliding_integrals(top, state)
+    nodes = _averaged._Nodes(top, lam, n1, e)
+    da, db, _, empty = _averaged.gliding_band(top, lam, n1, e)
+    assert not empty
+    lo, hi = math.acos(1 - da), math.acos(1 - db)
+    lo, hi = min(lo, hi), max(lo, hi)
+    T = nodes.T
+    traj = mett.simulate(top, state, 12 * T, rtol=1e-11)
+    ts = np.linspace(0.0, 12 * T, 120001)
+    th = traj.theta_at(ts)
+    assert th.min() == pytest.approx(lo, abs=1e-6 * (hi - lo))
+    assert th.max() == pytest.approx(hi, abs=1e-6 * (hi - lo))
+    up = traj.crossings(0.5 * (lo + hi), direction=1)
+    assert len(up) >= 10
+    assert np.diff(up).mean() == pytest.approx(T, rel=1e-7)
+    Y = traj.states_at(up)
+    phi = np.unwrap(np.arctan2(Y[7], -Y[8]))
+    assert (phi[-1] - phi[0]) / (up[-1] - up[0]) == pytest.approx(nodes.Omega, rel=1e-7)
+
+
+@pytest.mark.parametrize("law", [Viscous(0.0), RegularisedCoulomb(0.0, 0.01)])
+def test_averaged_flow_stands_still_without_friction(thesis, law):
+    # Without friction ω3, E' and λ of the gliding top are integrals: the flow's rates vanish
+    # identically, in a wide band and in the steady precession at the bottom of a well.
+    from mett.inversion import _averaged
+
+    state = mett.State.with_cm_at_rest(thesis, theta=0.4, omega3=120.0, thetadot=3.0, phidot=25.0)
+    lam, n1, e = _gliding_integrals(thesis, state)
+    ph, w3, _, _, _ = balance_state(thesis, lam, 0.3)
+    for y in ((n1, e), _averaged.start(thesis, float(ph), float(w3), 0.3)):
+        r = _averaged.rates(thesis, law, lam, *y)
+        assert r[0] == 0.0 and r[1] == 0.0
+
+
+@pytest.mark.parametrize("law", [Viscous(0.3), Viscous(3.0), RegularisedCoulomb(0.3, 0.01)])
+def test_slip_of_a_steady_precession_is_the_closed_form_answer(thesis, law):
+    # In a collapsed band (the fast steady precession at θ) the slaved slip solves
+    # i Ω m (ν − w) = −c g_n ν: ν = w/(1 − i κ), κ = c g_n/(m Ω), |ν|² the root of the quadratic
+    # of the gyroscopic method (mett.inversion._gyroscopic.cm_slip2 with K = 1: the centre of mass
+    # gives way, docs/theory/inversion.md#the-contact-points-response). The torque on ω3 is then
+    # −c g_n R sin θ Re(ν along w) = −c g_n R sin θ |ν|²/w: checked against the flow's dn1/dt.
+    from mett.inversion import _averaged
+    from mett.inversion._gyroscopic import cm_slip2, drag_form
+
+    lam = float(mett.jellett(thesis, mett.State(theta=0.1, omega3=155.0)))
+    for theta in (0.05, 0.5, 1.2):
+        ph, w3, _, w, _ = (float(x) for x in balance_state(thesis, lam, theta))
+        n1, e = _averaged.start(thesis, ph, w3, theta)
+        nodes = _averaged._Nodes(thesis, lam, n1, e)
+        assert nodes.empty and nodes.Omega == pytest.approx(ph, rel=1e-9)
+        mu_c, a, b = drag_form(law, thesis)
+        gn = thesis.m * thesis.g
+        x = float(cm_slip2(w * w, b, (mu_c * gn / (thesis.m * ph)) ** 2, a))
+        c = mu_c * gn / math.sqrt(a * x + b)
+        r = _averaged.rates(thesis, law, lam, n1, e)
+        dw3 = -r[0] / (thesis.R * thesis.I3 * (1 - thesis.alpha))
+        nu = 1j * w + r[6]  # complex x̂ + iŷ: w lies along ŷ; the band frame is the mean frame
+        assert abs(nu) ** 2 == pytest.approx(x, rel=1e-9)
+        assert dw3 == pytest.approx(-c * thesis.R * math.sin(theta) * x / w / thesis.I3, rel=1e-9)
+
+
 @pytest.mark.slow
 def test_averaged_flow_on_the_thesis_start(thesis):
-    # The averaged flow inverts the thesis top but late: it is flagged outside the verified range
-    # and its t_half lies above the simulated crossing (5.07 s; measured 8.45 s, the frozen-(D, Ẽ)
-    # band misjudges the slip, docs/theory/inversion.md#the-averaged-mett-flow).
+    # The averaged flow against the full simulation (an independent integration) on both starts
+    # of the thesis top: the same declared target as the gyroscopic method in its range (5 % of
+    # t_half plus one nutation period, docs/theory/inversion.md#verification). Measured: 5.065 s
+    # against 5.067 s (centre of mass at rest), 6.30 s against 5.88 s (contact point at rest,
+    # θ0 = 0.1: outside the range, the initiation's O(θ0) transient, as for the gyroscopic method).
     state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
     p = predict_inversion(thesis, state, method="averaged")
     assert p.inverts is True and p.method == "averaged"
-    assert p.validity.outside_verified_range
     traj = mett.simulate(thesis, state, 7.0, rtol=1e-9)
     t_sim = traj.crossings(0.5 * math.pi)[0]
     T_n = 2 * math.pi * thesis.I1 / (thesis.I3 * 155.0)
-    assert p.t_half > t_sim + T_n
-    # the path: D̄ runs down from the start's D, Ẽ̄ decreases (it is dissipated), λ constant
-    assert p.D[0] == pytest.approx(float(mett.routh(thesis, state)), rel=1e-12)
-    assert np.all(np.diff(p.E_mod) < 0) and np.all(np.diff(p.D) < 0)
+    assert abs(p.t_half - t_sim) <= 0.05 * t_sim + T_n
+    assert not p.validity.outside_verified_range
+    # the path: D̄ runs down, Ẽ̄ of the steady precession rises with θ̄ (the energy of the balance
+    # state at fixed λ), λ constant; θ̄ passes π/2 at t_half
+    assert np.all(np.diff(p.D) < 0) and np.all(np.diff(p.theta) > 0)
     assert p.theta_at(p.t_half) == pytest.approx(0.5 * math.pi, abs=0.05)
-    # the start with the contact point at rest has the same integrals: the same prediction
+    # the start with the contact point at rest has the same METT integrals but a smaller
+    # growing mode: it inverts later, as simulated (5.88 s)
     other = predict_inversion(thesis, mett.State(theta=0.1, omega3=155.0), method="averaged")
-    assert other.t_half == p.t_half
+    assert other.t_half > p.t_half + 0.5
 
 
 def test_averaged_flow_refuses_laws_it_has_no_rate_for(thesis):
@@ -381,15 +470,29 @@ def test_balance_exists_wherever_the_top_can_invert():
 
 def test_averaged_method_answers_inverts_right_on_a_fast_table_case():
     # Table case 22 (viscous, μ = 2.5 s/m, the simulated top passes π/2 at 0.49 s): the averaged
-    # flow (its band collapses at once and it slides along steady precession) must say that the top
-    # inverts, flagged as unverified. Its t_half has no error target (docs/theory/inversion.md#the-averaged-mett-flow);
-    # the full table is in test_inversion_verify_slow.py.
+    # flow must say that the top inverts, flagged (μ |ν| > 1 on the way: the viscous law's
+    # artefact, and the rotation's share of the contact point's answer that the flow does not
+    # carry, docs/theory/inversion.md#the-averaged-flow); the full table is in
+    # test_inversion_verify_slow.py.
     case = cases()[22]
     pred = predict_inversion(case.top, case.state, case.friction, method="averaged")
     assert pred.inverts is True and pred.validity.outside_verified_range
     assert math.isfinite(pred.t_half) and pred.t_start < pred.t_half <= pred.t_inv
     t_sim, _, status = simulated_t_half(case, 2.0, rtol=1e-8)
     assert status == "completed" and math.isfinite(t_sim)
+
+
+def test_averaged_method_meets_the_target_on_a_fast_table_case_in_its_range():
+    # Table case 0 (viscous, μ = 1.14 s/m, CM at rest, θ0 = 0.04; simulated crossing 1.56 s, in
+    # contact): inside the averaged flow's validity range, so within the issue's worst-case
+    # target, 10 % of t_half plus one nutation period (the table's slack), of the simulation.
+    case = cases()[0]
+    pred = predict_inversion(case.top, case.state, case.friction, method="averaged")
+    assert pred.inverts is True and not pred.validity.outside_verified_range
+    assert pred.t_lift == math.inf
+    t_sim, T_n, status = simulated_t_half(case, 2.0 * pred.t_half, rtol=1e-8)
+    assert status == "completed"
+    assert abs(pred.t_half - t_sim) <= 0.10 * t_sim + T_n
 
 
 # --- Coulomb–Contensou: the balance flow in (θ, λ) ------------------------------------------------

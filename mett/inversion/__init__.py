@@ -14,9 +14,9 @@
 * for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
   make the top fall back before it inverts;
-* with ``method="averaged"``, instead of the balance flow: the flow of (D̄, Ẽ̄) averaged over the
-  nutation band of V(z, D, λ) (:mod:`mett.inversion._averaged`), which overestimates t_half and is
-  always flagged as unverified.
+* with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
+  (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
+  precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
 
 The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
 """
@@ -36,7 +36,7 @@ from ..asymptotics import high_spin
 from ..classification import asymptotic_state
 from ..dynamics.flight import VISCOUS_ARTEFACT
 from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous, check_law
-from ..integrals import jellett, modified_energy, routh
+from ..integrals import jellett
 from ..stability import escape_modes
 from ..state import State
 from ..top import TippeTop
@@ -44,6 +44,7 @@ from . import _averaged, _nutation
 from ._gyroscopic import (
     NoBalance,
     balance_D_and_E_mod,
+    balance_state,
     contensou_path,
     nutation_period,
     slow_path,
@@ -170,10 +171,11 @@ def predict_inversion(
         ``inverts=None`` where λ arrives below ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
-        gyroscopic-balance slow flow. ``"averaged"``: the flow of (D̄, Ẽ̄) averaged over the
-        nutation band of V(z, D, λ) from the state's own integrals (viscous and regularised
-        Coulomb laws; always flagged outside the verified range: it overestimates ``t_half``, see
-        the docs page).
+        gyroscopic-balance slow flow. ``"averaged"``: the same initiation, then the flow of the
+        gliding top's integrals (ω3, E') averaged over its exact nutation band, with the
+        centre of mass's answer to the friction force as the slow slip (viscous and regularised
+        Coulomb laws; verified range: the gyroscopic box for the viscous law; ``inverts=None``
+        with ``t_lift`` where the band's normal force vanishes before π/2).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
 
@@ -244,8 +246,6 @@ def predict_inversion(
     name = _law_name(law)
     spin_ratio = lam / top.lambda_thres
     notes: list[str] = []
-    if method == "averaged":
-        notes.append("method averaged: not within the error target (docs/theory/inversion.md)")
     if name not in VERIFIED["laws"]:
         notes.append(f"law {name} not in the verification table")
     lo, hi = VERIFIED["theta0"]
@@ -270,8 +270,8 @@ def predict_inversion(
             f"{VERIFIED['theta0_moving_cm']} (verified: centre of mass at rest, or theta0 smaller)"
         )
 
-    def validity(eps: float) -> Validity:
-        n = list(notes)
+    def validity(eps: float, extra: Sequence[str] = ()) -> Validity:
+        n = [*notes, *extra]
         if math.isfinite(eps) and eps > VERIFIED["epsilon"]:
             n.append(f"epsilon = T_n/t_half above {VERIFIED['epsilon']}")
         return Validity(eps, spin_ratio, bool(n), tuple(n))
@@ -559,7 +559,7 @@ def _end_reason(top: TippeTop, theta_end: float) -> str:
 
 
 def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity, empty):
-    """method="averaged": the band-averaged flow of (D̄, Ẽ̄) from the state's integrals."""
+    """method="averaged": the band-averaged flow of (ω3, E') from the growing mode's start."""
     theta0 = float(state.theta)
     if not isinstance(law, (Viscous, RegularisedCoulomb)):
         return empty(
@@ -570,15 +570,22 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
             theta0=theta0,
             lam=lam,
         )
-    D0, E0 = float(routh(top, state)), float(modified_energy(top, state))
-    target = theta_end - tol if theta_end > theta0 else theta_end + tol
+    # The flow starts where the gyroscopic one does: on the growing mode's amplitude θ_u(0) (the
+    # linear initiation), in the fast steady precession there (an empty band of the gliding top).
+    amp = esc.amplitude
+    phidot_0, w3_0, _, _, _ = balance_state(top, lam, amp)
+    if not math.isfinite(w3_0):
+        return empty(None, "no fast precession at the start's growing mode", "averaged",
+                     validity(math.nan), theta0=theta0, lam=lam)  # fmt: skip
+    target = theta_end - tol if theta_end > amp else theta_end + tol
     # The slow time scale is 1/(μ g) (the rates are proportional to the friction coefficient):
     # a few hundred of them bound any inversion the flow can describe.
     mu_lin = _linear_mu(top, law, state)
     t_max = 300.0 / (mu_lin * top.g)
     try:
-        t, theta, D, E_mod, t_half, t_end, _ = _averaged.slow_path(
-            top, law, lam, D0, E0, math.cos(theta0), target, t_max
+        n1, e = _averaged.start(top, float(phidot_0), float(w3_0), amp)
+        t, theta, D, E_mod, t_half, t_end, t_lift, slip = _averaged.slow_path(
+            top, law, lam, n1, e, target, t_max
         )
     except _averaged.AveragingFails as exc:
         return empty(
@@ -589,9 +596,27 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
             theta0=theta0,
             lam=lam,
         )
+    extra = []
+    if isinstance(law, Viscous):
+        # the viscous law's dry coefficient μ|ν| before π/2, as for the gyroscopic method
+        coef = mu_lin * float(np.max(slip[theta <= 0.5 * math.pi], initial=0.0))
+        if coef > VISCOUS_ARTEFACT:
+            extra.append(f"viscous mu |v_A| = {coef:.3g} > {VISCOUS_ARTEFACT:g} before pi/2")
+    if t_lift < t_half:
+        extra.append(f"the nutation band lifts the top off before pi/2 (t_lift = {t_lift:.3g} s)")
     T_n = nutation_period(top, float(state.omega3))
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
-    if kind == "inverted":
+    if t_lift < t_half:
+        # the band's own normal force vanishes: the nutation lifts the top off and the flow,
+        # which assumes contact, stops there
+        inverts, reason = (
+            None,
+            (
+                f"the nutation band lifts the top off at t = {t_lift:.3g} s (mean theta = "
+                f"{theta[-1]:.3g}), before pi/2: the averaged flow assumes contact"
+            ),
+        )
+    elif kind == "inverted":
         inverts, reason = (True, "inverts") if math.isfinite(t_half) else (None, "")
         if inverts is None:
             reason = f"the averaged flow does not reach pi/2 by t = {t[-1]:.3g} s"
@@ -612,7 +637,8 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         E_mod=np.asarray(E_mod),
         lam=np.full(len(t), lam),
         theta_end=theta_end,
-        validity=validity(eps),
+        validity=validity(eps, extra),
+        t_lift=t_lift,
     )
 
 

@@ -1,23 +1,36 @@
-"""The averaged METT flow: the slow evolution of (D, Ẽ) averaged over the nutation band of
-V(z, D, λ) (docs/theory/inversion.md#the-averaged-mett-flow).
+"""The averaged flow: the slow evolution of the gliding top's integrals (ω3, E') averaged over its
+nutation band, with the centre of mass's horizontal velocity as the slow slip variable
+(docs/theory/inversion.md#the-averaged-flow).
 
-Between two slow steps the top is taken to move in the band of the METT, Ẽ = g(z) θ̇² + V(z, D, λ),
-with (Ẽ, D, λ) frozen, and its centre of mass horizontally at rest on average, so that the contact
-point slips with ν = (ω × a)_h: ν_x = −R θ̇ (1 − α z), ν_y = R sin θ (ω3 + φ̇ (α − z)). Friction
-F_t = −c(|ν|) g_n ν (c = μ for the viscous law, μ/√(|ν|² + ε²) for the regularised Coulomb law) then
-changes the integrals at the rates (docs/theory/equations.md#integrals)
+Fast motion. Without friction a gliding top keeps its horizontal momentum, ω3 (the normal force
+has no torque about 3̂), Jellett's λ and the energy of the rotation and the height,
+E_g = ½ I1 (θ̇² + φ̇² sin²θ) + ½ m (R α sin θ θ̇)² + ½ I3 ω3² + m g R (1 − α cos θ). With
+φ̇ = N(z)/(R I1 (1 − z²)), N(z) = λ + R I3 ω3 (α − z) (λ's definition) it separates like the heavy
+top: with z = cos θ, δ = 1 − z and E' = E_g − ½ I3 ω3²,
 
-    dẼ/dt = m ν̇·(ω × a) = −c g_n |ν|² + d/dt(½ m |ω × a|²),
-    dD/dt = I3 ω̇3 √d + I3 ω3 d√d/dt = −c g_n R ν_y sin θ √d(z) + D d(ln √d)/dt,
+    G(z) θ̇² + W'(z) = E',   G = ½ (I1 + m R² α² (1 − z²)),   W' = N²/(2 R² I1 (1 − z²)) + m g R (1 − α z),
+    ż² = P(δ)/G,   P(δ) = q δ³ − (2q + e + C k²) δ² + 2 (e − C n1 k) δ − C n1²,
 
-whose last terms are derivatives of functions of the band's phase: they vanish on averaging over
-one nutation period at frozen (Ẽ, D). The slow flow is therefore
+a cubic (q = m g R α, e = E' − m g R (1 − α), k = R I3 ω3, n1 = λ − k (1 − α), C = 1/(2 R² I1)).
+δ oscillates between its roots δ_a < δ_b in [0, 2] (the third, δ_3, lies beyond 2) with the exact
+period T = 2 ∫ √(G/P) dδ. The substitution δ = c + h sin u turns √(G/P) dδ into
+√(G/(q (δ_3 − δ))) du, smooth: Gauss–Legendre in u converges exponentially. This is the band of
+the gliding top, not the rolling top's band of the METT V(z, D, λ) (the two differ where the
+contact slips: docs page).
 
-    dD̄/dt = −⟨c g_n R ν_y sin θ √d⟩,   dẼ̄/dt = −⟨c g_n |ν|²⟩,   λ constant,
+Slow motion. Friction F = −c g_n ν at the contact (c = μ viscous, μ/√(|ν|² + ε²) regularised
+Coulomb) changes, exactly, I3 ω̇3 = −c g_n R sin θ ν_y and Ė_g = F·(ω × a) = −c g_n ν·w, with
+w = (ω × a)_h the slip of the centre of mass at rest and ν = w + ṙ. The centre of mass's velocity
+ṙ obeys m r̈ = F; in the frame turning with the band's mean precession Ω = ⟨φ̇⟩ it is U, and the
+band's own frame (x̂, ŷ) is turned from it by δφ(t) = ∫ (φ̇ − Ω) dt. Averaged over a period at
+frozen (ω3, E', U):
 
-with ⟨·⟩ the time average over the band (:func:`mett.separation.band_average`, the exact period's
-quadrature), g_n = m g + m R α (θ̈ sin θ + θ̇² cos θ) from the METT's θ̈. Where the band collapses
-(Ẽ reaches min V) the flow slides along steady precession at the bottom of the well (:func:`rates`).
+    I3 dω3/dt = −⟨c g_n R sin θ ν_y⟩,   dE'/dt = −⟨c g_n ν·w⟩ − I3 ω3 dω3/dt,
+    m dU/dt = −i Ω m U − ⟨c g_n e^{iδφ} ν⟩,   ν = w + e^{−iδφ} U   (complex, x̂ + iŷ),
+
+with g_n = m g + ½ m R α dP/G/dδ from the band's own vertical motion. The fast precession
+(Ω ≈ λ/(R I1)) turns U far faster than the integrals change, so U is slaved: dU/dt = 0 is solved
+at every step (the lag is O(slow rate/Ω)).
 """
 
 from __future__ import annotations
@@ -28,112 +41,311 @@ import numpy as np
 
 from .. import _formulas as fm
 from ..friction import RegularisedCoulomb, Viscous
-from ..potential import V, dV_dz
-from ..separation import band_average, minima
 from ..top import TippeTop
+from ._gyroscopic import cm_slip2
 
-
-def _band_functions(top: TippeTop, law, D: float, Et: float, lam: float):
-    """F(z) for :func:`band_average`: rows (c g_n |ν|², c g_n R ν_y sin θ √d, θ, z)."""
-    m, R, a, I1, I3, g = top.m, top.R, top.alpha, top.I1, top.I3, top.g
-    if isinstance(law, Viscous):
-        mu, eps = (top.mu if law.mu is None else law.mu), None
-    elif isinstance(law, RegularisedCoulomb):
-        mu, eps = law.mu, law.eps
-    else:  # pragma: no cover - predict_inversion refuses other laws first
-        raise TypeError(f"the averaged flow has no rate for {law!r}")
-    gp = -top.sigma * a * I3  # g'(z)
-
-    def F(z):
-        z = np.clip(z, -1.0, 1.0)
-        s2 = (1.0 - z) * (1.0 + z)
-        s = np.sqrt(s2)
-        sqd = np.sqrt(fm.d(top, z))
-        gz = fm.g(top, z)
-        omega3 = D / (I3 * sqd)
-        n = lam * sqd + R * D * (a - z)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            # φ̇ sin θ = N/(R I1 sin θ √d): 0 at a pole (N vanishes there on a band reaching it)
-            phis = np.where(s > 0.0, n / (R * I1 * s * sqd), 0.0)
-        th2 = np.maximum(Et - V(top, z, D, lam), 0.0) / gz
-        nu_y = R * (s * omega3 + phis * (a - z))
-        nu2 = R * R * (1.0 - a * z) ** 2 * th2 + nu_y * nu_y
-        thdd_s = s2 * (dV_dz(top, z, D, lam) + gp * th2) / (2.0 * gz)  # θ̈ sin θ
-        gn = m * g + m * R * a * (thdd_s + th2 * z)
-        c = mu if eps is None else mu / np.sqrt(nu2 + eps * eps)
-        return np.stack([c * gn * nu2, c * gn * R * nu_y * s * sqd, np.arccos(z), z], axis=0)
-
-    return F
-
-
-def rates(top: TippeTop, law, lam: float, D: float, Et: float, z0: float | None = None):
-    """(dD̄/dt, dẼ̄/dt, ⟨θ⟩, ⟨z⟩, band, T) of the averaged flow at (D, Ẽ).
-
-    Where friction has emptied the band (Ẽ at or below min V(·, D, λ), a single well) the top
-    precesses steadily at the bottom z_m of the well and slides along that branch (Filippov):
-    Ẽ = V(z_m, D, λ), dẼ/dt = max(−⟨c g_n |ν|²⟩, ∂V/∂D (z_m) dD/dt) (the envelope theorem gives
-    d min V/dD = ∂V/∂D at z_m); the band reopens where dissipation falls behind the well.
-    """
-    try:
-        b, T, avg = band_average(top, Et, D, lam, _band_functions(top, law, D, Et, lam), z0)
-        return -avg[1], -avg[0], avg[2], avg[3], b, T
-    except ValueError as exc:
-        if "admits no motion" not in str(exc):
-            raise
-        zs = minima(top, D, lam)
-        if len(zs) != 1:
-            raise
-    zm = float(zs[0])
-    Em = float(V(top, zm, D, lam))
-    b, T, avg = band_average(top, Em, D, lam, _band_functions(top, law, D, Em, lam), zm)
-    dD = -avg[1]
-    R, I1, I3, a = top.R, top.I1, top.I3, top.alpha
-    n = lam * math.sqrt(float(fm.d(top, zm))) + R * D * (a - zm)
-    dV_dD = n * (a - zm) * I3 / (I1 * I1 * R * (1.0 - zm * zm)) + D / I1
-    return dD, max(-avg[0], dV_dD * dD), avg[2], avg[3], b, T
+# Gauss–Legendre nodes in u ∈ (−π/2, π/2) and the matrix that integrates a function known at the
+# nodes from −π/2 to each node (the interpolating Legendre series, integrated exactly).
+_N = 32
+_X, _WX = np.polynomial.legendre.leggauss(_N)
+_UNODES = 0.5 * math.pi * _X
+_WEIGHTS = 0.5 * math.pi * _WX
+_L = np.polynomial.legendre
+_CUM = (
+    0.5 * math.pi * _L.legval(_X, _L.legint(np.linalg.inv(_L.legvander(_X, _N - 1)), lbnd=-1.0)).T
+)
+_SIN, _COS2 = np.sin(_UNODES), np.cos(_UNODES) ** 2
+_ONE = (np.zeros(1), np.ones(1), np.array([math.pi]))
 
 
 class AveragingFails(Exception):
-    """The band of V(z, D̄, λ) cannot be followed (several wells, a separatrix, no motion)."""
+    """The band cannot be followed (no motion, a separatrix) or the slip has no steady answer."""
 
 
-def slow_path(top: TippeTop, law, lam: float, D0: float, E0: float, z0: float, theta_to: float,
-              t_max: float, rtol: float = 1e-6):  # fmt: skip
-    """Integrate the averaged flow from (D0, Ẽ0) (the band holding z0) until ⟨θ⟩ = ``theta_to``.
+def _law(top: TippeTop, law):
+    if isinstance(law, Viscous):
+        return (top.mu if law.mu is None else law.mu), None
+    if isinstance(law, RegularisedCoulomb):
+        return law.mu, law.eps
+    raise TypeError(f"the averaged flow has no rate for {law!r}")
 
-    Returns (t, ⟨θ⟩, D̄, Ẽ̄, t_half, t_end, T_band at the start): arrays at the solver's steps, the
-    times ⟨θ⟩ passes π/2 and ``theta_to`` (inf if not by ``t_max``). Explicit Runge–Kutta 4(5)
-    (scipy's RK45) with relative tolerance ``rtol`` on (D̄, Ẽ̄): the flow is smooth and non-stiff
-    (its rates are O(μ g) relative), so its error is rtol-sized. Raises AveragingFails where the
-    band cannot be followed.
+
+def _cubic(top: TippeTop, lam: float, n1: float, e: float) -> np.ndarray:
+    """Coefficients of P(δ), highest power first, from n1 = N(1) and e = E' − m g R (1 − α)."""
+    m, R, a, I1, g = top.m, top.R, top.alpha, top.I1, top.g
+    q = m * g * R * a
+    k = (lam - n1) / (1.0 - a)  # R I3 ω3
+    C = 0.5 / (R * R * I1)
+    return np.array([q, -(2.0 * q + e + C * k * k), 2.0 * (e - C * n1 * k), -C * n1 * n1])
+
+
+def omega3_of(top: TippeTop, lam: float, n1: float) -> float:
+    """ω3 (rad/s) from n1 = λ − R I3 ω3 (1 − α)."""
+    return (lam - n1) / (top.R * top.I3 * (1.0 - top.alpha))
+
+
+def start(top: TippeTop, phidot: float, omega3: float, theta: float) -> tuple[float, float]:
+    """(n1, e) of a state with θ̇ = 0 (e.g. a steady precession), without cancellation:
+    n1 = R sin²θ (I1 φ̇ − I3 ω3/(1 + cos θ)), e = ½ I1 φ̇² sin²θ + m g R α (1 − cos θ)."""
+    m, R, a, I1, I3, g = top.m, top.R, top.alpha, top.I1, top.I3, top.g
+    s2 = math.sin(theta) ** 2
+    one_minus_z = 2.0 * math.sin(0.5 * theta) ** 2
+    n1 = R * s2 * (I1 * phidot - I3 * omega3 / (1.0 + math.cos(theta)))
+    e = 0.5 * I1 * phidot * phidot * s2 + m * g * R * a * one_minus_z
+    return n1, e
+
+
+def gliding_band(
+    top: TippeTop, lam: float, n1: float, e: float
+) -> tuple[float, float, float, bool]:
+    """(δ_a, δ_b, δ_3, empty): the turning points of the gliding band in δ = 1 − cos θ.
+
+    ``empty``: E' is at or below the bottom of the well (steady precession); then δ_a = δ_b is
+    the bottom, the maximum of P on (0, 2).
+    """
+    p = _cubic(top, lam, n1, e)
+    # P' = 3q δ² + 2 p1 δ + p2; P has its maximum in (0, 2) at the smaller root (q > 0).
+    A, B, Cc = 3.0 * p[0], 2.0 * p[1], p[2]
+    disc = B * B - 4.0 * A * Cc
+    if not disc > 0.0:
+        raise AveragingFails("no well: P has no maximum")
+    sq = math.sqrt(disc)
+    dm = (-B - sq) / (2.0 * A) if B > 0.0 else 2.0 * Cc / (-B + sq)  # the smaller root, stably
+    # at a spinning pole the maximum sits at δ = 0 or 2 (rounding may put it just outside): a
+    # steady spin there, whose band is the pole itself
+    dm = min(max(dm, 1e-300), 2.0 * (1.0 - 2.0**-52))
+    pm = float(np.polyval(p, dm))
+    if not pm > 0.0:
+        # the third root lies beyond the well (q > 0); guard it against rounding at a pole
+        return dm, dm, max(-p[1] / p[0] - 2.0 * dm, dm + 1.0), True
+    # The two roots about the maximum: Newton from the quadratic estimate on either side (it is
+    # monotone there, P being concave between them), then the third root from Vieta's sum.
+    dp, ddp = np.polyder(p), np.polyder(p, 2)
+    x0 = math.sqrt(2.0 * pm / abs(float(np.polyval(ddp, dm))))
+    ends = []
+    for side in (-1.0, 1.0):
+        x = dm + side * x0
+        for _ in range(60):
+            d = float(np.polyval(dp, x))
+            step = float(np.polyval(p, x)) / d if d != 0.0 else 0.0
+            x_new = x - step
+            if side * (x_new - dm) <= 0.0:  # stay on this side of the maximum
+                x_new = 0.5 * (x + dm)
+            if abs(x_new - x) <= 4e-16 * max(abs(x), 1e-300):
+                x = x_new
+                break
+            x = x_new
+        ends.append(x)
+    # a band reaching a pole (N = 0 there: a spinning pole) has a turning point at δ = 0 or 2,
+    # which rounding may put just outside
+    da, db = max(ends[0], 0.0), min(ends[1], 2.0)
+    d3 = -p[1] / p[0] - ends[0] - ends[1]
+    if not (da <= dm <= db < d3):
+        raise AveragingFails("the band's turning points are not bracketed")
+    return da, db, d3, False
+
+
+class _Nodes:
+    """The band at the quadrature nodes: everything that does not depend on the slip U."""
+
+    __slots__ = (
+        "Delta",
+        "Kx",
+        "Ky",
+        "Omega",
+        "T",
+        "dm",
+        "empty",
+        "gn",
+        "half_w2",
+        "phid",
+        "s",
+        "theta",
+        "wt",
+        "wx",
+        "wy",
+        "z",
+    )
+
+    def __init__(self, top: TippeTop, lam: float, n1: float, e: float) -> None:
+        m, R, a, I1, I3, g = top.m, top.R, top.alpha, top.I1, top.I3, top.g
+        w3 = omega3_of(top, lam, n1)
+        da, db, d3, empty = gliding_band(top, lam, n1, e)
+        self.empty, self.dm = empty, da
+        q = m * g * R * a
+        c, h = 0.5 * (da + db), 0.5 * (db - da)
+        # an empty band is one point, the steady precession (the quadrature's ∑ weights = π
+        # gives its small-oscillation period)
+        sin_u, cos2_u, weights = (_SIN, _COS2, _WEIGHTS) if not empty else _ONE
+        dl = c + h * sin_u
+        s2 = dl * (2.0 - dl)
+        G = 0.5 * (I1 + m * R * R * a * a * s2)
+        P = q * h * h * cos2_u * (d3 - dl)
+        dtdu = np.sqrt(G / (q * (d3 - dl)))
+        w = weights * dtdu
+        half = float(w.sum())
+        self.T = 2.0 * half
+        self.wt = w / half
+        dP = np.polyval(np.polyder(_cubic(top, lam, n1, e)), dl)
+        dG = m * R * R * a * a * (1.0 - dl)
+        self.gn = m * g + 0.5 * m * R * a * (dP * G - P * dG) / (G * G)
+        self.z = 1.0 - dl
+        self.s = np.sqrt(s2)
+        self.theta = 2.0 * np.arcsin(np.sqrt(0.5 * dl))
+        self.phid = (n1 + R * I3 * w3 * dl) / (R * I1 * s2)
+        self.wy = R * self.s * (w3 + self.phid * (a - self.z))
+        # |θ̇|: P/(G s²); the half u: −π/2 → π/2 has δ rising (θ rising, θ̇ > 0)
+        self.wx = -R * np.sqrt(P / (G * s2)) * (1.0 - a * self.z)
+        self.Omega = float(self.wt @ self.phid)
+        # δφ on the rising half: ∫ (φ̇ − Ω) dt from the turning point δ_a; −δφ on the other half
+        self.Delta = _CUM @ (dtdu * (self.phid - self.Omega)) if not empty else np.zeros(1)
+        self.half_w2 = 0.5 * m * (self.wx**2 + self.wy**2)
+        # The answering slip's inverse mass (units 1/m) along x̂ and ŷ: the centre of mass's
+        # alone. The rotation's share (K_x = 1 + m R² (1 − α z)²/I1, K_y = I3 d(z)/I1 for the
+        # contact point) is a forced offset from the frictionless band that this flow does not
+        # carry (docs page: where it matters, the flow is outside its range).
+        self.Kx = self.Ky = 1.0
+
+
+def _forces(nodes: _Nodes, mu: float, eps: float | None, U: complex):
+    """Per half (θ̇ > 0, θ̇ < 0): (c g_n, ν in the band frame, e^{iδφ}, the sign of θ̇)."""
+    out = []
+    for sign in (1.0, -1.0):
+        e = np.exp(1j * sign * nodes.Delta)
+        nu = (sign * nodes.wx + 1j * nodes.wy) + U / e
+        cg = mu * nodes.gn
+        if eps is not None:
+            cg = cg / np.sqrt(nu.real**2 + nu.imag**2 + eps * eps)
+        out.append((cg, nu, e, sign))
+    return out
+
+
+def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, w2b: float) -> complex:
+    """The contact point's steady answer U (mean frame): i Ω m U = ⟨e^{iδφ} 𝒦 F⟩, F = −c g_n ν.
+
+    𝒦 = diag(K_x, K_y) is the contact point's inverse mass in the band frame, in units of 1/m
+    (the ν̇ equations, docs/theory/equations.md): the centre of mass and the rotation both give
+    way. The residual is affine in (Re U, Im U) for the viscous law (one Newton step solves it);
+    for the regularised law Newton's method with backtracking starts from the collapsed band's
+    closed form (:func:`mett.inversion._gyroscopic.cm_slip2`, at the band's mean slip).
+    """
+    wt = nodes.wt
+
+    def residual(U: complex) -> complex:
+        r = 1j * nodes.Omega * m * U
+        for cg, nu, e, _ in _forces(nodes, mu, eps, U):
+            r += 0.5 * (wt @ (e * cg * (nodes.Kx * nu.real + 1j * nodes.Ky * nu.imag)))
+        return r
+
+    scale = math.sqrt(w2b) + (0.0 if eps is None else eps)
+    if eps is None:
+        # c constant: (i Ω m + ⟨c g_n⟩) U = −⟨c g_n e^{iδφ} w⟩ (𝒦 = 1)
+        num, den = 0j, 1j * nodes.Omega * m
+        for cg, nu, ph, _ in _forces(nodes, mu, eps, 0j):
+            num += 0.5 * (wt @ (ph * cg * nu))
+            den += 0.5 * float(wt @ cg)
+        return -num / den
+    else:
+        # the steady answer of a collapsed band, v_A = w/(1 − i κ K): |v_A|² from cm_slip2
+        K = float(np.mean(0.5 * (nodes.Kx + nodes.Ky)))
+        k2 = (mu * float(wt @ nodes.gn) * K / (m * nodes.Omega)) ** 2
+        x = float(cm_slip2(w2b, eps * eps, k2, 1.0))
+        c = mu * float(wt @ nodes.gn) / math.sqrt(x + eps * eps)
+        w = float(wt @ nodes.wy)
+        U = w / (1.0 - 1j * c * K / (m * nodes.Omega)) - w
+    r = residual(U)
+    for _ in range(60):
+        h = 1e-7 * scale
+        jr = (residual(U + h) - r) / h  # ∂res/∂Re U
+        ji = (residual(U + 1j * h) - r) / h  # ∂res/∂Im U
+        J = np.array([[jr.real, ji.real], [jr.imag, ji.imag]])
+        try:
+            dx = np.linalg.solve(J, [-r.real, -r.imag])
+        except np.linalg.LinAlgError:
+            raise AveragingFails("the slip has no steady answer (singular)") from None
+        step = complex(dx[0], dx[1])
+        if eps is None:
+            return U + step
+        lam_ = 1.0
+        while True:  # backtracking: the residual must fall
+            r_new = residual(U + lam_ * step)
+            if abs(r_new) < abs(r) or lam_ < 1e-6:
+                break
+            lam_ *= 0.5
+        U, r = U + lam_ * step, r_new
+        if abs(lam_ * step) <= 1e-12 * scale:
+            return U
+    raise AveragingFails("the slip's steady answer does not converge")
+
+
+def rates(top: TippeTop, law, lam: float, n1: float, e: float):
+    """(dn1/dt, de/dt, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, T, U, min g_n, de/dt before the floor, max |ν|) of the
+    averaged flow at (n1, e).
+
+    n1 = λ − R I3 ω3 (1 − α) and e = E' − m g R (1 − α) carry the state near the upright spin
+    without cancellation (both vanish there like θ²). Where the band is empty (e at or below the
+    bottom of the well: steady precession) the flow slides along the bottom (Filippov):
+    de/dt = max(−⟨c g_n ν·w⟩ − I3 ω3 ω̇3, ∂W'/∂ω3 ω̇3), the envelope theorem giving
+    d min W'/dω3 = ∂W'/∂ω3 at the bottom; the band opens where the dissipation falls behind the
+    well.
+    """
+    m, R, a, I1, I3 = top.m, top.R, top.alpha, top.I1, top.I3
+    mu, eps = _law(top, law)
+    w3 = omega3_of(top, lam, n1)
+    nodes = _Nodes(top, lam, n1, e)
+    wt = nodes.wt
+    U = _slaved_slip(nodes, m, mu, eps, float(wt @ (nodes.wx**2 + nodes.wy**2)))
+    forces = _forces(nodes, mu, eps, U)
+    # the centre of mass's share of the answer, i Ω m U_cm = ⟨e^{iδφ} F⟩; the rest, U − U_cm, is
+    # the rotation's, and ω × a = w + e^{−iδφ} (U − U_cm) is what the force does work on
+    U_cm = sum(-0.5 * (wt @ (ph * cg * nu)) for cg, nu, ph, _ in forces) / (1j * nodes.Omega * m)
+    torque, power, slip = 0.0, 0.0, 0.0
+    for cg, nu, ph, sign in forces:
+        slip = max(slip, float(np.max(np.abs(nu))))
+        oxa = (sign * nodes.wx + 1j * nodes.wy) + (U - U_cm) / ph
+        torque += 0.5 * float(wt @ (cg * R * nodes.s * nu.imag))
+        power += 0.5 * float(wt @ (cg * (nu.real * oxa.real + nu.imag * oxa.imag)))
+    dw3 = -torque / I3
+    de = de_power = -power - I3 * w3 * dw3
+    e_floor = e
+    if nodes.empty:
+        d = nodes.dm
+        N = n1 + R * I3 * w3 * d
+        dW = N * R * I3 * (a - 1.0 + d) / (R * R * I1 * d * (2.0 - d))
+        de = max(de, dW * dw3)
+        e_floor = N * N / (2.0 * R * R * I1 * d * (2.0 - d)) + top.m * top.g * R * a * d
+    theta = float(wt @ nodes.theta)
+    D = float(wt @ (I3 * w3 * np.sqrt(fm.d(top, nodes.z))))
+    Et = e_floor + m * top.g * R * (1.0 - a) + 0.5 * I3 * w3 * w3 + float(wt @ nodes.half_w2)
+    dn1 = -R * I3 * (1.0 - a) * dw3
+    return dn1, de, theta, D, Et, nodes.T, U, float(nodes.gn.min()), de_power, slip
+
+
+def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: float, t_max: float,
+              rtol: float = 1e-6):  # fmt: skip
+    """Integrate the averaged flow from (n1, e) (see :func:`rates`) until ⟨θ⟩ = ``theta_to``.
+
+    Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift, max |ν|): arrays at the solver's steps,
+    the times ⟨θ⟩ passes π/2 and ``theta_to`` (inf if not by ``t_max``), the time the band's
+    normal force first vanishes (the nutation lifts the top off; the path stops there, inf if
+    never) and the largest slip in the band at each step (m/s). Explicit Runge–Kutta 4(5) (scipy's
+    RK45) with relative tolerance ``rtol`` (the absolute tolerance 1e-3 rtol of the start's
+    values: n1 and e grow like θ² from a start that may be θ ~ 1e-5): with U slaved the flow is
+    smooth and not stiff (its rates are O(μ g)), so its error is rtol-sized. Raises
+    AveragingFails where the band cannot be followed.
     """
     from scipy.integrate import solve_ivp
 
-    last = [z0]
-    # The events and the returned ⟨θ⟩ ask for the rates at the step ends, where RK45 (FSAL) has
-    # already evaluated them: each band quadrature is done once per point (a third of the cost).
     cache: dict[tuple[float, float], tuple] = {}
 
     def evaluate(y):
         key = (float(y[0]), float(y[1]))
         if key not in cache:
-            cache[key] = _evaluate(y)
+            out = rates(top, law, lam, key[0], key[1])
+            if not math.isfinite(out[5]) or not all(math.isfinite(v) for v in out[:5]):
+                raise AveragingFails("the band reaches a separatrix or a pole (no finite period)")
+            cache[key] = out
         return cache[key]
-
-    def _evaluate(y):
-        try:
-            out = rates(top, law, lam, float(y[0]), float(y[1]))
-        except ValueError as exc:
-            if "several" not in str(exc):
-                raise AveragingFails(str(exc)) from None
-            try:  # V has several wells: the one holding the last mean inclination
-                out = rates(top, law, lam, float(y[0]), float(y[1]), last[0])
-            except ValueError as exc2:
-                raise AveragingFails(str(exc2)) from None
-        if not math.isfinite(out[5]):
-            raise AveragingFails("the band reaches a separatrix (infinite period)")
-        last[0] = float(out[3])
-        return out
 
     def rhs(t, y):
         r = evaluate(y)
@@ -145,14 +357,20 @@ def slow_path(top: TippeTop, law, lam: float, D0: float, E0: float, z0: float, t
     def end(t, y):
         return evaluate(y)[2] - theta_to
 
+    def lift(t, y):
+        return evaluate(y)[7]
+
     end.terminal = True  # type: ignore[attr-defined]
-    T0 = evaluate([D0, E0])[5]
-    scale = [abs(D0), abs(E0)]
-    sol = solve_ivp(rhs, (0.0, t_max), [D0, E0], method="RK45", rtol=rtol,
-                    atol=[1e-9 * scale[0], 1e-9 * scale[1]], events=(half, end))  # fmt: skip
+    lift.terminal = True  # type: ignore[attr-defined]
+    atol = [1e-3 * rtol * abs(n1), 1e-3 * rtol * abs(e)]
+    # The state spans many decades (n1, e grow like θ² from θ ~ 1e-5): a trial step may
+    # overflow the error norm or reach a pole; such values are rejected (the step shrinks) or
+    # caught by evaluate(), so numpy's warnings are silenced here, not passed on to the caller.
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        sol = solve_ivp(rhs, (0.0, t_max), [n1, e], method="RK45", rtol=rtol, atol=atol,
+                        events=(half, end, lift))  # fmt: skip
     if sol.status < 0:
         raise AveragingFails(sol.message)
-    theta = np.array([evaluate(y)[2] for y in sol.y.T])
-    t_half = float(sol.t_events[0][0]) if len(sol.t_events[0]) else math.inf
-    t_end = float(sol.t_events[1][0]) if len(sol.t_events[1]) else math.inf
-    return sol.t, theta, sol.y[0], sol.y[1], t_half, t_end, T0
+    out = np.array([[*evaluate(y)[2:5], evaluate(y)[9]] for y in sol.y.T])
+    t_half, t_end, t_lift = (float(te[0]) if len(te) else math.inf for te in sol.t_events)
+    return sol.t, out[:, 0], out[:, 1], out[:, 2], t_half, t_end, t_lift, out[:, 3]

@@ -64,8 +64,8 @@ class InversionPrediction:
     t, theta, D, E_mod : ndarray
         The slow path: times (s), mean inclination θ̄ (rad), Routh integral D̄ (kg m² s⁻¹) and
         modified energy Ẽ̄ (J): those of the gyroscopic-balance state along it (method
-        "gyroscopic"), or the band-averaged flow's own (D̄, Ẽ̄) and its time-averaged θ over the
-        band (method "averaged").
+        "gyroscopic"), or the band averages of D, Ẽ and θ over the gliding top's nutation band
+        along the averaged flow (method "averaged").
     lam : ndarray
         Jellett's integral along the path (kg m³ s⁻¹): constant except for the Contensou law.
     theta_end : float
@@ -81,7 +81,9 @@ class InversionPrediction:
         normal force g_n = m (g − l d²cos θ/dt²) to zero where l |λ_n|² Z ≥ g (l = Rα); Z from
         the initiation's mode split, carried along the path by the mode's own growth rate and
         its adiabatic invariant. Where ``t_lift < t_half`` the prediction is flagged: the
-        reductions assume a top on the table, and a hopping top inverts later.
+        reductions assume a top on the table, and a hopping top inverts later. Method
+        "averaged": the first time the normal force vanishes somewhere in the flow's own
+        nutation band (its path stops there; ``math.inf`` if never).
     """
 
     inverts: bool | None
