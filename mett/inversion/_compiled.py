@@ -67,21 +67,12 @@ _CLEAR, _SPLIT = 0.3, 8
 
 
 @_njit
-def eigvals_hessenberg_qr(a):
-    """Eigenvalues (wr, wi, ok) of the real square matrix ``a`` (overwritten).
-
-    Balancing by powers of 2, reduction to upper Hessenberg form by stabilised elementary
-    similarity transformations, and the Francis double-shift QR iteration (the EISPACK routines
-    balanc, elmhes and hqr; Wilkinson & Reinsch 1971, Handbook for Automatic Computation II;
-    Press et al. 1992, Numerical Recipes §11.5–11.6). Backward stable like LAPACK's dgeev (which
-    adds multishift and aggressive deflation, of no use at n = 8) and without its workspace
-    queries and allocations. Complex pairs come out as (x + iy, x − iy). ``ok`` is False if an
-    eigenvalue has not converged in 30 iterations (the caller then uses LAPACK).
-    """
+def balance_matrix(a):
+    """Scale ``a`` in place to D⁻¹ a D, D diagonal of powers of 2, until the off-diagonal norms of
+    each row and its column are comparable (EISPACK balanc, without permutations); returns D's
+    diagonal. Eigenvalues are unchanged; an eigenvector x of the result is D⁻¹ v for v of ``a``."""
     n = a.shape[0]
-    wr = np.zeros(n)
-    wi = np.zeros(n)
-    # balanc: rows and columns scaled by powers of 2 until their norms are comparable
+    d = np.ones(n)
     done = False
     while not done:
         done = True
@@ -105,11 +96,31 @@ def eigvals_hessenberg_qr(a):
                     c /= 4.0
                 if (c + r) / f < 0.95 * s:
                     done = False
+                    d[i] *= f
                     g = 1.0 / f
                     for j in range(n):
                         a[i, j] *= g
                     for j in range(n):
                         a[j, i] *= f
+    return d
+
+
+@_njit
+def eigvals_hessenberg_qr(a):
+    """Eigenvalues (wr, wi, ok) of the real square matrix ``a`` (overwritten).
+
+    Balancing by powers of 2, reduction to upper Hessenberg form by stabilised elementary
+    similarity transformations, and the Francis double-shift QR iteration (the EISPACK routines
+    balanc, elmhes and hqr; Wilkinson & Reinsch 1971, Handbook for Automatic Computation II;
+    Press et al. 1992, Numerical Recipes §11.5–11.6). Backward stable like LAPACK's dgeev (which
+    adds multishift and aggressive deflation, of no use at n = 8) and without its workspace
+    queries and allocations. Complex pairs come out as (x + iy, x − iy). ``ok`` is False if an
+    eigenvalue has not converged in 30 iterations (the caller then uses LAPACK).
+    """
+    n = a.shape[0]
+    wr = np.zeros(n)
+    wi = np.zeros(n)
+    balance_matrix(a)
     # elmhes: Gaussian elimination with pivoting, column by column below the subdiagonal
     for m in range(1, n - 1):
         x = 0.0
@@ -596,3 +607,118 @@ def spin_jacobian_kernel(y0, h, p):
         J[8, col] = d[8].imag / hc
         J[9, col] = d[9].imag / hc
     return J
+
+
+# --- the upright spin's modes --------------------------------------------------------------------
+
+
+@_njit
+def _lu_solve(M, b, floor):
+    """x with M x = b (complex, M overwritten) by Gaussian elimination with partial pivoting; a
+    pivot below ``floor`` is replaced by it (inverse iteration solves with a singular M)."""
+    n = M.shape[0]
+    x = b.copy()
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(M[i, k]) > abs(M[p, k]):
+                p = i
+        if p != k:
+            for j in range(n):
+                M[k, j], M[p, j] = M[p, j], M[k, j]
+            x[k], x[p] = x[p], x[k]
+        if abs(M[k, k]) < floor:
+            M[k, k] = floor
+        for i in range(k + 1, n):
+            f = M[i, k] / M[k, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    M[i, j] -= f * M[k, j]
+                x[i] -= f * x[k]
+    for k in range(n - 1, -1, -1):
+        s = x[k]
+        for j in range(k + 1, n):
+            s -= M[k, j] * x[j]
+        x[k] = s / M[k, k]
+    return x
+
+
+@_njit
+def eig_small(A):
+    """Eigenvalues and unit right eigenvectors (columns) of the small real matrix ``A``, and ok.
+
+    The matrix balanced first (:func:`balance_matrix`: the Jacobians mix velocities, angular
+    momenta and directions, entries over ten decades, and inverse iteration on the raw matrix
+    loses the small components' digits); the eigenvalues by :func:`eigvals_hessenberg_qr`; each
+    eigenvector by two steps of inverse iteration with the computed eigenvalue (Wilkinson 1965, The Algebraic Eigenvalue Problem,
+    §9.47): the shift is exact to rounding, so the solve amplifies the eigenvector's component
+    by ~1/(ε |A|) over the others, and the second step removes what the start vector lacked.
+    Scaled to unit 2-norm with the largest component real and positive. ``ok`` is False if the
+    QR iteration does not converge or two eigenvalues coincide to rounding (a defective or
+    derogatory matrix, whose eigenvectors inverse iteration cannot separate).
+    """
+    n = A.shape[0]
+    A = A.copy()
+    scale = balance_matrix(A)  # the eigenvectors of the balanced matrix, accurate relative to it
+    wr, wi, ok = eigvals_hessenberg_qr(A.copy())
+    ev = np.empty(n, dtype=np.complex128)
+    V = np.zeros((n, n), dtype=np.complex128)
+    if not ok:
+        return ev, V, False
+    norm = 0.0
+    for i in range(n):
+        for j in range(n):
+            norm = max(norm, abs(A[i, j]))
+    if norm == 0.0:
+        return ev, V, False
+    for k in range(n):
+        ev[k] = complex(wr[k], wi[k])
+    floor = 2.2e-16 * norm
+    for k in range(n):
+        for j in range(k):
+            if abs(ev[k] - ev[j]) <= 1e3 * floor:
+                return ev, V, False
+    M = np.empty((n, n), dtype=np.complex128)
+    for k in range(n):
+        x = np.ones(n, dtype=np.complex128)
+        for _ in range(2):
+            for i in range(n):
+                for j in range(n):
+                    M[i, j] = A[i, j]
+                M[i, i] -= ev[k]
+            x = _lu_solve(M, x, floor)
+            s = 0.0
+            for i in range(n):
+                s += x[i].real ** 2 + x[i].imag ** 2
+            x /= math.sqrt(s)
+        x *= scale  # back to the eigenvector of A
+        s = 0.0
+        for i in range(n):
+            s += x[i].real ** 2 + x[i].imag ** 2
+        x /= math.sqrt(s)
+        big = 0
+        for i in range(n):
+            if abs(x[i]) > abs(x[big]):
+                big = i
+        x *= abs(x[big]) / x[big]
+        V[:, k] = x
+    return ev, V, True
+
+
+@_njit
+def upright_modes_kernel(y0, h, p, horizontal, dy):
+    """(J, eigenvalues, eigenvectors, the start's coefficients, ok) of the upright spin's
+    horizontal block (:func:`mett.stability.escape_modes`): the complex-step Jacobian, its
+    eigen-decomposition (:func:`eig_small`) and the deviation ``dy`` in the eigenvectors."""
+    J = spin_jacobian_kernel(y0, h, p)
+    n = len(horizontal)
+    A = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = J[horizontal[i], horizontal[j]]
+    ev, V, ok = eig_small(A)
+    coef = np.zeros(n, dtype=np.complex128)
+    if ok and np.all(np.isfinite(A)):
+        M = V.copy()
+        coef = _lu_solve(M, dy.astype(np.complex128), 0.0)
+    return J, ev, V, coef, ok
