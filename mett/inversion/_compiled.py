@@ -465,13 +465,15 @@ def _unclear(da, db):
 # The nutation's step (mett.inversion._nutation._follow): the eigenvalue at θ of the fast pair
 # (a, b) nearest the one extrapolated from the last two (θ, λ_n) of the history (one if not
 # ``has2``), the step split in _SPLIT where the pick is unclear, at most DEPTH = 3 times: one
-# function per depth (numba's disk cache cannot hold a recursive function).
+# function per depth (numba's disk cache cannot hold a recursive function). Each returns the
+# pick and the history's last entry before it: after a split, the split's last node (the next
+# step extrapolates from there, as _follow's history does).
 
 
 @_njit
 def _follow3(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
     da, db = _distances(th, a, b, t0, l0, t1, l1)
-    return a if da <= db else b
+    return (a if da <= db else b), t1, l1
 
 
 @_njit
@@ -483,10 +485,11 @@ def _follow2(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
         for k in range(1, _SPLIT):
             x = k * step + t1
             sa, sb = spectrum(x, lam, top, law, mu, eps)
-            pk = _follow3(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
-            u0, v0, u1, v1 = u1, v1, x, pk
+            pk, u0, v0 = _follow3(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
+            u1, v1 = x, pk
         da, db = _distances(th, a, b, u0, v0, u1, v1)
-    return a if da <= db else b
+        t1, l1 = u1, v1
+    return (a if da <= db else b), t1, l1
 
 
 @_njit
@@ -498,10 +501,11 @@ def _follow1(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
         for k in range(1, _SPLIT):
             x = k * step + t1
             sa, sb = spectrum(x, lam, top, law, mu, eps)
-            pk = _follow2(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
-            u0, v0, u1, v1 = u1, v1, x, pk
+            pk, u0, v0 = _follow2(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
+            u1, v1 = x, pk
         da, db = _distances(th, a, b, u0, v0, u1, v1)
-    return a if da <= db else b
+        t1, l1 = u1, v1
+    return (a if da <= db else b), t1, l1
 
 
 @_njit
@@ -513,10 +517,11 @@ def _follow0(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
         for k in range(1, _SPLIT):
             x = k * step + t1
             sa, sb = spectrum(x, lam, top, law, mu, eps)
-            pk = _follow1(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
-            u0, v0, u1, v1 = u1, v1, x, pk
+            pk, u0, v0 = _follow1(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
+            u1, v1 = x, pk
         da, db = _distances(th, a, b, u0, v0, u1, v1)
-    return a if da <= db else b
+        t1, l1 = u1, v1
+    return (a if da <= db else b), t1, l1
 
 
 @_njit
@@ -563,8 +568,9 @@ def lift_off_kernel(t, theta, amp0, start, lam, top, law, mu, eps, bound_limit, 
     has2 = False
     growth = 0.0
     for j in range(N):
-        pick = _follow0(theta[j], fa[j], fb[j], t0, l0, t1, l1, has2, lam, top, law, mu, eps)
-        t0, l0, t1, l1, has2 = t1, l1, theta[j], pick, True
+        pick, t0, l0 = _follow0(theta[j], fa[j], fb[j], t0, l0, t1, l1, has2, lam, top, law, mu,
+                                eps)  # fmt: skip
+        t1, l1, has2 = theta[j], pick, True
         lam_n[j] = pick
         if j:
             growth += 0.5 * (pick.real + lam_n[j - 1].real) * (t[j] - t[j - 1])

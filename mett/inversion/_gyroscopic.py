@@ -30,8 +30,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import _formulas
 from ..friction import Coulomb, RegularisedCoulomb, Viscous
-from ..potential import d as _d_of_z
 from ..top import TippeTop
 
 
@@ -255,7 +255,7 @@ def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
     """
     _, omega3, E, nu, _ = balance_state(top, lam, theta) if state is None else state
     z = np.cos(theta)
-    D = top.I3 * omega3 * np.sqrt(_d_of_z(top, z))
+    D = top.I3 * omega3 * np.sqrt(_formulas.d(top, z))  # z = cos θ: in range, no checks
     return D, E + 0.5 * top.m * nu**2
 
 
