@@ -525,8 +525,11 @@ def _follow0(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
 
 
 @_njit
-def lift_off_kernel(t, theta, amp0, start, lam, top, law, mu, eps, bound_limit, exact):
+def lift_off_kernel(t, theta, amp0, rate0, lam, top, law, mu, eps, bound_limit, exact):
     """The lift-off criterion along the nodes (:func:`mett.inversion._nutation.lift_off`).
+
+    ``amp0``, ``rate0``: the upright spin's nutation (:func:`mett.inversion._nutation.upright_nutation`);
+    in the frame precessing at the first node's φ̇ its eigenvalue is Re rate0 + i (φ̇ + |Im rate0|).
 
     Returns (t_lift, n, ratio, amplitude, λ_n) with the arrays valid up to ``n`` (the first node
     past the criterion, or all). Unless ``exact``, the bound over both fast eigenvalues is
@@ -563,6 +566,8 @@ def lift_off_kernel(t, theta, amp0, start, lam, top, law, mu, eps, bound_limit, 
                 break
         if below:
             return math.inf, 0, ratio, amp, lam_n
+    phidot0 = balance(theta[0], lam, m, R, alpha, I1, top[4], g)[0]
+    start = complex(rate0.real, phidot0 + abs(rate0.imag))
     t0, l0 = theta[0], start
     t1, l1 = theta[0], start
     has2 = False

@@ -166,8 +166,7 @@ def _kernel_args(top: TippeTop, law, lam: float, t, theta) -> tuple:
     code, mu, eps = law_code(top, law)
     t = np.ascontiguousarray(t, dtype=float)
     theta = np.ascontiguousarray(theta, dtype=float)
-    phidot0 = float(np.real(balance_state(top, lam, theta[0])[0]))
-    return t, theta, float(lam), top_array(top), code, mu, eps, phidot0
+    return t, theta, float(lam), top_array(top), code, mu, eps
 
 
 def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> LiftOff:
@@ -186,10 +185,9 @@ def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: compl
     """
     from . import _compiled  # numba, at the first prediction only (not at import mett)
 
-    t, theta, lam, top_a, code, mu, eps, phidot0 = _kernel_args(top, law, lam, t, theta)
-    start = complex(rate0.real, phidot0 + abs(rate0.imag))
+    t, theta, lam, top_a, code, mu, eps = _kernel_args(top, law, lam, t, theta)
     t_lift, n, ratio, amp, lam_n = _compiled.lift_off_kernel(
-        t, theta, float(amp0), start, lam, top_a, code, mu, eps, BOUND, True
+        t, theta, float(amp0), complex(rate0), lam, top_a, code, mu, eps, BOUND, True
     )
     return LiftOff(float(t_lift), t[:n], ratio[:n], amp[:n], lam_n[:n])
 
@@ -206,10 +204,9 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
     """
     from . import _compiled  # numba, at the first prediction only (not at import mett)
 
-    t, theta, lam, top_a, code, mu, eps, phidot0 = _kernel_args(top, law, lam, t, theta)
-    start = complex(rate0.real, phidot0 + abs(rate0.imag))
+    t, theta, lam, top_a, code, mu, eps = _kernel_args(top, law, lam, t, theta)
     return float(
         _compiled.lift_off_kernel(
-            t, theta, float(amp0), start, lam, top_a, code, mu, eps, BOUND, False
+            t, theta, float(amp0), complex(rate0), lam, top_a, code, mu, eps, BOUND, False
         )[0]
     )
