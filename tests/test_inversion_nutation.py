@@ -243,3 +243,12 @@ def test_upright_modes_against_mpmath(theta0, omega3):
     assert est.growth_rate == pytest.approx(float(sigma), rel=1e-12)
     assert est.amplitude == pytest.approx(float(amp), rel=1e-12)
     assert np.allclose(np.linalg.norm(modes.vectors, axis=0), 1.0, rtol=1e-14)
+
+
+def test_the_compiled_walk_uses_the_reference_s_constants():
+    from mett.inversion import _compiled
+
+    assert (_compiled._CLEAR, _compiled._SPLIT) == (_nutation.CLEAR, _nutation.SPLIT)
+    # one function per depth that may split (_follow0 .. _follow2), _follow3 never splits
+    assert _nutation.DEPTH == 3
+    assert all(hasattr(_compiled, f"_follow{k}") for k in range(_nutation.DEPTH + 1))

@@ -115,7 +115,7 @@ def eigvals_hessenberg_qr(a):
     Press et al. 1992, Numerical Recipes §11.5–11.6). Backward stable like LAPACK's dgeev (which
     adds multishift and aggressive deflation, of no use at n = 8) and without its workspace
     queries and allocations. Complex pairs come out as (x + iy, x − iy). ``ok`` is False if an
-    eigenvalue has not converged in 30 iterations (the caller then uses LAPACK).
+    eigenvalue has not converged in 30 iterations.
     """
     n = a.shape[0]
     wr = np.zeros(n)
@@ -438,16 +438,20 @@ def spectrum(th, lam, top, law, mu, eps):
     for i in (0, 2, 5):  # the rotation at φ̇ about ẑ
         A[i, i + 1] += phidot
         A[i + 1, i] -= phidot
-    B = A.copy()
-    wr, wi, ok = eigvals_hessenberg_qr(B)
-    ev = np.empty(8, dtype=np.complex128)
-    if ok and np.all(np.isfinite(wr)) and np.all(np.isfinite(wi)):
-        for i in range(8):
-            ev[i] = complex(wr[i], wi[i])
-    else:
-        ev[:] = np.linalg.eigvals(A.astype(np.complex128))
-    order = np.argsort(-ev.imag, kind="mergesort")
-    return ev[order[0]], ev[order[1]]
+    wr, wi, ok = eigvals_hessenberg_qr(A)
+    if not ok:  # not converged (never seen on these Jacobians): NaN, the caller's t_lift is NaN
+        nan = complex(math.nan, math.nan)
+        return nan, nan
+    # the two of largest imaginary part, the earlier first on a tie (a stable sort's order)
+    i1 = 0
+    for i in range(1, 8):
+        if wi[i] > wi[i1]:
+            i1 = i
+    i2 = 1 if i1 == 0 else 0
+    for i in range(8):
+        if i != i1 and wi[i] > wi[i2]:
+            i2 = i
+    return complex(wr[i1], wi[i1]), complex(wr[i2], wi[i2])
 
 
 @_njit
@@ -486,6 +490,8 @@ def _follow2(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
             x = k * step + t1
             sa, sb = spectrum(x, lam, top, law, mu, eps)
             pk, u0, v0 = _follow3(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
+            if pk != pk:  # a spectrum failed (NaN): so does the walk
+                return pk, t1, l1
             u1, v1 = x, pk
         da, db = _distances(th, a, b, u0, v0, u1, v1)
         t1, l1 = u1, v1
@@ -502,6 +508,8 @@ def _follow1(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
             x = k * step + t1
             sa, sb = spectrum(x, lam, top, law, mu, eps)
             pk, u0, v0 = _follow2(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
+            if pk != pk:  # a spectrum failed (NaN): so does the walk
+                return pk, t1, l1
             u1, v1 = x, pk
         da, db = _distances(th, a, b, u0, v0, u1, v1)
         t1, l1 = u1, v1
@@ -518,6 +526,8 @@ def _follow0(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
             x = k * step + t1
             sa, sb = spectrum(x, lam, top, law, mu, eps)
             pk, u0, v0 = _follow1(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
+            if pk != pk:  # a spectrum failed (NaN): so does the walk
+                return pk, t1, l1
             u1, v1 = x, pk
         da, db = _distances(th, a, b, u0, v0, u1, v1)
         t1, l1 = u1, v1
@@ -532,7 +542,7 @@ def lift_off_kernel(t, theta, amp0, rate0, lam, top, law, mu, eps, bound_limit, 
     in the frame precessing at the first node's φ̇ its eigenvalue is Re rate0 + i (φ̇ + |Im rate0|).
 
     Returns (t_lift, n, ratio, amplitude, λ_n) with the arrays valid up to ``n`` (the first node
-    past the criterion, or all). Unless ``exact``, the bound over both fast eigenvalues is
+    past the criterion, or all); t_lift is NaN if an eigenvalue iteration failed. Unless ``exact``, the bound over both fast eigenvalues is
     evaluated first and the walk skipped (n = 0, t_lift = inf) where it stays below
     ``bound_limit`` at every node.
     """
@@ -544,6 +554,8 @@ def lift_off_kernel(t, theta, amp0, rate0, lam, top, law, mu, eps, bound_limit, 
     M = np.empty(N)
     for j in range(N):
         fa[j], fb[j] = spectrum(theta[j], lam, top, law, mu, eps)
+        if fa[j] != fa[j]:  # the QR iteration failed: no decision
+            return math.nan, 0, np.zeros(N), np.zeros(N), np.zeros(N, dtype=np.complex128)
         M[j] = I1 + m * l**2 * math.sin(theta[j]) ** 2
     ratio = np.zeros(N)
     amp = np.zeros(N)
@@ -575,6 +587,8 @@ def lift_off_kernel(t, theta, amp0, rate0, lam, top, law, mu, eps, bound_limit, 
     for j in range(N):
         pick, t0, l0 = _follow0(theta[j], fa[j], fb[j], t0, l0, t1, l1, has2, lam, top, law, mu,
                                 eps)  # fmt: skip
+        if pick != pick:  # a split's spectrum failed: no decision
+            return math.nan, j, ratio, amp, lam_n
         t1, l1, has2 = theta[j], pick, True
         lam_n[j] = pick
         if j:

@@ -127,14 +127,17 @@ def _fast_spectra(top: TippeTop, law, lam: float, theta) -> np.ndarray:
 # A choice between the two fast eigenvalues is taken when the nearer is within this fraction of
 # the other's distance from the extrapolated value; otherwise the step is split (SPLIT parts,
 # at most DEPTH times): where the nutation's frequency crosses the slip's, the two come close.
+# The compiled walk (mett.inversion._compiled) has its own copy of CLEAR and SPLIT and one
+# function per depth: a test checks that they agree.
 CLEAR, SPLIT, DEPTH = 0.3, 8, 3
 
 
 def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
     """The nutation's eigenvalue at ``theta`` by continuity from ``history`` [(θ, λ_n), ...].
 
-    The direct form, one :func:`_fast_spectra` call per split: :func:`lift_off` takes the same
-    picks from batched calls (:func:`_walk`); kept as the reference that it is checked against.
+    The numpy form, one :func:`_fast_spectra` call per split: :func:`lift_off` takes the same
+    picks compiled (:func:`mett.inversion._compiled.lift_off_kernel`); kept as the reference that
+    it is checked against (tests/test_inversion_nutation.py).
     """
     fast = _fast_spectra(top, law, lam, theta).tolist()
     out = []
