@@ -2,6 +2,7 @@
 
     python benchmarks/bench_inversion.py speed   # prediction vs simulation cost, growth with ω3
     python benchmarks/bench_inversion.py speed-averaged   # the same for method="averaged"
+    python benchmarks/bench_inversion.py first-call   # the first prediction of a process: cold, warm
     python benchmarks/bench_inversion.py atlas   # the atlas figure
     python benchmarks/bench_inversion.py contensou-check [out.jsonl]   # Coulomb–Contensou vs simulation
     python benchmarks/bench_inversion.py atlas-check   # Contensou atlas points vs simulation
@@ -52,6 +53,39 @@ def speed() -> None:
         print(
             f"| {mu:g} | {omega3:.0f} | {n:.0f} | {1e3 * tp:.1f} | {1e3 * ts:.1f} | {tp / ts:.3f} |"
         )
+
+
+_FIRST_CALL = """
+import time
+t0 = time.perf_counter()
+import mett
+top = mett.presets.get("rutstam2013", mu=0.2)
+state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
+t1 = time.perf_counter()
+mett.predict_inversion(top, state)
+t2 = time.perf_counter()
+mett.predict_inversion(top, state)
+t3 = time.perf_counter()
+print(f"{t1 - t0:.3f} {t2 - t1:.3f} {1e3 * (t3 - t2):.2f}")
+"""
+
+
+def first_call() -> None:
+    """The first prediction of a fresh process: the compiled kernels of mett.inversion._compiled
+    built from scratch (an empty numba cache directory: cold) and then loaded from it (warm),
+    each in its own process."""
+    import os
+    import subprocess
+    import tempfile
+
+    print("| numba cache | import mett (s) | first prediction (s) | second (ms) |")
+    print("|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        for label in ("cold (empty)", "warm", "warm"):
+            out = subprocess.run([sys.executable, "-c", _FIRST_CALL], env=env, check=True,
+                                 capture_output=True, text=True).stdout.split()  # fmt: skip
+            print(f"| {label} | {out[0]} | {out[1]} | {out[2]} |")
 
 
 def speed_averaged() -> None:
@@ -257,6 +291,7 @@ if __name__ == "__main__":
     {
         "speed": speed,
         "speed-averaged": speed_averaged,
+        "first-call": first_call,
         "atlas": atlas_figure,
         "contensou-check": contensou_check,
         "atlas-check": atlas_check,

@@ -41,7 +41,8 @@ __all__ = [
 ]
 
 _HORIZONTAL = [2, 3, 4, 5, 7, 8]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y in the gliding model's state
-_HORIZONTAL_BLOCK = np.ix_(_HORIZONTAL, _HORIZONTAL)  # built once: escape_modes runs per prediction
+_HORIZONTAL_BLOCK = np.ix_(_HORIZONTAL, _HORIZONTAL)
+_HORIZONTAL_ARRAY = np.array(_HORIZONTAL)  # built once: escape_modes runs per prediction
 _POLES = ("upright", "inverted")
 
 
@@ -80,26 +81,34 @@ def spin_jacobian(top: TippeTop, lam: float, pole: str = "inverted") -> np.ndarr
     """
     _validate.instance("top", top, TippeTop)
     lam = _validate.positive_jellett(lam)
+    y0, h, p = _spin_steps(top, lam, pole)
+    # every column's complex step at once: gliding_core is plain arithmetic on equal-shape
+    # arrays, so column k of Y is y0 + i h_k e_k and J = Im f(Y)/h, as _complex_step does it
+    # column by column, for a tenth of the calls
+    Y = y0.astype(complex)[:, None] + np.diag(1j * h)
+    with np.errstate(all="ignore"):  # an overflow shows as a non-finite J, refused below
+        J = np.ascontiguousarray(np.imag(np.array(gliding_core(Y, p)[:10])) / h)
+    _check_jacobian(J, lam)
+    return J
+
+
+def _spin_steps(top: TippeTop, lam: float, pole: str) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """The spin's state, the complex steps of :func:`spin_jacobian`'s columns, the parameters."""
     y0 = _spin_state(top, lam, pole)
-    p = _params(top)
     scale = np.maximum(np.abs(y0), [top.R, top.R, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
     # velocities ~ R ω3, angular momenta ~ I3 ω3; floored at the gravity scale √(g/R) so that a
     # tiny λ does not give a zero (or underflowing) complex step
     w_floor = math.sqrt(top.g / top.R)
     scale[2:4] = top.R * max(abs(y0[6]) / top.I3, w_floor)
     scale[4:7] = top.I3 * max(abs(y0[6]) / top.I3, w_floor)
-    h = 1e-30 * scale
-    # every column's complex step at once: gliding_core is plain arithmetic on equal-shape
-    # arrays, so column k of Y is y0 + i h_k e_k and J = Im f(Y)/h, as _complex_step does it
-    # column by column, for a tenth of the calls (mett.predict_inversion calls this each time)
-    Y = y0.astype(complex)[:, None] + np.diag(1j * h)
-    with np.errstate(all="ignore"):  # an overflow shows as a non-finite J, refused below
-        J = np.ascontiguousarray(np.imag(np.array(gliding_core(Y, p)[:10])) / h)
+    return y0, 1e-30 * scale, _params(top)
+
+
+def _check_jacobian(J: np.ndarray, lam: float) -> None:
     if not np.all(np.isfinite(J)):
         raise ValueError(
             f"lam = {lam!r} is too large: the linearisation at that spin overflows double precision"
         )
-    return J
 
 
 def spin_eigenvalues(top: TippeTop, lam: float, pole: str = "inverted") -> np.ndarray:
@@ -183,19 +192,27 @@ def escape_modes(top: TippeTop, state: State) -> tuple[EscapeEstimate, UprightMo
         As :func:`escape_time`.
     """
     lam = float(jellett(top, state))  # checks the types of top and state
-    J = spin_jacobian(top, lam, "upright")
-    A = J[_HORIZONTAL_BLOCK]
-    ev, vecs = np.linalg.eig(A)
+    lam = _validate.positive_jellett(lam)
+    # spin_jacobian's complex steps and the eigen-decomposition, compiled
+    # (mett.predict_inversion calls this each time; numba, at the first call, not at import mett)
+    from .inversion import _compiled
+
+    y0, h, p = _spin_steps(top, lam, "upright")
+    model = MODELS["gliding"]
+    with np.errstate(over="ignore", invalid="ignore"):
+        dy = model.initial(state, model.params(top, {})) - y0  # y0: the upright spin
+    J, ev, vecs, coef, ok = _compiled.upright_modes_kernel(y0, h, p, _HORIZONTAL_ARRAY,
+                                                           dy[_HORIZONTAL])  # fmt: skip
+    _check_jacobian(J, lam)
+    if not ok:  # QR not converged or a repeated eigenvalue: LAPACK's eigenvectors
+        ev, vecs = np.linalg.eig(J[_HORIZONTAL_BLOCK])
+        coef = None
     sigma = float(ev.real.max())
     if sigma <= 0.0:
         raise ValueError(
             f"the upright spin is stable for lam = {lam:.6g} (lam_0 = {top.lambda_0:.6g}): "
             "no escape to predict"
         )
-    model = MODELS["gliding"]
-    p = model.params(top, {})
-    with np.errstate(over="ignore", invalid="ignore"):
-        dy = model.initial(state, p) - _spin_state(top, lam, "upright")
     if not np.all(np.isfinite(dy)):
         raise ValueError(
             "state is not near the upright spin (its deviation overflows double precision): the "
@@ -203,7 +220,8 @@ def escape_modes(top: TippeTop, state: State) -> tuple[EscapeEstimate, UprightMo
         )
     unstable = ev.real > 0.5 * sigma
     with np.errstate(over="ignore", invalid="ignore"):  # a huge deviation: inf, refused below
-        coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
+        if coef is None:
+            coef = np.linalg.solve(vecs, dy[_HORIZONTAL])
         # 3̂_x, 3̂_y rows of the unstable part: its size is sin θ of the unstable component.
         u = vecs[4:6][:, unstable] * coef[unstable]
         amplitude = float(np.sqrt(np.sum(np.abs(u) ** 2)))

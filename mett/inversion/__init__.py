@@ -685,7 +685,7 @@ def atlas(
 
     Notes
     -----
-    Each point is one :func:`predict_inversion` (about 2 ms for the viscous law, 20–100 ms for
+    Each point is one :func:`predict_inversion` (about 1 ms for the viscous law, 20–100 ms for
     Coulomb–Contensou, whose slow flow is an ODE in (θ, λ)). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
     reads the atlas of the thesis top.
     """

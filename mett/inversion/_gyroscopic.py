@@ -30,8 +30,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import _formulas
 from ..friction import Coulomb, RegularisedCoulomb, Viscous
-from ..potential import d as _d_of_z
 from ..top import TippeTop
 
 
@@ -151,6 +151,24 @@ def _flow_rate_and_state(top: TippeTop, lam: float, law, theta: np.ndarray,
 PATH_STEP = 0.1
 
 
+def law_code(top: TippeTop, law) -> tuple[int, float, float]:
+    """(code, μ, ε) of ``law`` for the compiled kernels (:mod:`mett.inversion._compiled`):
+    viscous 0 (μ in s/m, ``top.mu`` if the law has none), regularised Coulomb 1, exact Coulomb 2
+    (the laws of :func:`friction_rates`)."""
+    if isinstance(law, Viscous):
+        return 0, float(top.mu if law.mu is None else law.mu), 0.0
+    if isinstance(law, RegularisedCoulomb):
+        return 1, float(law.mu), float(law.eps)
+    if isinstance(law, Coulomb) and law.contensou_radius == 0.0:
+        return 2, float(law.mu), 0.0
+    raise TypeError(f"friction law {law!r} is not covered by the gyroscopic-balance flow")
+
+
+def top_array(top: TippeTop) -> np.ndarray:
+    """(m, R, α, I1, I3, g) of ``top`` for the compiled kernels."""
+    return np.array([top.m, top.R, top.alpha, top.I1, top.I3, top.g], dtype=float)
+
+
 def _cumulative_simpson(f: np.ndarray, h: float) -> np.ndarray:
     """∫ f ds from the first node to each node of a uniform grid with an even number of intervals.
 
@@ -202,32 +220,25 @@ def slow_path(top: TippeTop, lam: float, law, theta_from: float, theta_to: float
     ends = [s_of(theta_from), *(s_of(m) for m in nodes), s_of(theta_to)]
     # 16 steps per graded segment at the default step, more in proportion on a finer grid
     min_steps = 2 * math.ceil(8.0 * PATH_STEP / h) if fixed_point is not None else 2
-    grids, steps = [], []
-    for a, b in itertools.pairwise(ends):
-        k = 2 * max(min_steps // 2, math.ceil(abs(b - a) / (2.0 * h)))
-        grids.append(np.linspace(a, b, k + 1))
-        steps.append((b - a) / k)
-    sizes = [len(g) for g in grids]
-    s = np.concatenate(grids)
-    theta = 2.0 * np.arctan(np.exp(s))
-    rate, state = _flow_rate_and_state(top, lam, law, theta, cm_response)
-    bad = ~np.isfinite(rate)
-    if bad.any():
-        raise NoBalance(float(theta[np.argmax(bad)]))
-    if np.any(rate * np.sign(theta_to - theta_from) <= 0.0):
+    steps = [
+        2 * max(min_steps // 2, math.ceil(abs(b - a) / (2.0 * h)))
+        for a, b in itertools.pairwise(ends)
+    ]
+    # the nodes (each segment's np.linspace), their rates and the cumulative Simpson sums,
+    # compiled: the same arithmetic as flow_rate and _cumulative_simpson, one node at a time
+    from . import _compiled  # numba, at the first prediction only (not at import mett)
+
+    code, mu, eps = law_code(top, law)
+    status, index, t, theta, st = _compiled.slow_path_kernel(
+        np.array(ends), np.array(steps), float(lam), top_array(top), code, mu, eps,
+        bool(cm_response),
+    )  # fmt: skip
+    if status == 1:
+        raise NoBalance(float(theta[index]))
+    if status == 2:
         raise ValueError("the balance flow does not move towards the end state")
-    g = np.sin(theta) / rate
-    t = np.empty_like(s)
-    start, t0 = 0, 0.0
-    for n, hk in zip(sizes, steps, strict=True):
-        t[start : start + n] = t0 + _cumulative_simpson(g[start : start + n], hk)
-        t0 = float(t[start + n - 1])
-        start += n
-    # drop the repeated node at each joint (the same θ, the same t)
-    keep = np.ones(len(s), dtype=bool)
-    keep[np.cumsum(sizes)[:-1]] = False
-    t, theta = t[keep], theta[keep]
-    state = tuple(np.asarray(x)[keep] for x in state)
+    state = tuple(st)
+    sizes = [k + 1 for k in steps]
     at = {m: math.inf for m in marks}
     idx = np.cumsum([n - 1 for n in sizes])[:-1]
     for m, i in zip(nodes, idx, strict=True):
@@ -244,7 +255,7 @@ def balance_D_and_E_mod(top: TippeTop, lam, theta: np.ndarray, state=None):
     """
     _, omega3, E, nu, _ = balance_state(top, lam, theta) if state is None else state
     z = np.cos(theta)
-    D = top.I3 * omega3 * np.sqrt(_d_of_z(top, z))
+    D = top.I3 * omega3 * np.sqrt(_formulas.d(top, z))  # z = cos θ: in range, no checks
     return D, E + 0.5 * top.m * nu**2
 
 

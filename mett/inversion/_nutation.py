@@ -34,7 +34,6 @@ docs/theory/inversion.md#verification.
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -43,7 +42,7 @@ from ..dynamics.gliding import gliding_core
 from ..friction import RegularisedCoulomb, Viscous
 from ..stability import UprightModes
 from ..top import TippeTop
-from ._gyroscopic import balance_state
+from ._gyroscopic import balance_state, law_code, top_array
 
 
 class LiftOff(NamedTuple):
@@ -128,14 +127,17 @@ def _fast_spectra(top: TippeTop, law, lam: float, theta) -> np.ndarray:
 # A choice between the two fast eigenvalues is taken when the nearer is within this fraction of
 # the other's distance from the extrapolated value; otherwise the step is split (SPLIT parts,
 # at most DEPTH times): where the nutation's frequency crosses the slip's, the two come close.
+# The compiled walk (mett.inversion._compiled) has its own copy of CLEAR and SPLIT and one
+# function per depth: a test checks that they agree.
 CLEAR, SPLIT, DEPTH = 0.3, 8, 3
 
 
 def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
     """The nutation's eigenvalue at ``theta`` by continuity from ``history`` [(θ, λ_n), ...].
 
-    The direct form, one :func:`_fast_spectra` call per split: :func:`lift_off` takes the same
-    picks from batched calls (:func:`_walk`); kept as the reference that it is checked against.
+    The numpy form, one :func:`_fast_spectra` call per split: :func:`lift_off` takes the same
+    picks compiled (:func:`mett.inversion._compiled.lift_off_kernel`); kept as the reference that
+    it is checked against (tests/test_inversion_nutation.py).
     """
     fast = _fast_spectra(top, law, lam, theta).tolist()
     out = []
@@ -156,133 +158,41 @@ def _follow(top, law, lam, theta, history, depth=0) -> list[complex]:
     return out
 
 
-def _walk(theta, history, spectra, missing, depth=0, resume=None) -> list[complex]:
-    """:func:`_follow`'s picks from the stored spectra {θ: (a, b)}, without computing any.
-
-    A split whose nodes are not stored is appended to ``missing`` as (index in ``theta``, its
-    nodes) and the step taken without it (a guess, to find the later splits too); the caller
-    computes them all in one call and walks again, until nothing it needs is missing. The
-    arithmetic is :func:`_follow`'s, so are the picks once every split is stored. ``resume`` (a list) receives (index, history) at the first
-    missing split: the picks before it are final, and the next walk may start there.
-    """
-    out: list[complex] = []
-    for th in theta:
-        a, b = spectra[th]
-        before = history
-        (t1, l1), (t0, l0) = history[-1], history[-2] if len(history) > 1 else history[-1]
-        guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0) if t1 != t0 else l1
-        da, db = abs(a - guess), abs(b - guess)
-        if min(da, db) > CLEAR * max(da, db) and depth < DEPTH and len(history) > 1:
-            sub = _split(t1, th)
-            if all(x in spectra for x in sub):
-                deeper: list = []
-                inner = _walk(sub, history[-2:], spectra, deeper, depth + 1)
-                missing.extend((len(out), nodes) for _, nodes in deeper)
-                if deeper and resume is not None and not resume:
-                    resume.append((len(out), before))
-                history = history + list(zip(sub, inner, strict=True))
-                (t1, l1), (t0, l0) = history[-1], history[-2]
-                guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0)
-                da, db = abs(a - guess), abs(b - guess)
-            else:
-                if resume is not None and not resume:
-                    resume.append((len(out), before))
-                missing.append((len(out), sub))
-        pick = a if da <= db else b
-        history = [*history[-1:], (th, pick)]
-        out.append(pick)
-    return out
+# lift_off_time answers "no lift-off" from the bound when it stays below this: far from 1, so
+# that no rounding of the ratio (1e-13 relative) can reach 1 where the bound does not
+BOUND = 0.5
 
 
-def _split(t1: float, th: float) -> tuple[float, ...]:
-    """``np.linspace(t1, th, SPLIT + 1)[1:-1]`` as floats, by its arithmetic (k·step + t1, the
-    same roundings) without its call: the walk asks for it at every unclear step of every pass."""
-    step = (th - t1) / SPLIT
-    if step == 0.0:
-        return tuple(np.linspace(t1, th, SPLIT + 1)[1:-1].tolist())
-    return tuple(k * step + t1 for k in range(1, SPLIT))
+def _kernel_args(top: TippeTop, law, lam: float, t, theta) -> tuple:
+    if not isinstance(law, (Viscous, RegularisedCoulomb)):
+        raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
+    code, mu, eps = law_code(top, law)
+    t = np.ascontiguousarray(t, dtype=float)
+    theta = np.ascontiguousarray(theta, dtype=float)
+    return t, theta, float(lam), top_array(top), code, mu, eps
 
 
-def _store(top, law, lam, spectra, nodes) -> None:
-    """Add the spectra of ``nodes`` (θ values) to ``spectra``, in one :func:`_fast_spectra` call."""
-    todo = np.array(sorted(set(nodes) - spectra.keys()))
-    if len(todo):
-        spectra.update(zip(todo.tolist(), _fast_spectra(top, law, lam, todo).tolist(), strict=True))
-
-
-def lift_off(
-    top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex, *, spectra=None
-) -> LiftOff:
+def lift_off(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> LiftOff:
     """The lift-off criterion along the balance path (module docstring).
 
     ``t``, ``theta``: the slow path's nodes with θ̄ ≤ π/2 (Jellett integral ``lam``); ``amp0``,
     ``rate0``: :func:`upright_nutation`. The nutation is the fast eigenvalue continued from the
     upright spin's (where the precessing frame adds φ̇ to its small frequency, and friction
     damps the slip at ≈ μ g κ, far from it): by linear extrapolation from node to node, the
-    step split where the two fast eigenvalues are not clearly apart (:data:`CLEAR`). ``spectra``:
-    those already computed, {θ: (a, b)} (:func:`lift_off_time`).
+    step split where the two fast eigenvalues are not clearly apart (:data:`CLEAR`), as
+    :func:`_follow` does it (the numpy reference), compiled
+    (:func:`mett.inversion._compiled.lift_off_kernel`): node by node, so the walk stops at the
+    first node past the criterion.
 
     The arrays stop at the first node past the criterion (t_lift is decided there).
     """
-    if not isinstance(law, (Viscous, RegularisedCoulomb)):
-        raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
-    t = np.asarray(t, dtype=float)
-    theta = np.asarray(theta, dtype=float)
-    phidot0 = float(np.real(balance_state(top, lam, theta[0])[0]))
-    start = complex(rate0.real, phidot0 + abs(rate0.imag))
-    M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
-    nodes = theta.tolist()
-    spectra = {} if spectra is None else spectra
-    _store(top, law, lam, spectra, nodes)
-    final: list = []  # picks that no missing split precedes
-    history = [(nodes[0], start)]
-    while True:
-        # Walk with what is stored; the picks are final up to the first node past the criterion
-        # (or the last) once no split up to there is missing: only there is t_lift decided.
-        missing: list = []
-        resume: list = []
-        picks = _walk(nodes[len(final) :], history, spectra, missing, 0, resume)
-        lam_n = np.array(final + picks)
-        ratio, amp = _ratio(top, t, theta, M, lam_n, amp0)
-        over = np.flatnonzero(ratio >= 1.0)
-        last = int(over[0]) if len(over) else len(t) - 1
-        need = [x for i, sub in missing if len(final) + i <= last for x in sub]
-        if not need:
-            break
-        _store(top, law, lam, spectra, need)
-        j, history = resume[0]  # the next walk starts at the first missing split
-        final += picks[:j]
-    n = last + 1
-    t, ratio, amp, lam_n = t[:n], ratio[:n], amp[:n], lam_n[:n]
-    if not len(over):
-        t_lift = math.inf
-    elif over[0] == 0:
-        t_lift = float(t[0])
-    else:
-        # log-linear between the nodes: the ratio grows about exponentially with θ̄
-        j = over[0]
-        a, b = math.log(ratio[j - 1]), math.log(ratio[j])
-        t_lift = float(t[j - 1] + (t[j] - t[j - 1]) * (0.0 - a) / (b - a))
-    return LiftOff(t_lift, t, ratio, amp, lam_n)
+    from . import _compiled  # numba, at the first prediction only (not at import mett)
 
-
-def _ratio(top, t, theta, M, lam_n, amp0):
-    """The criterion's ratio l |λ_n|² Z / g and the amplitude Θ at the nodes (module docstring)."""
-    omega = lam_n.imag
-    growth = np.concatenate(
-        ([0.0], np.cumsum(0.5 * (lam_n.real[1:] + lam_n.real[:-1]) * np.diff(t)))
+    t, theta, lam, top_a, code, mu, eps = _kernel_args(top, law, lam, t, theta)
+    t_lift, n, ratio, amp, lam_n = _compiled.lift_off_kernel(
+        t, theta, float(amp0), complex(rate0), lam, top_a, code, mu, eps, BOUND, True
     )
-    # in logarithms: a growing nutation may pass any float range long after it lifts the top
-    # (then inf: the ratio is past 1 there anyway)
-    with np.errstate(over="ignore", invalid="ignore"):
-        amp = amp0 * np.exp(0.5 * np.log(M[0] * omega[0] / (M * omega)) + growth)
-        ratio = top.R * top.alpha * np.abs(lam_n) ** 2 * amp * np.sin(theta) / top.g
-    return ratio, amp
-
-
-# lift_off_time answers "no lift-off" from the bound when it stays below this: far from 1, so
-# that no rounding of the ratio (1e-13 relative) can reach 1 where the bound does not
-BOUND = 0.5
+    return LiftOff(float(t_lift), t[:n], ratio[:n], amp[:n], lam_n[:n])
 
 
 def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: complex) -> float:
@@ -293,22 +203,13 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
     first node and the smaller at the node (both positive). Where that bound stays below
     :data:`BOUND` at every node, t_lift is ``inf`` whichever the picks are, and neither the splits
     nor the walk are needed (the common case: a top far from hopping); otherwise :func:`lift_off`
-    decides, from the spectra already computed.
+    decides, from the spectra already computed (both in one compiled call).
     """
-    if not isinstance(law, (Viscous, RegularisedCoulomb)):
-        raise TypeError(f"friction law {law!r} is not covered by the lift-off criterion")
-    t = np.asarray(t, dtype=float)
-    theta = np.asarray(theta, dtype=float)
-    ab = _fast_spectra(top, law, lam, theta)  # (N, 2)
-    M = top.I1 + top.m * (top.R * top.alpha) ** 2 * np.sin(theta) ** 2
-    re = ab.real.max(axis=1)
-    growth = np.concatenate(([0.0], np.cumsum(0.5 * (re[1:] + re[:-1]) * np.diff(t))))
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        amp = amp0 * np.exp(
-            0.5 * np.log(M[0] * ab[0].imag.max() / (M * ab.imag.min(axis=1))) + growth
-        )
-        bound = top.R * top.alpha * (np.abs(ab) ** 2).max(axis=1) * amp * np.sin(theta) / top.g
-    if np.all(bound < BOUND):  # NaN (a frequency <= 0) falls through to the exact criterion
-        return math.inf
-    spectra = dict(zip(theta.tolist(), ab.tolist(), strict=True))
-    return lift_off(top, law, lam, t, theta, amp0, rate0, spectra=spectra).t_lift
+    from . import _compiled  # numba, at the first prediction only (not at import mett)
+
+    t, theta, lam, top_a, code, mu, eps = _kernel_args(top, law, lam, t, theta)
+    return float(
+        _compiled.lift_off_kernel(
+            t, theta, float(amp0), complex(rate0), lam, top_a, code, mu, eps, BOUND, False
+        )[0]
+    )
