@@ -151,7 +151,6 @@ def _integrate(
     h = np.zeros(W)
     nrm = np.empty((2, W))
     fa = np.empty(n_sub + 1)
-    acc = np.empty(n)
     xs = np.empty(n_sub + 1)
     hit_of = np.full(W, -1)
     last_of = np.zeros(W, dtype=np.bool_)
@@ -281,16 +280,8 @@ def _integrate(
             t_stop = t_end if last else t[lane] + hl
             while next_sample[lane] < n_tt and tt[next_sample[lane]] <= t_stop:
                 x = tt[next_sample[lane]] - t[lane]
-                # Horner's rule for all components together, as _poly does for one: n independent
-                # chains overlap in the pipeline (one after the other, each waited on its
-                # multiply-adds: ~7 % of a sweep's kernel time, for its 101 window samples a run)
                 for i in range(n):
-                    acc[i] = X[i, order, lane]
-                for k in range(order - 1, -1, -1):
-                    for i in range(n):
-                        acc[i] = acc[i] * x + X[i, k, lane]
-                for i in range(n):
-                    S[next_sample[lane], i, lane] = acc[i]
+                    S[next_sample[lane], i, lane] = _poly(X[:, :, lane], i, order, x)
                 next_sample[lane] += 1
         update(X.ctypes, h.ctypes, y_new.ctypes)
         slot = it + 1 if dense else 1
