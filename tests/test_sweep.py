@@ -414,10 +414,10 @@ def test_a_model_declaring_a_start_free_of_mu_never_reads_mu_there():
 
 
 def test_the_gliding_normal_force_of_one_state_is_that_of_numpy_scalars():
-    # one state is evaluated in float arithmetic, not numpy scalars: the same IEEE operations
-    # (x ** 0.5 is pow(x, 0.5) in both), so the same bits; a state whose axis is 0 gives numpy's
-    # non-finite value, not an exception
-    from mett.dynamics.gliding import gliding_core, gliding_normal_force
+    # the model's normal force (each run's check at t = 0) evaluates one state in float
+    # arithmetic, not numpy scalars: the same IEEE operations (x ** 0.5 is pow(x, 0.5) in both),
+    # so the same bits; a state whose axis is 0 gives numpy's non-finite value, not an exception
+    from mett.dynamics.gliding import gliding_normal_force
 
     mdl = mett.dynamics.MODELS["gliding"]
     rng = np.random.default_rng(7)
@@ -427,13 +427,13 @@ def test_the_gliding_normal_force_of_one_state_is_that_of_numpy_scalars():
                            nu_x=rng.normal(0.0, 0.1), nu_y=rng.normal(0.0, 0.1))  # fmt: skip
         p = mdl.params(TOP.replace(mu=rng.uniform(0.0, 1.0)), {})
         y = np.asarray(mdl.initial(state, p)) * (1.0 + 1e-3 * rng.normal(size=10))
-        one = gliding_normal_force(y, p)
-        ref = gliding_core(y, p)[10]  # element by element of the array: numpy float64 scalars
+        one = mdl.normal_force(y, p)
+        ref = gliding_normal_force(y, p)  # element by element of the array: numpy float64 scalars
         assert type(one) is float and type(ref) is np.float64
         assert one == ref and np.signbit(one) == np.signbit(ref)
     y[7:] = 0.0
     with np.errstate(all="ignore"):
-        assert not np.isfinite(gliding_normal_force(y, p))
+        assert not np.isfinite(mdl.normal_force(y, p))
 
 
 def test_the_predicted_end_state_does_not_depend_on_friction():

@@ -130,12 +130,18 @@ def gliding_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
 
 def gliding_normal_force(y: np.ndarray, p: tuple) -> Any:
     """Normal force g_n (N) of state(s) ``y`` (shape (10,) or (10, k)), docs/theory/equations.md#vector-form."""
+    return gliding_core(y, p)[10]
+
+
+def _normal_force(y: Any, p: tuple) -> Any:
+    """:func:`gliding_normal_force`, the model's ``normal_force`` (called from Python only, at
+    the start of each run): one state in float arithmetic, the same IEEE operations at a third
+    of the cost of numpy scalars'. :func:`gliding_normal_force` itself stays plain arithmetic, so
+    compiled code may call it."""
     if isinstance(y, np.ndarray) and y.ndim == 1:
-        # one state as floats: the same IEEE operations at a third of the cost of numpy scalars'
-        # (each run's check at t = 0); a division by zero is numpy's inf or NaN, as for arrays
         try:
             return gliding_core(y.tolist(), p)[10]
-        except ArithmeticError:
+        except ArithmeticError:  # a division by zero: numpy's inf or NaN, as for arrays
             pass
     return gliding_core(y, p)[10]
 
@@ -216,7 +222,7 @@ MODEL = register(
         summary="rolling-and-gliding tippe top, vector form (docs/theory/equations.md#vector-form; Rutstam 2012 §2)",
         rhs=gliding_rhs,
         rhs_into=_rhs_into,
-        normal_force=gliding_normal_force,
+        normal_force=_normal_force,
         params=tippe_params,
         initial=_initial,
         derive=_derive,
