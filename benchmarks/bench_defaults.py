@@ -31,9 +31,10 @@ printed per round and as a range (on a shared machine the absolute times move wi
 ratios much less). Targets of the issue:
 default trajectory <= 0.8x heyoka's time, default sweep >= 1.2x heyoka's throughput per core.
 
-Run ``python benchmarks/bench_defaults.py [--rounds N] [--quick] [--sections 2]``
-(``--sections``: which of the sections above, e.g. ``2`` for the sweep alone); it prints and
-asserts nothing.
+Run ``python benchmarks/bench_defaults.py [--rounds N] [--quick] [--sections 2]
+[--sweep-calls N]`` (``--sections``: which of the sections above, e.g. ``2`` for the sweep
+alone; ``--sweep-calls``: calls of each side per round of section 2); it prints and asserts
+nothing.
 """
 
 from __future__ import annotations
@@ -130,7 +131,7 @@ def growth(omega3: float, t_end: float, repeat: int, tol: float = 1e-10) -> dict
     }  # fmt: skip
 
 
-def sweep_round(rep: int, note: Callable[[str, float], str]) -> None:
+def sweep_round(calls: int, note: Callable[[str, float], str]) -> None:
     """Section 2, once: the default mett.sweep against heyoka's batch sweep, alternating."""
     print("2. sweep of 64 friction values, 4 s runs, rtol 1e-12, one core (runs/s)")
     top, start, mdl, p, y0 = _setup()
@@ -142,7 +143,7 @@ def sweep_round(rep: int, note: Callable[[str, float], str]) -> None:
     sweep()
     hsweep = heyoka_sweep(top, mdl, p, y0, mus)
     hsweep()
-    m_sec, h_sec = alternating_best([sweep, hsweep], max(rep // 2, 3))
+    m_sec, h_sec = alternating_best([sweep, hsweep], calls)
     print(f"   default mett.sweep {64 / m_sec:5.0f} | heyoka batch sweep {64 / h_sec:5.0f} | "
           f"throughput ratio {note('sweep', h_sec / m_sec)} (target >= 1.2)")  # fmt: skip
 
@@ -152,6 +153,9 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3, help="repeat every row this many times")
     ap.add_argument("--quick", action="store_true", help="fewer calls per timing (noisier)")
     ap.add_argument("--sections", default="123", help="the sections to run, e.g. 2 (default 123)")
+    ap.add_argument("--sweep-calls", type=int, default=None,
+                    help="calls of each sweep per round in section 2, best taken (default 7, "
+                    "--quick 3; more on a loaded machine)")  # fmt: skip
     args = ap.parse_args()
     if not args.sections or set(args.sections) - set("123"):
         ap.error(f"--sections takes digits of 123; got {args.sections!r}")
@@ -181,7 +185,7 @@ def main() -> None:
             print(f"   tol {tol:g}  mett / heyoka at matched accuracy: "
                   f"{note(f'trajectory {tol:g}', row['mett'][0] / base)} (target <= 0.8)")  # fmt: skip
         if "2" in args.sections:
-            sweep_round(rep, note)
+            sweep_round(args.sweep_calls or max(rep // 2, 3), note)
         if "3" not in args.sections:
             continue
         print("3. growth, rtol 1e-10, default mett.simulate vs heyoka (CPU ms)")

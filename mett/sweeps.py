@@ -196,21 +196,30 @@ def _law(base: dict, point: dict, top: TippeTop) -> Any:
     return friction.from_name(law, top.mu, contensou_radius=r)
 
 
-def _start(base: dict, point: dict) -> tuple[dict, Any]:
+def _start(base: dict, point: dict, like: tuple | None = None) -> tuple[dict, Any]:
     """The row of a grid point so far, and (top, state, simulate options, start values, model) to
-    run, or None if the point's parameters are refused (the row then says why)."""
+    run, or None if the point's parameters are refused (the row then says why).
+
+    ``like``: the job of an earlier point that differs from this one in ``mu`` alone. Its state and
+    start values are this point's too (λ, λ_thres and γ do not depend on μ), and its top, which
+    passed every check, is this one with another μ (:meth:`TippeTop._with_mu` checks μ alone,
+    with the message the full check gives).
+    """
     row: dict[str, Any] = dict(point)
     try:
-        top, ic = _point_setup(base, point)
-        state = State(
-            theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
-            omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
-        )  # fmt: skip
-        lam = float(jellett(top, state))
-        start: dict[str, Any] = dict(
-            omega3_start=float(ic["omega3"]), lam=lam, lam_ratio=lam / top.lambda_thres,
-            gamma=top.gamma,
-        )  # fmt: skip
+        if like is not None:
+            top, state, start = like[0]._with_mu(point["mu"]), like[1], like[3]
+        else:
+            top, ic = _point_setup(base, point)
+            state = State(
+                theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
+                omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
+            )  # fmt: skip
+            lam = float(jellett(top, state))
+            start = dict(
+                omega3_start=float(ic["omega3"]), lam=lam, lam_ratio=lam / top.lambda_thres,
+                gamma=top.gamma,
+            )  # fmt: skip
     except (ValueError, TypeError, ArithmeticError) as exc:  # an inadmissible point
         result = dict(status="invalid", message=str(exc), simulated="invalid")
         return _finish(row, point, result), None
@@ -381,7 +390,7 @@ def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dic
     from .dynamics.batch import run_ends
 
     kw = {k: v for k, v in base["simulate_kw"].items() if k not in _FRICTION}
-    started = [(i, p, *_start(base, p)) for i, p in chunk]
+    started = _starts(base, chunk)
     todo = [(i, p, row, job) for i, p, row, job in started if job is not None]
     jobs = [(job[0], job[1], job[2]) for *_, job in todo]
     ends = run_ends(jobs, base["t_end"], window=_SETTLE_WINDOW, **kw)
@@ -389,6 +398,26 @@ def _run_chunk(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dic
     for (i, p, row, job), end in zip(todo, ends, strict=True):
         rows[i] = _row(row, p, job, end)
     return [(i, rows[i]) for i, _ in chunk]
+
+
+def _starts(base: dict, chunk: list[tuple[int, dict]]) -> list[tuple[int, dict, dict, Any]]:
+    """(index, point, row so far, job) of each point of a chunk (:func:`_start`). A point that
+    differs from an earlier point of the chunk in ``mu`` alone (a sweep over friction) reuses
+    that point's job: no top, state and λ built and checked again for every μ."""
+    out = []
+    jobs: dict[tuple, Any] = {}  # the job of each point's values other than mu
+    for i, p in chunk:
+        # the values as they are: 0.0 == -0.0, but a state with −0 is its own run
+        key = (
+            tuple((k, v, math.copysign(1.0, v) if type(v) is float else 0.0)
+                  for k, v in p.items() if k != "mu")
+            if "mu" in p else None
+        )  # fmt: skip
+        row, job = _start(base, p, jobs.get(key) if key is not None else None)
+        if key is not None and job is not None:
+            jobs.setdefault(key, job)
+        out.append((i, p, row, job))
+    return out
 
 
 class _Grid:

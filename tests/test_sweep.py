@@ -326,6 +326,116 @@ def test_runs_prepared_from_one_plan_are_those_of_prepare_run(model, top, state)
         simulation.plan_runs(2.0, friction=mett.friction.Viscous(0.1))
 
 
+def test_a_sweep_over_friction_shares_each_start_and_still_builds_every_top():
+    # Points that differ in mu alone share their top's checks, state, λ (mett.sweeps) and the
+    # start and tolerance scales of their runs (prepare_planned); the other axes (I1 here) still
+    # build and check a top of their own. Mixed valid and invalid points: a bad mu, a bad I1
+    # (I3 > 2 I1), both (the full check names mu first). The table equals that of the same
+    # points run one per chunk (nothing shared), and each row its own fresh top and simulate.
+    bad_i1 = TOP.I3 / 2.5
+    grid = {"I1": [TOP.I1, bad_i1, 1.1 * TOP.I1], "mu": [0.05, -0.2, 0.3, 0.45]}
+    kw = dict(t_end=0.6, rtol=1e-11, progress=False)
+    shared = sweep(TOP, grid, **kw)
+    alone = sweep(TOP, grid, chunksize=1, **kw)
+    pd.testing.assert_frame_equal(shared, alone, check_exact=True)
+    for _, row in shared.iterrows():
+        if row["mu"] < 0:
+            assert row["status"] == "invalid" and row["message"].startswith("mu must lie")
+            continue
+        if row["I1"] == bad_i1:
+            assert row["status"] == "invalid" and row["message"].startswith("I3 must lie")
+            continue
+        top = mett.TippeTop(m=TOP.m, R=TOP.R, alpha=TOP.alpha, I1=row["I1"], I3=TOP.I3,
+                            mu=row["mu"], g=TOP.g)  # fmt: skip
+        start = mett.State(theta=0.1, omega3=155.0)
+        assert row["lam"] == float(mett.jellett(top, start))
+        assert row["lam_ratio"] == row["lam"] / top.lambda_thres and row["gamma"] == top.gamma
+        traj = mett.simulate(top, start, 0.6, rtol=1e-11, stop_on_contact_loss=True)
+        assert row["status"] == traj.status and row["theta_end"] == float(traj.theta[-1])
+        assert row["omega3_end"] == float(traj.omega3[-1])
+    assert set(shared["status"]) == {"completed", "invalid"}
+
+
+def test_runs_differing_in_mu_alone_share_their_start_bit_for_bit():
+    # prepare_planned with a shared dict: a second run of the same state and another mu takes
+    # the first run's start and scales (a copy of y0: each run owns its start), and every field
+    # is prepare_run's; a model that does not declare a start free of mu shares nothing
+    from mett.dynamics import simulation
+
+    kw = {**simulation.SIMULATE_DEFAULTS, "rtol": 1e-11, "stop_on_contact_loss": True}
+    state = mett.State(theta=0.3, thetadot=1.0, phidot=2.0, omega3=120.0, nu_x=0.01)
+    for model, shares in (("gliding", True), ("gliding-euler", False)):
+        plan = simulation.plan_runs(2.0, **{**kw, "model": model})
+        starts: dict = {}
+        preps = [simulation.prepare_planned(plan, TOP.replace(mu=mu), state, starts)
+                 for mu in (0.05, 0.3, 0.0)]  # fmt: skip
+        assert len(starts) == (1 if shares else 0)
+        for mu, got in zip((0.05, 0.3, 0.0), preps, strict=True):
+            ref = simulation.prepare_run(TOP.replace(mu=mu), state, 2.0, **{**kw, "model": model})
+            assert got.params == ref.params and got.run.backend == ref.run.backend
+            np.testing.assert_array_equal(got.y0, ref.y0)
+            np.testing.assert_array_equal(got.atol_arr, ref.atol_arr)
+        assert preps[0].y0 is not preps[1].y0
+    # another state (even of equal values) is a start of its own
+    starts = {}
+    plan = simulation.plan_runs(2.0, **kw)
+    simulation.prepare_planned(plan, TOP, state, starts)
+    other = mett.State(theta=0.5, omega3=100.0)
+    got = simulation.prepare_planned(plan, TOP.replace(mu=0.2), other, starts)
+    ref = simulation.prepare_run(TOP.replace(mu=0.2), other, 2.0, **kw)
+    np.testing.assert_array_equal(got.y0, ref.y0)
+    np.testing.assert_array_equal(got.atol_arr, ref.atol_arr)
+
+
+def test_a_model_declaring_a_start_free_of_mu_never_reads_mu_there():
+    # Model.mu_free_start lets runs that differ in mu alone share initial and scales: for every
+    # model that declares it, both must be the same, bit for bit, whatever mu (starts with slip,
+    # at a pole, spinning either way, several tops)
+    from mett.dynamics import MODELS
+    from mett.dynamics import _params as ix
+
+    declared = [mdl for mdl in MODELS.values() if mdl.mu_free_start]
+    assert "gliding" in {mdl.name for mdl in declared}
+    states = [mett.State(theta=0.1, omega3=155.0), mett.State(theta=0.0, omega3=-40.0),
+              mett.State(theta=2.0, thetadot=-3.0, phidot=5.0, omega3=30.0, nu_x=0.02,
+                         nu_y=-0.01)]  # fmt: skip
+    tops = [TOP, TOP.replace(I3=1.9 * TOP.I1, alpha=0.45, R=0.03)]
+    for mdl in declared:
+        for top in tops:
+            for state in states:
+                p = tuple(mdl.params(top, {}))
+                y0 = np.asarray(mdl.initial(state, p), dtype=float)
+                sc = np.asarray(mdl.scales(y0, p), dtype=float)
+                for mu in (0.0, 1e-3, 0.7, 40.0):
+                    q = (*p[: ix.MU], mu, *p[ix.MU + 1 :])
+                    y = np.asarray(mdl.initial(state, q), dtype=float)
+                    np.testing.assert_array_equal(y, y0)
+                    np.testing.assert_array_equal(np.asarray(mdl.scales(y, q), dtype=float), sc)
+
+
+def test_the_gliding_normal_force_of_one_state_is_that_of_numpy_scalars():
+    # the model's normal force (each run's check at t = 0) evaluates one state in float
+    # arithmetic, not numpy scalars: the same IEEE operations (x ** 0.5 is pow(x, 0.5) in both),
+    # so the same bits; a state whose axis is 0 gives numpy's non-finite value, not an exception
+    from mett.dynamics.gliding import gliding_normal_force
+
+    mdl = mett.dynamics.MODELS["gliding"]
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        state = mett.State(theta=rng.uniform(0.0, np.pi), thetadot=rng.normal(0.0, 5.0),
+                           phidot=rng.normal(0.0, 5.0), omega3=rng.normal(0.0, 100.0),
+                           nu_x=rng.normal(0.0, 0.1), nu_y=rng.normal(0.0, 0.1))  # fmt: skip
+        p = mdl.params(TOP.replace(mu=rng.uniform(0.0, 1.0)), {})
+        y = np.asarray(mdl.initial(state, p)) * (1.0 + 1e-3 * rng.normal(size=10))
+        one = mdl.normal_force(y, p)
+        ref = gliding_normal_force(y, p)  # element by element of the array: numpy float64 scalars
+        assert type(one) is float and type(ref) is np.float64
+        assert one == ref and np.signbit(one) == np.signbit(ref)
+    y[7:] = 0.0
+    with np.errstate(all="ignore"):
+        assert not np.isfinite(mdl.normal_force(y, p))
+
+
 def test_the_predicted_end_state_does_not_depend_on_friction():
     # mett.sweep remembers predictions by the top without mu: asymptotic_state must not see mu
     # (for every class of top: the thesis body IIa, one with a fold, one that never inverts)

@@ -121,6 +121,7 @@ def run_ends(
     out: list[Any] = [None] * len(jobs)
     fast: dict[Any, list[tuple[int, PreparedRun]]] = {}
     kernels: dict[tuple, Any] = {}
+    starts: dict[tuple, Any] = {}  # the starts of the runs, shared by those differing in μ alone
     # The options common to the jobs are checked once (a job's own friction law is applied to
     # its top, so such a job is prepared whole); options simulate would refuse are left to
     # prepare_run, which reports them for each job as simulate does
@@ -133,7 +134,7 @@ def run_ends(
     for j, (top, state, *own) in enumerate(jobs):
         try:
             if plan is not None and not (own and own[0]):
-                prep = prepare_planned(plan, top, state)
+                prep = prepare_planned(plan, top, state, starts)
             else:
                 prep = prepare_run(top, state, t_end, **{**kw, **(own[0] if own else {})})
             if isinstance(prep, Trajectory):  # decided at t = 0

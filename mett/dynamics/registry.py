@@ -275,6 +275,11 @@ class Model:
         ``cos_theta(t, y, p)``: cos θ of one state in plain arithmetic (no branches; traceable
         by :mod:`.taylor`), so that many runs at once (:func:`mett.dynamics.batch.run_ends`) can
         locate the crossings of θ on the Taylor polynomials. None: those runs go one by one.
+    mu_free_start : bool
+        True if ``initial`` and ``scales`` never read the friction coefficient ``p[MU]``
+        (:mod:`._params`): runs that differ in μ alone then share their start and tolerance
+        scales (:func:`mett.dynamics.simulation.prepare_planned`, what a sweep over friction
+        prepares). The contract tests check it. Default False.
     finish : callable, optional
         ``finish(traj) -> (extras, records)``: what a run carries beyond its states, returned
         as two mappings: per-sample series (one value per sample, floats or text, e.g. the
@@ -308,6 +313,7 @@ class Model:
     cos_theta: Callable[[float, Any, Any], Any] | None = None
     conserved_lengths: tuple[tuple[int, ...], ...] = ()
     friction: tuple[type, ...] = (type(None), Viscous)
+    mu_free_start: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -44,7 +44,7 @@ from .. import friction as _friction
 from ..state import State
 from ..stem import StemmedTop
 from ..top import TippeTop
-from . import _run, backends, flight
+from . import _params, _run, backends, flight
 from ._run import PreparedRun, Run
 from .gliding import viscous_force
 from .hybrid import MAX_SWITCHES, solve_hybrid
@@ -560,14 +560,39 @@ def _plan(
                    max_step, method, backend)  # fmt: skip
 
 
-def prepare_planned(plan: RunPlan, top: Any, state: Any) -> PreparedRun | Trajectory:
+def prepare_planned(
+    plan: RunPlan, top: Any, state: Any, starts: dict | None = None
+) -> PreparedRun | Trajectory:
     """:func:`prepare_run` of ``top`` and ``state`` with the options of ``plan``
-    (:func:`plan_runs`): the top and state checks, then the same run, bit for bit."""
+    (:func:`plan_runs`): the top and state checks, then the same run, bit for bit.
+
+    ``starts``: a dict the caller passes to every run it prepares from ``plan`` (empty at
+    first). A run of a model whose start does not read μ (``Model.mu_free_start``) takes the
+    start and tolerance scales of an earlier run with the same state object and the same
+    parameters but μ from there, instead of computing them again (a sweep over friction)."""
     top, state = _check_point(top, state)
-    return _prepare_checked(plan, top, state)
+    return _prepare_checked(plan, top, state, starts)
 
 
-def _prepare_checked(plan: RunPlan, top: TippeTop, state: State) -> PreparedRun | Trajectory:
+def _start_of(mdl: Model, state: State, params: tuple, starts: dict | None) -> tuple:
+    """(y0, scales) of a run: the model's ``initial`` and ``scales``, or, if ``mdl`` declares
+    ``mu_free_start``, those of an earlier run in ``starts`` that differs in μ alone (a copy:
+    each run owns its start)."""
+    if starts is None or not mdl.mu_free_start:
+        y0 = np.asarray(mdl.initial(state, params), dtype=float)
+        return y0, np.asarray(mdl.scales(y0, params), dtype=float)
+    # the state by identity (0.0 == -0.0, but a start with −0 is its own), held in the value
+    key = (id(state), id(mdl), params[: _params.MU], params[_params.MU + 1 :])
+    got = starts.get(key)
+    if got is None or got[0] is not state:
+        y0 = np.asarray(mdl.initial(state, params), dtype=float)
+        got = starts[key] = (state, y0, np.asarray(mdl.scales(y0, params), dtype=float))
+    return got[1].copy(), got[2]
+
+
+def _prepare_checked(
+    plan: RunPlan, top: TippeTop, state: State, starts: dict | None = None
+) -> PreparedRun | Trajectory:
     # each run its own options dict (a run's options are its own, as with prepare_run)
     mdl, model_options, phases, user = plan.mdl, dict(plan.model_options), plan.phases, plan.user
     rtol, backend = plan.rtol, plan.backend
@@ -577,8 +602,7 @@ def _prepare_checked(plan: RunPlan, top: TippeTop, state: State) -> PreparedRun 
         model_options["stopping_band"] = stopping_band(top, state, rtol)
 
     params = mdl.params(top, model_options)
-    y0 = np.asarray(mdl.initial(state, params), dtype=float)
-    scales = np.asarray(mdl.scales(y0, params), dtype=float)
+    y0, scales = _start_of(mdl, state, params, starts)
     if backend == "auto":  # the fastest exact backend for this model, law and method
         backend = backends.choose(mdl, plan.method, params, model_options, y0.size, bool(user))
     atol_arr = _check_atol(plan.atol, y0.size, scales)
