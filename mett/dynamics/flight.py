@@ -34,7 +34,9 @@ The top with a stem (models "stemmed", "stemmed-coulomb", "stemmed-coulomb-conte
 the same way from the sphere in contact, (R, l) or (r_s, l + l_s): the other sphere's gap
 z_G + l_o 3̂_z − R_o is the same formula with its own (h, ḣ) at the lift-off (:func:`_other_hop`)
 and the touchdown is the earlier of the two first roots; the landing impact is that sphere's
-(docs/theory/flight.md#the-stemmed-top).
+(docs/theory/flight.md#the-stemmed-top), or, if the other sphere's gap is then within the
+switches' event tolerance, the impact at both contacts (:func:`mett.dynamics.stem.land_both`,
+:func:`mett.dynamics.stemslip.land_both`; reason "double touchdown").
 
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree

@@ -32,6 +32,13 @@ dv/dp = W (ẑ − μ v_t), W = 𝟙/m − [a×] I⁻¹ [a×], integrated until 
 (restitution e = 0: the end of compression). Energy changes by ∫ (v_z − μ|v_t|²) dp ≤ 0 (v_z < 0
 during compression). Momentum and angular momentum about G change by P and a × P.
 
+With both spheres on the table when one arrives (the other contact closed, or a flight landing
+at the touchdown angle) the impact acts at both contacts (:func:`two_contact_impact`,
+docs/theory/stem.md#two-contact-impact): normal impulses ≥ 0, normal velocities after ≥ 0 and
+complementary, solved by its active sets — one contact by the impact above, both by
+:func:`viscous_closure` — unique without friction (the 2×2 normal Delassus block is positive
+definite).
+
 Under dry friction (``friction=Coulomb(...)``) the model "stemmed-coulomb" of :mod:`.stemslip`
 runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the
 Coulomb law in the impulse equations.

@@ -852,10 +852,13 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
     normal.terminal, normal.direction = True, 1.0  # type: ignore[attr-defined]
     stops.terminal, stops.direction = True, -1.0  # type: ignore[attr-defined]
     z = np.concatenate((g0, np.zeros(k)))
-    stuck = False
+    stuck = at_band = False
     p0, p1 = 0.0, 10.0 * -g0[2] / Wg[2, 2]
     for _ in range(60):
-        if np.linalg.norm(z[tang]) <= eta:  # sticking: the impulse that ends the impact stuck
+        # at the band: located by the event (possibly an ulp above η: its root from above, which
+        # would restart the integration on the same root, again and again) or started within it
+        if at_band or np.linalg.norm(z[tang]) <= eta:  # stick if the cone holds, else restart
+            at_band = False
             Pi_rest = np.linalg.solve(Wg, -z[:k])
             if Pi_rest[2] >= 0.0 and np.linalg.norm(Pi_rest[tang]) <= mu * Pi_rest[2]:
                 z = np.concatenate((np.zeros(k), z[k:] + Pi_rest))
@@ -881,7 +884,7 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
             z = sol.y_events[0][0]
             break
         if sol.status == 1:  # the slip reached the band: stick or restart (above)
-            z, p0 = sol.y_events[1][0], float(sol.t_events[1][0])
+            z, p0, at_band = sol.y_events[1][0], float(sol.t_events[1][0]), True
         else:  # the impact goes on (friction can drive the contact down first)
             z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
     else:
