@@ -99,6 +99,7 @@ __all__ = [
     "two_contact_delassus",
     "two_contact_impact",
     "viscous_closure",
+    "viscous_path",
 ]
 
 N_STATE = 11
@@ -640,7 +641,13 @@ def _after_velocities(
 
 
 def two_contact_impact(
-    y: np.ndarray, p: tuple, first: int, single: Any, both: Any, vz: float | None = None
+    y: np.ndarray,
+    p: tuple,
+    first: int,
+    single: Any,
+    both: Any,
+    vz: float | None = None,
+    path: Any = None,
 ) -> TwoContactImpact:
     """The perfectly inelastic impact of a state ``y`` whose two spheres are both on the table
     (gap 0 to the event tolerance): normal impulses P_1, P_2 ≥ 0, normal velocities after
@@ -656,6 +663,10 @@ def two_contact_impact(
       the run's law (the one every change of contact uses); consistent if the other contact's
       normal velocity after it is ≥ 0 (it then opens) and the impulse equations end (no
       :class:`JumpFailed`);
+    * the other contact closed before (normal velocity 0) and ``path`` given (the viscous law:
+      :func:`viscous_path`): ``path(frames, first)`` → (P (2, 3), closed), the two-contact
+      Darboux–Keller impact driven by the arriving contact, the other in the active set while
+      it is pushed; consistent by construction;
     * both: ``both(frames)`` → (state, P (2, 3), Q (2,)) or None: the run's law with both normal
       velocities brought to 0 (:func:`viscous_closure`,
       :func:`mett.dynamics.stemslip.close_both`); consistent if both normal impulses are ≥ 0.
@@ -682,6 +693,17 @@ def two_contact_impact(
         closed = (bool(v0[0] <= tol), bool(v0[1] <= tol))
         return TwoContactImpact(closed, np.zeros((2, 3)), np.zeros(2), v0, out)
     for i in (first, 1 - first):
+        if i != first and path is not None and abs(v0[i]) <= tol:
+            # the other contact closed: the path of the two-contact Darboux–Keller impact
+            res = path(frames, first)
+            if res is None:
+                continue
+            Ps, closed_b = np.asarray(res[0], dtype=float), res[1]
+            v = _after_velocities(frames[first], m, I1, I3, arms, list(Ps), 0.0)
+            closed = (True, True) if closed_b else (first == 0, first == 1)
+            state = (closed_on_both(y, frames, m, Ps, p) if closed_b
+                     else _impulses_applied(y, frames, m, Ps, float(first)))  # fmt: skip
+            return TwoContactImpact(closed, Ps, np.zeros(2), v, state)
         if v0[i] >= -tol:  # no impulse at i: the other contact still approaches
             continue
         try:
@@ -761,16 +783,90 @@ def viscous_closure(frames: Any, m: float, mu: float) -> np.ndarray | None:
     return P.reshape(2, 3)
 
 
+def viscous_path(frames: Any, m: float, mu: float, first: int) -> tuple[np.ndarray, bool] | None:
+    """The two-contact Darboux–Keller impact of the viscous law when the contact ``first``
+    arrives and the other is closed (normal velocity 0): the impulses (2, 3) (N s) and whether
+    the other contact is closed at the end (:func:`two_contact_impact`).
+
+    The arriving contact a compresses with its normal impulse p as the time-like variable,
+    dP_a = (−μ v_a,t, 1) dp, as in :func:`darboux_keller`. The other contact b is in the active
+    set while its normal velocity would otherwise turn negative: then dP_b = q (−μ v_b,t, 1) dp
+    with q ≥ 0 from dv_b,z = 0, q = −(W_ba dP_a)_z / (W_bb (−μ v_b,t, 1))_z; it joins when v_b,z
+    falls to 0 and leaves when q falls to 0 (it stops being pushed). The impact ends when
+    v_a,z reaches 0. So P_b,z ≥ 0, v_b,z ≥ 0 and P_b,z v_b,z = 0 by construction, and
+    dE = (v_a,z − μ|v_a,t|²) dp − μ q |v_b,t|² dp ≤ 0 during compression. None where the
+    friction is stiff (μ |W| p ≫ 1, :func:`darboux_keller`'s stiff case): the caller then tries
+    the velocity-level closure.
+    """
+    from scipy.integrate import solve_ivp
+
+    a, b = first, 1 - first
+    W = two_contact_delassus(frames, m)
+    Wba, Wbb = W[3 * b : 3 * b + 3, 3 * a : 3 * a + 3], W[3 * b : 3 * b + 3, 3 * b : 3 * b + 3]
+    v0 = np.concatenate([f.v for f in frames])
+    sa, sb = slice(3 * a, 3 * a + 3), slice(3 * b, 3 * b + 3)
+
+    def rates(z: np.ndarray, active: bool) -> tuple[np.ndarray, float]:
+        va, vb = z[sa], z[sb]
+        dP = np.zeros(6)
+        dP[sa] = (-mu * va[0], -mu * va[1], 1.0)
+        q = 0.0
+        if active:
+            ub = np.array([-mu * vb[0], -mu * vb[1], 1.0])
+            q = -float((Wba @ dP[sa])[2]) / float((Wbb @ ub)[2])
+            dP[sb] = q * ub
+        return np.concatenate((W @ dP, dP)), q
+
+    def end(_: float, z: np.ndarray) -> float:
+        return z[3 * a + 2]
+
+    end.terminal, end.direction = True, 1.0  # type: ignore[attr-defined]
+    z = np.concatenate((v0, np.zeros(6)))
+    z[3 * b + 2] = 0.0  # closed: its constraint's velocity (rounding removed)
+    active = bool(rates(z, False)[0][3 * b + 2] < 0.0)  # pushed down from the start: joins
+    p0, p1 = 0.0, 10.0 * -v0[3 * a + 2] / W[3 * a + 2, 3 * a + 2]
+    atol = 1e-15 * (1.0 + float(np.max(np.abs(v0))))
+    if mu * np.linalg.norm(W, 2) * p1 > 1e3:
+        # the slips relax over an impulse ~ 1/(μ|W|) far below the impact's (darboux_keller's
+        # stiff case): an explicit method would need ~ μ|W| p1 steps; not this path
+        return None
+    for _ in range(200):
+
+        def switch(_: float, z: np.ndarray, active: bool = active) -> float:
+            return rates(z, True)[1] if active else z[3 * b + 2]
+
+        switch.terminal, switch.direction = True, -1.0  # type: ignore[attr-defined]
+        sol = solve_ivp(lambda _, z, act=active: rates(z, act)[0], (p0, p1), z, method="DOP853",
+                        events=(end, switch), rtol=1e-13, atol=atol)  # fmt: skip
+        if sol.status == -1:
+            raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
+        if sol.t_events[0].size:
+            z = sol.y_events[0][0]
+            return z[6:].reshape(2, 3), active
+        if sol.t_events[1].size:  # b joins or leaves the active set
+            z, p0, active = sol.y_events[1][0], float(sol.t_events[1][0]), not active
+            if not active:
+                z[3 * b + 2] = max(z[3 * b + 2], 0.0)
+        else:  # the impact goes on (friction can drive the contact down first)
+            z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
+    raise JumpFailed("impact: the impulse equations did not reach the end of compression")
+
+
 def closed_on_both(y: np.ndarray, frames: Any, m: float, P: np.ndarray, p: tuple) -> np.ndarray:
     """State ``y`` after the impulses ``P`` (2, 3) at the two contacts: Δ(m ṙ) = P_1 + P_2,
     ΔL = a_1 × P_1 + a_2 × P_2, on the double-contact manifold (flag 2, :func:`on_both`; L_z
     form)."""
+    return on_both(_impulses_applied(y, frames, m, P, 2.0), p)
+
+
+def _impulses_applied(y: np.ndarray, frames: Any, m: float, P: Any, flag: float) -> np.ndarray:
+    """State ``y`` after the impulses ``P`` (2, 3) at both contacts, its phase flag ``flag``."""
     f = frames[0]
     out = np.array(y, dtype=float)
     out[2:4] = f.V[:2] + (P[0][:2] + P[1][:2]) / m
     out[4:7] = f.L + np.cross(frames[0].a, P[0]) + np.cross(frames[1].a, P[1])
-    out[10] = 2.0
-    return on_both(out, p)
+    out[10] = flag
+    return out
 
 
 def land_both(
@@ -791,7 +887,8 @@ def land_both(
         P = viscous_closure(frames, m, mu)
         return None if P is None else (closed_on_both(y, frames, m, P, p), P, np.zeros(2))
 
-    imp = two_contact_impact(y, p, first, lambda f: (law(f.v, f.W, mu), 0.0), both, vz)
+    imp = two_contact_impact(y, p, first, lambda f: (law(f.v, f.W, mu), 0.0), both, vz,
+                             lambda frames, a: viscous_path(frames, m, mu, a))  # fmt: skip
     out = _settle_both(imp.state, p) if all(imp.closed) else imp.state
     return out, imp
 
@@ -841,8 +938,9 @@ def transition(
             return None if P is None else (closed_on_both(y, frames, m, P, p), P, np.zeros(2))
 
         imp = two_contact_impact(
-            y, p, PHASE_NAMES.index(to), lambda f: (darboux_keller(f.v, f.W, mu), 0.0), both
-        )
+            y, p, PHASE_NAMES.index(to), lambda f: (darboux_keller(f.v, f.W, mu), 0.0), both,
+            path=lambda frames, first: viscous_path(frames, m, mu, first),
+        )  # fmt: skip
         if not all(imp.closed):
             return imp.state, "touchdown" if to == "stem" else "landing", math.nan
         return _settle_both(imp.state, p), "closure", math.nan
