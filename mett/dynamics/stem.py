@@ -35,7 +35,8 @@ during compression). Momentum and angular momentum about G change by P and a × 
 With both spheres on the table when one arrives (the other contact closed, or a flight landing
 at the touchdown angle) the impact acts at both contacts (:func:`two_contact_impact`,
 docs/theory/stem.md#two-contact-impact): normal impulses ≥ 0, normal velocities after ≥ 0 and
-complementary, solved by its active sets — one contact by the impact above, both by
+complementary, solved by its active sets — one contact by the impact above; with the other
+contact closed before, the two-contact Darboux–Keller path (:func:`viscous_path`); both by
 :func:`viscous_closure` — unique without friction (the 2×2 normal Delassus block is positive
 definite).
 
