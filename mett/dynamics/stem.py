@@ -784,7 +784,9 @@ def viscous_closure(frames: Any, m: float, mu: float) -> np.ndarray | None:
     return P.reshape(2, 3)
 
 
-def viscous_path(frames: Any, m: float, mu: float, first: int) -> tuple[np.ndarray, bool] | None:
+def viscous_path(
+    frames: Any, m: float, mu: float, first: int, tangential: Any = None
+) -> tuple[np.ndarray, bool] | None:
     """The two-contact Darboux–Keller impact of the viscous law when the contact ``first``
     arrives and the other is closed (normal velocity 0): the impulses (2, 3) (N s) and whether
     the other contact is closed at the end (:func:`two_contact_impact`).
@@ -797,7 +799,9 @@ def viscous_path(frames: Any, m: float, mu: float, first: int) -> tuple[np.ndarr
     v_a,z reaches 0. So P_b,z ≥ 0, v_b,z ≥ 0 and P_b,z v_b,z = 0 by construction, and
     dE = (v_a,z − μ|v_a,t|²) dp − μ q |v_b,t|² dp ≤ 0 during compression. None where the
     friction is stiff (μ |W| p ≫ 1, :func:`darboux_keller`'s stiff case): the caller then tries
-    the velocity-level closure.
+    the velocity-level closure. ``tangential(v_x, v_y)``: another law's tangential impulse per
+    unit normal impulse in place of the viscous (−μ v_x, −μ v_y) (as
+    :func:`compression_impulse` takes it; ``mu`` then only sets the stiffness test).
     """
     from scipy.integrate import solve_ivp
 
@@ -807,13 +811,15 @@ def viscous_path(frames: Any, m: float, mu: float, first: int) -> tuple[np.ndarr
     v0 = np.concatenate([f.v for f in frames])
     sa, sb = slice(3 * a, 3 * a + 3), slice(3 * b, 3 * b + 3)
 
+    law = (lambda vx, vy: (-mu * vx, -mu * vy)) if tangential is None else tangential
+
     def rates(z: np.ndarray, active: bool) -> tuple[np.ndarray, float]:
         va, vb = z[sa], z[sb]
         dP = np.zeros(6)
-        dP[sa] = (-mu * va[0], -mu * va[1], 1.0)
+        dP[sa] = (*law(va[0], va[1]), 1.0)
         q = 0.0
         if active:
-            ub = np.array([-mu * vb[0], -mu * vb[1], 1.0])
+            ub = np.array([*law(vb[0], vb[1]), 1.0])
             q = -float((Wba @ dP[sa])[2]) / float((Wbb @ ub)[2])
             dP[sb] = q * ub
         return np.concatenate((W @ dP, dP)), q
