@@ -35,7 +35,9 @@ The top with a stem (models "stemmed", "stemmed-coulomb", "stemmed-coulomb-conte
 the same way from the sphere in contact, (R, l) or (r_s, l + l_s): the other sphere's gap
 z_G + l_o 3̂_z − R_o is the same formula with its own (h, ḣ) at the lift-off (:func:`_other_hop`)
 and the touchdown is the earlier of the two first roots; the landing impact is that sphere's
-(docs/theory/flight.md#the-stemmed-top).
+(docs/theory/flight.md#the-stemmed-top), or, if the other sphere's gap is then within the
+switches' event tolerance, the impact at both contacts (:func:`mett.dynamics.stem.land_both`,
+:func:`mett.dynamics.stemslip.land_both`; reason "double touchdown").
 
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
@@ -770,16 +772,28 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
             break
         g_td = hop.state(tau_end)
         sphere = _sphere_body(p, lands_on, flier.stem)[1:3] if flier.stemmed else None
+        on_both = None  # a landing on both spheres: (the state after it, its impact)
+        landed: tuple[np.ndarray, np.ndarray, float, float] | None
         try:
-            landed = (None if tau is None
-                      else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere,
-                                None if flier.eps is None else p[flier.eps]))  # fmt: skip
+            # a landing on both spheres at once: the two-contact impact (viscous and dry laws;
+            # the regularised law, which has no two-contact impact yet, lands on the first sphere)
+            if (tau is not None and flier.stemmed and flier.eps is None
+                    and _both_land(hop, other, tau, on, lands_on, p)):  # fmt: skip
+                landed = None
+                vz_td = float(hop.vz(tau))
+                on_both = (stemslip.land_both(g_td, vz_td, p, lands_on) if flier.dry
+                           else stem.land_both(g_td, vz_td, p, lands_on, viscous_impulse))  # fmt: skip
+            else:
+                landed = (None if tau is None
+                          else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere,
+                                    None if flier.eps is None else p[flier.eps]))  # fmt: skip
         except JumpFailed as exc:  # the run ends at the touchdown, the flight kept
             status, message = "failed", f"landing at t = {t + tau_end:.9g} s: {exc}"
             pieces.append(_flight_piece(hop, tau_end, flier, p, t_eval_arr, last=True, flag=on,
                                         other=other))  # fmt: skip
             break
-        piece = _flight_piece(hop, tau_end, flier, p, t_eval_arr, last=landed is None, flag=on,
+        ends = landed is None and on_both is None
+        piece = _flight_piece(hop, tau_end, flier, p, t_eval_arr, last=ends, flag=on,
                               other=other)  # fmt: skip
         if events:  # the user events on the flight's dense output, as on a compiled run's
             stop = _user_events(events, piece.sol)
@@ -795,23 +809,32 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
                 break
         pieces.append(piece)
         durations.append(tau_end)
-        if landed is None:
+        if ends:
             break
         t_td = float(t + tau_end)
-        g_after, P, Q, margin = landed
-        if flier.stemmed:  # on the sphere that landed
+        reason = "touchdown"
+        if on_both is not None:  # both spheres on the table: the two-contact impact
+            y, imp = on_both
+            g_after, margin, reason = imp.state[:10], math.nan, "double touchdown"
+            y_before = _stem_layout(flier, g_td, p, on)
+            body_l = _sphere_body(p, 1 if not imp.closed[0] else 0, flier.stem)
+        elif landed is None:  # pragma: no cover - `ends` broke out of the loop above
+            break
+        elif flier.stemmed:  # on the sphere that landed
+            g_after, P, Q, margin = landed
             y = _stem_layout(flier, g_after, p, lands_on)
             if flier.dry:
                 y = contact.settle(y, _dry_stem_params(p, lands_on))
             y_before = _stem_layout(flier, g_td, p, on)
             body_l = _sphere_body(p, lands_on, flier.stem)
         else:
+            g_after, P, Q, margin = landed
             y = flier.from_body(g_after, p)
             y_before = flier.from_body(g_td, p) if not flier.dry else contact.from_gliding(g_td, p)
             body_l = body
         phase = _start_phase(run, table, y)
         nu = gliding_core(g_after.tolist(), (*body_l[:5], 0.0, body_l[5]))[12]
-        switches.append(Switch(t_td, "flight", phase.name or "sliding", "touchdown", margin,
+        switches.append(Switch(t_td, "flight", phase.name or "sliding", reason, margin,
                                math.hypot(nu[0], nu[1]), t_td))  # fmt: skip
         jumps.append((y_before, y.copy()))
         t = t_td
@@ -839,6 +862,17 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
         message = f"{message}; {n_flights} flight{'s' if n_flights != 1 else ''}"
     return _assemble(run, pieces, switches, jumps, records, status, message, t_lost, nfev,
                      t_events)  # fmt: skip
+
+
+def _both_land(hop: Hop, other: Hop | None, tau: float, on: int, lands_on: int, p: tuple) -> bool:
+    """True if the stemmed top's sphere that does not land at ``tau`` (s after the lift-off)
+    has its gap within the switches' event tolerance then, |h| ≤ SWITCH_OFFSET·R (as a contact
+    phase's switch sees the other sphere: :data:`mett.dynamics.stem.SWITCH_OFFSET`): both
+    spheres reach the table together and the landing is the impact at both contacts."""
+    if other is None:
+        return False
+    h = (other if lands_on == on else hop).gap(tau)[0]
+    return abs(h) <= stem.SWITCH_OFFSET * p[ix.R]
 
 
 def _sphere_body(p: tuple, on: int, stem_ix: Any = (ix.R_S, ix.L_S)) -> tuple:

@@ -32,6 +32,14 @@ dv/dp = W (ẑ − μ v_t), W = 𝟙/m − [a×] I⁻¹ [a×], integrated until 
 (restitution e = 0: the end of compression). Energy changes by ∫ (v_z − μ|v_t|²) dp ≤ 0 (v_z < 0
 during compression). Momentum and angular momentum about G change by P and a × P.
 
+With both spheres on the table when one arrives (the other contact closed, or a flight landing
+at the touchdown angle) the impact acts at both contacts (:func:`two_contact_impact`,
+docs/theory/stem.md#two-contact-impact): normal impulses ≥ 0, normal velocities after ≥ 0 and
+complementary, solved by its active sets — one contact by the impact above; with the other
+contact closed before, the two-contact Darboux–Keller path (:func:`viscous_path`); both by
+:func:`viscous_closure` — unique without friction (the 2×2 normal Delassus block is positive
+definite).
+
 Under dry friction (``friction=Coulomb(...)``) the model "stemmed-coulomb" of :mod:`.stemslip`
 runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the
 Coulomb law in the impulse equations.
@@ -67,10 +75,12 @@ __all__ = [
     "BOTH_FORCE_MIN",
     "MODEL",
     "PHASE_NAMES",
+    "TWO_CONTACT_RTOL",
     "VISCOUS_LAW",
     "Accumulation",
     "ImpactFrame",
     "StemLaw",
+    "TwoContactImpact",
     "accumulation",
     "apply_impulse",
     "ball_clearance",
@@ -79,16 +89,22 @@ __all__ = [
     "both_rhs",
     "both_solve",
     "close_both",
+    "closed_on_both",
     "compression_impulse",
     "darboux_keller",
     "finish",
     "impact",
     "impact_frame",
+    "land_both",
     "normal_forces",
     "on_both",
     "stem_clearance",
     "stem_params",
     "transition",
+    "two_contact_delassus",
+    "two_contact_impact",
+    "viscous_closure",
+    "viscous_path",
 ]
 
 N_STATE = 11
@@ -375,12 +391,16 @@ class ImpactFrame(NamedTuple):
     """Velocity of the new contact point before the impact (m/s)."""
 
 
-def impact_frame(y: np.ndarray, p: tuple, to: str) -> ImpactFrame:
+def impact_frame(y: np.ndarray, p: tuple, to: str, vz: float | None = None) -> ImpactFrame:
     """:class:`ImpactFrame` of state ``y`` (on the other sphere) for an impact of contact ``to``
-    ("ball" or "stem"); ``p`` the parameters of the "stemmed" model (μ unused)."""
+    ("ball" or "stem"); ``p`` the parameters of the "stemmed" model (μ unused). ``vz``: the
+    vertical CM velocity (m/s) of a state in flight; None: that of the other sphere's contact
+    constraint."""
     old, new = (_stem(p), _ball(p)) if to == "ball" else (_ball(p), _stem(p))
     m, I1, I3 = p[ix.M], p[ix.I1], p[ix.I3]
     e, L, w, V = _body(y, old)
+    if vz is not None:
+        V = np.array([V[0], V[1], float(vz)])
     a = new[2] * e - np.array([0.0, 0.0, new[1]])
     Iinv = np.eye(3) / I1 + (1.0 / I3 - 1.0 / I1) * np.outer(e, e)
     A = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])  # a × x = A x
@@ -562,17 +582,6 @@ def _impact_times(switches: Any) -> list[float]:
     return out[::-1]
 
 
-def _normal_speed(y: np.ndarray, p: tuple, on: str) -> tuple[float, float]:
-    """The normal velocities (m/s) of the ball's and the stem's contact points of state ``y``
-    on the contact ``on`` ("ball" or "stem"; V_z from its constraint)."""
-    e, L, w, V = _body(y, _ball(p) if on == "ball" else _stem(p))
-    out = []
-    for R_i, l_i in ((p[ix.R], p[ix.L]), (p[ix.R_S], p[ix.L] + p[ix.L_S])):
-        a = l_i * e - np.array([0.0, 0.0, R_i])
-        out.append(float(V[2] + np.cross(w, a)[2]))
-    return out[0], out[1]
-
-
 def close_both(y: np.ndarray, p: tuple, on: str) -> tuple[np.ndarray, np.ndarray]:
     """The state on both contacts after the perfectly plastic impact that stops both normal
     velocities, and the normal impulses (P_1, P_2) (N s) of the ball and the stem.
@@ -596,6 +605,304 @@ def close_both(y: np.ndarray, p: tuple, on: str) -> tuple[np.ndarray, np.ndarray
     out = np.array(y, dtype=float)  # the horizontal CM velocity keeps (vertical impulses)
     out[4:7] = L + P[0] * t_[0] + P[1] * t_[1]
     return on_both(out, p), P
+
+
+# --- the impact at both contacts -----------------------------------------------------------------
+
+TWO_CONTACT_RTOL = 1e-12
+"""Rounding allowance of the two-contact impact (:func:`two_contact_impact`), relative to the
+largest contact-point speed before it (velocities) or the largest impulse (impulses): an opening
+contact's normal velocity ≥ −allowance, a closed contact's normal impulse ≥ −allowance."""
+
+
+class TwoContactImpact(NamedTuple):
+    """The perfectly inelastic impact of the stemmed top at both contacts
+    (:func:`two_contact_impact`)."""
+
+    closed: tuple[bool, bool]
+    """The contacts (ball, stem) closed after it: the active set."""
+    P: np.ndarray
+    """Impulses (N s) at the ball's and the stem's contact points, shape (2, 3)."""
+    Q: np.ndarray
+    """Drilling impulses about ẑ (N m s) at the ball and the stem, shape (2,): the
+    Coulomb–Contensou law's (0 for the other laws)."""
+    v_n: np.ndarray
+    """Normal velocities (m/s) of the ball's and the stem's contact points after it."""
+    state: np.ndarray
+    """The state after it (L_z in row 6; flag 0/1 on one contact, 2 on both: on the
+    double-contact manifold, :func:`on_both`)."""
+
+
+def _after_velocities(
+    f: ImpactFrame, m: float, I1: float, I3: float, arms: Any, P: Any, Q: Any
+) -> np.ndarray:
+    """The normal velocities of the contact points ``arms`` after the impulses ``P`` (one (3,) per
+    arm, at that arm) and the drilling impulse ``Q`` ẑ, from the frame ``f``."""
+    V = f.V + sum(P) / m
+    L = f.L + sum(np.cross(a, Pi) for a, Pi in zip(arms, P, strict=True))
+    L[2] += float(np.sum(Q))
+    w = L / I1 + (1.0 / I3 - 1.0 / I1) * float(L @ f.e) * f.e
+    return np.array([V[2] + np.cross(w, a)[2] for a in arms])
+
+
+def two_contact_impact(
+    y: np.ndarray,
+    p: tuple,
+    first: int,
+    single: Any,
+    both: Any,
+    vz: float | None = None,
+    path: Any = None,
+) -> TwoContactImpact:
+    """The perfectly inelastic impact of a state ``y`` whose two spheres are both on the table
+    (gap 0 to the event tolerance): normal impulses P_1, P_2 ≥ 0, normal velocities after
+    v_1⁺, v_2⁺ ≥ 0 and complementary to them (P_i v_i⁺ = 0), the friction law in impulse form
+    at each contact (docs/theory/stem.md#two-contact-impact).
+
+    ``y``: a state of the "stemmed" layout (L_z in row 6; ``p`` that model's parameters), its
+    vertical CM velocity ``vz`` (m/s; None: that of the contact of its flag). The active sets
+    are tried in the order: the sphere ``first`` (0 ball, 1 stem; the one whose contact arrives
+    first) alone, the other alone, both:
+
+    * one contact i: ``single(frame_i)`` → (P, Q), the single-contact Darboux–Keller impact of
+      the run's law (the one every change of contact uses); consistent if the other contact's
+      normal velocity after it is ≥ 0 (it then opens) and the impulse equations end (no
+      :class:`JumpFailed`);
+    * the other contact closed before (normal velocity 0) and ``path`` given (the viscous law:
+      :func:`viscous_path`): ``path(frames, first)`` → (P (2, 3), closed), the two-contact
+      Darboux–Keller impact driven by the arriving contact, the other in the active set while
+      it is pushed; consistent by construction;
+    * both: ``both(frames)`` → (state, P (2, 3), Q (2,)) or None: the run's law with both normal
+      velocities brought to 0 (:func:`viscous_closure`,
+      :func:`mett.dynamics.stemslip.close_both`); consistent if both normal impulses are ≥ 0.
+
+    Without friction this is the linear complementarity problem v⁺ = v⁻ + W_nn P ≥ 0, P ≥ 0,
+    P ⊥ v⁺, with W_nn the 2×2 normal block of the Delassus matrix: positive definite, so the
+    problem has exactly one solution (a P-matrix; Cottle, Pang & Stone 1992, Thm 3.3.7) and
+    exactly one active set is consistent, whatever the order. With friction the order is the
+    rule (the arriving contact impacts alone when the other then opens, as every change of
+    contact does). Raises :class:`JumpFailed` if no active set is consistent (a Painlevé-type
+    inconsistency of the impulse law).
+    """
+    m, I1, I3 = p[ix.M], p[ix.I1], p[ix.I3]
+    names = ("ball", "stem")
+    if vz is None:  # the constraint of the contact the state is on
+        vz = float(impact_frame(y, p, names[1 - round(float(y[10]))]).V[2])
+    frames = tuple(impact_frame(y, p, to, vz) for to in names)
+    arms = [f.a for f in frames]
+    v0 = np.array([f.v[2] for f in frames])
+    tol = TWO_CONTACT_RTOL * max(float(np.max(np.abs(f.v))) for f in frames)
+    if np.all(v0 >= -tol):  # nothing approaches: no impulse; closed where v_n = 0 (flag: first)
+        out = np.array(y, dtype=float)
+        out[10] = float(first)
+        closed = (bool(v0[0] <= tol), bool(v0[1] <= tol))
+        return TwoContactImpact(closed, np.zeros((2, 3)), np.zeros(2), v0, out)
+    for i in (first, 1 - first):
+        if i != first and path is not None and abs(v0[i]) <= tol:
+            # the other contact closed: the path of the two-contact Darboux–Keller impact
+            res = path(frames, first)
+            if res is None:
+                continue
+            Ps, closed_b = np.asarray(res[0], dtype=float), res[1]
+            v = _after_velocities(frames[first], m, I1, I3, arms, list(Ps), 0.0)
+            closed = (True, True) if closed_b else (first == 0, first == 1)
+            state = (closed_on_both(y, frames, m, Ps, p) if closed_b
+                     else _impulses_applied(y, frames, m, Ps, float(first)))  # fmt: skip
+            return TwoContactImpact(closed, Ps, np.zeros(2), v, state)
+        if v0[i] >= -tol:  # no impulse at i: the other contact still approaches
+            continue
+        try:
+            P, Q = single(frames[i])
+        except JumpFailed:  # this contact alone cannot end its compression: not this set
+            continue
+        Pi = [np.zeros(3), np.zeros(3)]
+        Qs = np.zeros(2)
+        Pi[i], Qs[i] = np.asarray(P, dtype=float), Q
+        v = _after_velocities(frames[i], m, I1, I3, arms, Pi, Q)
+        if v[1 - i] >= -tol:
+            state = apply_impulse(y, frames[i], m, Pi[i], names[i], Q)
+            return TwoContactImpact((i == 0, i == 1), np.array(Pi), Qs, v, state)
+    closed = both(frames)
+    if closed is not None:
+        state, P, Q = closed
+        P, Q = np.asarray(P, dtype=float), np.asarray(Q, dtype=float)
+        if np.min(P[:, 2]) >= -TWO_CONTACT_RTOL * float(np.max(np.abs(P))):
+            v = _after_velocities(frames[0], m, I1, I3, arms, list(P), Q)
+            return TwoContactImpact((True, True), P, Q, v, state)
+    raise JumpFailed(
+        "both contacts are closed at an impact, but no active set satisfies the impulse law "
+        "(a Painlevé-type inconsistency): the run ends there"
+    )
+
+
+def two_contact_delassus(frames: Any, m: float) -> np.ndarray:
+    """The Delassus matrix of the two contacts (6×6, kg⁻¹): Δv = W P with P = (P_1, P_2),
+    v = (v_1, v_2) the ball's and the stem's contact-point velocities, W_ij = 𝟙/m − [a_i×] I⁻¹
+    [a_j×] (``frames``: the :class:`ImpactFrame` of each contact, one configuration)."""
+    Iinv = frames[0].Iinv
+    A = [np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+         for a in (f.a for f in frames)]  # fmt: skip
+    W = np.empty((6, 6))
+    for i in range(2):
+        for j in range(2):
+            W[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] = np.eye(3) / m - A[i] @ Iinv @ A[j]
+    return W
+
+
+def viscous_closure(frames: Any, m: float, mu: float) -> np.ndarray | None:
+    """The impulses (2, 3) (N s) that bring both normal velocities to 0 under the viscous law,
+    or None if the equations have no solution found: the two-contact impact with both contacts
+    closed (:func:`two_contact_impact`).
+
+    With the Delassus matrix W of both contacts (:func:`two_contact_delassus`) and the
+    velocities v⁻ before, v⁺ = v⁻ + W P with v⁺_n = 0 and the viscous law in impulse form at the
+    post-impact slip (Moreau's velocity-level form of the impact law), P_t,i = −μ P_n,i v⁺_t,i.
+    For given P_n the tangential impulses are linear, (𝟙 + μ D W_tt) P_t = −μ D (v⁻_t + W_tn P_n),
+    D = diag(P_n,1, P_n,1, P_n,2, P_n,2); the two normal rows are then solved for P_n (Powell's
+    hybrid method from the frictionless P_n = −W_nn⁻¹ v⁻_n, the solution at μ = 0). The kinetic
+    energy changes by ΔT = P·v⁺ − ½ PᵀWP = −μ Σ P_n,i |v⁺_t,i|² − ½ PᵀWP ≤ 0 when P_n ≥ 0.
+    """
+    from scipy.optimize import root
+
+    W = two_contact_delassus(frames, m)
+    v = np.concatenate([f.v for f in frames])
+    n, t = [2, 5], [0, 1, 3, 4]
+    Wnn, Wnt, Wtn, Wtt = W[np.ix_(n, n)], W[np.ix_(n, t)], W[np.ix_(t, n)], W[np.ix_(t, t)]
+    Pn0 = -np.linalg.solve(Wnn, v[n])
+    P = np.zeros(6)
+    if mu == 0.0:
+        P[n] = Pn0
+        return P.reshape(2, 3)
+
+    def tangential(Pn: np.ndarray) -> np.ndarray:
+        D = np.diag([Pn[0], Pn[0], Pn[1], Pn[1]])
+        return -mu * np.linalg.solve(np.eye(4) + mu * D @ Wtt, D @ (v[t] + Wtn @ Pn))
+
+    def normal(Pn: np.ndarray) -> np.ndarray:
+        return v[n] + Wnn @ Pn + Wnt @ tangential(Pn)
+
+    sol = root(normal, Pn0, method="hybr", options={"xtol": 1e-15})
+    scale = float(np.max(np.abs(v)))
+    if not np.all(np.isfinite(sol.x)) or np.max(np.abs(normal(sol.x))) > 1e-12 * scale:
+        return None
+    P[n], P[t] = sol.x, tangential(sol.x)
+    return P.reshape(2, 3)
+
+
+def viscous_path(
+    frames: Any, m: float, mu: float, first: int, tangential: Any = None
+) -> tuple[np.ndarray, bool] | None:
+    """The two-contact Darboux–Keller impact of the viscous law when the contact ``first``
+    arrives and the other is closed (normal velocity 0): the impulses (2, 3) (N s) and whether
+    the other contact is closed at the end (:func:`two_contact_impact`).
+
+    The arriving contact a compresses with its normal impulse p as the time-like variable,
+    dP_a = (−μ v_a,t, 1) dp, as in :func:`darboux_keller`. The other contact b is in the active
+    set while its normal velocity would otherwise turn negative: then dP_b = q (−μ v_b,t, 1) dp
+    with q ≥ 0 from dv_b,z = 0, q = −(W_ba dP_a)_z / (W_bb (−μ v_b,t, 1))_z; it joins when v_b,z
+    falls to 0 and leaves when q falls to 0 (it stops being pushed). The impact ends when
+    v_a,z reaches 0. So P_b,z ≥ 0, v_b,z ≥ 0 and P_b,z v_b,z = 0 by construction, and
+    dE = (v_a,z − μ|v_a,t|²) dp − μ q |v_b,t|² dp ≤ 0 during compression. None where the
+    friction is stiff (μ |W| p ≫ 1, :func:`darboux_keller`'s stiff case): the caller then tries
+    the velocity-level closure. ``tangential(v_x, v_y)``: another law's tangential impulse per
+    unit normal impulse in place of the viscous (−μ v_x, −μ v_y) (as
+    :func:`compression_impulse` takes it; ``mu`` then only sets the stiffness test).
+    """
+    from scipy.integrate import solve_ivp
+
+    a, b = first, 1 - first
+    W = two_contact_delassus(frames, m)
+    Wba, Wbb = W[3 * b : 3 * b + 3, 3 * a : 3 * a + 3], W[3 * b : 3 * b + 3, 3 * b : 3 * b + 3]
+    v0 = np.concatenate([f.v for f in frames])
+    sa, sb = slice(3 * a, 3 * a + 3), slice(3 * b, 3 * b + 3)
+
+    law = (lambda vx, vy: (-mu * vx, -mu * vy)) if tangential is None else tangential
+
+    def rates(z: np.ndarray, active: bool) -> tuple[np.ndarray, float]:
+        va, vb = z[sa], z[sb]
+        dP = np.zeros(6)
+        dP[sa] = (*law(va[0], va[1]), 1.0)
+        q = 0.0
+        if active:
+            ub = np.array([*law(vb[0], vb[1]), 1.0])
+            q = -float((Wba @ dP[sa])[2]) / float((Wbb @ ub)[2])
+            dP[sb] = q * ub
+        return np.concatenate((W @ dP, dP)), q
+
+    def end(_: float, z: np.ndarray) -> float:
+        return z[3 * a + 2]
+
+    end.terminal, end.direction = True, 1.0  # type: ignore[attr-defined]
+    z = np.concatenate((v0, np.zeros(6)))
+    z[3 * b + 2] = 0.0  # closed: its constraint's velocity (rounding removed)
+    active = bool(rates(z, False)[0][3 * b + 2] < 0.0)  # pushed down from the start: joins
+    p0, p1 = 0.0, 10.0 * -v0[3 * a + 2] / W[3 * a + 2, 3 * a + 2]
+    atol = 1e-15 * (1.0 + float(np.max(np.abs(v0))))
+    if mu * np.linalg.norm(W, 2) * p1 > 1e3:
+        # the slips relax over an impulse ~ 1/(μ|W|) far below the impact's (darboux_keller's
+        # stiff case): an explicit method would need ~ μ|W| p1 steps; not this path
+        return None
+    for _ in range(200):
+
+        def switch(_: float, z: np.ndarray, active: bool = active) -> float:
+            return rates(z, True)[1] if active else z[3 * b + 2]
+
+        switch.terminal, switch.direction = True, -1.0  # type: ignore[attr-defined]
+        sol = solve_ivp(lambda _, z, act=active: rates(z, act)[0], (p0, p1), z, method="DOP853",
+                        events=(end, switch), rtol=1e-13, atol=atol)  # fmt: skip
+        if sol.status == -1:
+            raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
+        if sol.t_events[0].size:
+            z = sol.y_events[0][0]
+            return z[6:].reshape(2, 3), active
+        if sol.t_events[1].size:  # b joins or leaves the active set
+            z, p0, active = sol.y_events[1][0], float(sol.t_events[1][0]), not active
+            if not active:
+                z[3 * b + 2] = max(z[3 * b + 2], 0.0)
+        else:  # the impact goes on (friction can drive the contact down first)
+            z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
+    raise JumpFailed("impact: the impulse equations did not reach the end of compression")
+
+
+def closed_on_both(y: np.ndarray, frames: Any, m: float, P: np.ndarray, p: tuple) -> np.ndarray:
+    """State ``y`` after the impulses ``P`` (2, 3) at the two contacts: Δ(m ṙ) = P_1 + P_2,
+    ΔL = a_1 × P_1 + a_2 × P_2, on the double-contact manifold (flag 2, :func:`on_both`; L_z
+    form)."""
+    return on_both(_impulses_applied(y, frames, m, P, 2.0), p)
+
+
+def _impulses_applied(y: np.ndarray, frames: Any, m: float, P: Any, flag: float) -> np.ndarray:
+    """State ``y`` after the impulses ``P`` (2, 3) at both contacts, its phase flag ``flag``."""
+    f = frames[0]
+    out = np.array(y, dtype=float)
+    out[2:4] = f.V[:2] + (P[0][:2] + P[1][:2]) / m
+    out[4:7] = f.L + np.cross(frames[0].a, P[0]) + np.cross(frames[1].a, P[1])
+    out[10] = flag
+    return out
+
+
+def land_both(
+    g: np.ndarray, vz: float, p: tuple, first: int, single: Any = None
+) -> tuple[np.ndarray, TwoContactImpact]:
+    """The landing from a flight of both spheres at once (the other sphere's gap within the
+    event tolerance when the sphere ``first`` touches): the two-contact impact
+    (:func:`two_contact_impact`) of the gliding-layout state ``g`` with the vertical CM velocity
+    ``vz`` (m/s), viscous law. Returns the state to continue from (the contact(s) closed, a
+    double contact entered only if both normal forces are positive, :func:`_settle_both`) and
+    the impact. ``single``: the single-contact impulse P(v, W, μ) (default
+    :func:`darboux_keller`)."""
+    m, mu = p[ix.M], p[ix.MU]
+    law = darboux_keller if single is None else single
+    y = np.append(np.asarray(g, dtype=float)[:10], float(first))
+
+    def both(frames: Any) -> tuple | None:
+        P = viscous_closure(frames, m, mu)
+        return None if P is None else (closed_on_both(y, frames, m, P, p), P, np.zeros(2))
+
+    imp = two_contact_impact(y, p, first, lambda f: (law(f.v, f.W, mu), 0.0), both, vz,
+                             lambda frames, a: viscous_path(frames, m, mu, a))  # fmt: skip
+    out = _settle_both(imp.state, p) if all(imp.closed) else imp.state
+    return out, imp
 
 
 def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
@@ -635,28 +942,48 @@ def transition(
     """The state after the contact ``to`` ("ball" or "stem") closes on state ``y`` (on the other
     contact), the reason and the accumulation point (s; NaN if none).
 
-    * the single impact of :func:`impact` at the new contact, if the old contact then separates
-      (its normal velocity > 0) and the impacts do not accumulate: reason "touchdown"/"landing";
-    * else both contacts closed (:func:`close_both`): reason "accumulation" (the impact times
-      of ``switches``, the run's (time, from, to) so far, form a geometric sequence:
-      :func:`accumulation`) or "closure" (the old contact would not separate); the double
-      contact starts if both normal forces are positive (:func:`_settle_both`).
+    * the impacts do not accumulate, viscous law: the impact at both contacts
+      (:func:`two_contact_impact`, the old contact closed with zero normal velocity): the single
+      impact of :func:`impact` at the new contact if the old contact then separates, reason
+      "touchdown"/"landing"; else both closed with the viscous law at each
+      (:func:`viscous_closure`), reason "closure";
+    * the impacts do not accumulate, another law (``law``, the regularised law): its single
+      impact if the old contact then separates (its normal velocity > 0), else both closed by
+      the projection of :func:`close_both`, reason "closure";
+    * the impact times of ``switches``, the run's (time, from, to) so far, form a geometric
+      sequence (:func:`accumulation`): both contacts closed by the projection of
+      :func:`close_both`, reason "accumulation".
 
-    ``law`` is the model's friction law where the impact and the forces need it
-    (:class:`StemLaw`; default :data:`VISCOUS_LAW`).
+    After both closed the double contact starts if both normal forces are positive
+    (:func:`_settle_both`). ``law`` is the model's friction law where the impact and the forces
+    need it (:class:`StemLaw`; default :data:`VISCOUS_LAW`).
     """
     law = VISCOUS_LAW if law is None else law
     old = "ball" if to == "stem" else "stem"
-    single = "touchdown" if to == "stem" else "landing"
     acc = accumulation(_impact_times(switches)) if len(switches) else None
-    after, _ = law.impact(y, p, to)
-    v_ball, v_stem = _normal_speed(after, p, to)
-    v_old = v_ball if old == "ball" else v_stem
-    if acc is None and v_old > 0.0:
-        return after, single, math.nan
+    if acc is None and law is not VISCOUS_LAW:
+        # no two-contact path for this law: its single impact if the old contact then opens
+        after, _ = law.impact(y, p, to)
+        if float(impact_frame(after, p, old).v[2]) > 0.0:
+            return after, "touchdown" if to == "stem" else "landing", math.nan
+        closed, _ = close_both(y, p, old)
+        return _settle_both(closed, p, law), "closure", math.nan
+    if acc is None:
+        m, mu = p[ix.M], p[ix.MU]
+
+        def both(frames: Any) -> tuple | None:
+            P = viscous_closure(frames, m, mu)
+            return None if P is None else (closed_on_both(y, frames, m, P, p), P, np.zeros(2))
+
+        imp = two_contact_impact(
+            y, p, PHASE_NAMES.index(to), lambda f: (darboux_keller(f.v, f.W, mu), 0.0), both,
+            path=lambda frames, first: viscous_path(frames, m, mu, first),
+        )  # fmt: skip
+        if not all(imp.closed):
+            return imp.state, "touchdown" if to == "stem" else "landing", math.nan
+        return _settle_both(imp.state, p, law), "closure", math.nan
     closed, _ = close_both(y, p, old)
-    reason = "accumulation" if acc is not None else "closure"
-    return _settle_both(closed, p, law), reason, (acc.t_limit if acc is not None else math.nan)
+    return _settle_both(closed, p, law), "accumulation", acc.t_limit
 
 
 def _to_stem(y: np.ndarray, p: tuple, switches: Any = ()) -> np.ndarray:

@@ -102,6 +102,7 @@ __all__ = [
     "close_both",
     "dry_impulse",
     "impact",
+    "land_both",
     "transition",
 ]
 
@@ -980,10 +981,13 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
     normal.terminal, normal.direction = True, 1.0  # type: ignore[attr-defined]
     stops.terminal, stops.direction = True, -1.0  # type: ignore[attr-defined]
     z = np.concatenate((g0, np.zeros(k)))
-    stuck = False
+    stuck = at_band = False
     p0, p1 = 0.0, 10.0 * -g0[2] / Wg[2, 2]
     for _ in range(60):
-        if np.linalg.norm(z[tang]) <= eta:  # sticking: the impulse that ends the impact stuck
+        # at the band: located by the event (possibly an ulp above η: its root from above, which
+        # would restart the integration on the same root, again and again) or started within it
+        if at_band or np.linalg.norm(z[tang]) <= eta:  # stick if the cone holds, else restart
+            at_band = False
             Pi_rest = np.linalg.solve(Wg, -z[:k])
             if Pi_rest[2] >= 0.0 and np.linalg.norm(Pi_rest[tang]) <= mu * Pi_rest[2]:
                 z = np.concatenate((np.zeros(k), z[k:] + Pi_rest))
@@ -1009,7 +1013,7 @@ def dry_impulse(f: stem.ImpactFrame, m: float, mu: float, r_star: float) -> tupl
             z = sol.y_events[0][0]
             break
         if sol.status == 1:  # the slip reached the band: stick or restart (above)
-            z, p0 = sol.y_events[1][0], float(sol.t_events[1][0])
+            z, p0, at_band = sol.y_events[1][0], float(sol.t_events[1][0]), True
         else:  # the impact goes on (friction can drive the contact down first)
             z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
     else:
@@ -1105,7 +1109,7 @@ def _kinetic(y: np.ndarray, p: tuple, V_z: float = 0.0) -> float:
 
 
 def close_both(
-    y: np.ndarray, p: tuple, on: str, tail: bool = False
+    y: np.ndarray, p: tuple, on: str, tail: bool = False, vz: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, tuple]:
     """The dry closure: the impulse that stops both normal velocities of state ``y`` (on the
     contact ``on``, this model's λ-form state) with the dry law at each contact in impulse form.
@@ -1127,6 +1131,9 @@ def close_both(
     metric of the kinetic energy, which loses energy), and the tail's total contact impulse
     there, P_n,i + λ_i (t_∞ − t_k), is checked ≥ 0 by the caller's reason.
 
+    ``vz``: the vertical CM velocity (m/s) of a state in flight (a landing on both spheres,
+    :func:`land_both`); None: that of the contact ``on``'s constraint.
+
     Returns the state on both contacts (flag 2, L_z form), the impulses Π = (Π_1, Π_2) (N s per
     contact: (P_x, P_y, P_z[, Q/r*])) and the mode (ball sticks, stem sticks). Raises
     :class:`JumpFailed` when no mode is consistent (a Painlevé-type inconsistency of the dry
@@ -1135,7 +1142,7 @@ def close_both(
     m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
     pv = _viscous(p)
     yl = _lz(y, p)
-    f = impact_frame(yl, pv, "stem" if on == "ball" else "ball")
+    f = impact_frame(yl, pv, "stem" if on == "ball" else "ball", vz)
     arms = _arms(f.e, p)
     W = _delassus2(f.e, f.Iinv, m, arms, rs)
     g0 = _gvel(f.V, f.w, arms, rs)
@@ -1198,16 +1205,6 @@ def close_both(
     )
 
 
-def _normal_velocities(y: np.ndarray, p: tuple) -> tuple[float, float]:
-    """The normal velocities (m/s) of the ball's and the stem's contact points of the λ-form
-    state ``y`` on one contact (V_z from its constraint)."""
-    on_stem = y[10] > 0.5
-    f = impact_frame(_lz(y, p), _viscous(p), "ball" if on_stem else "stem")
-    arms = _arms(f.e, p)
-    v = [float(f.V[2] + np.cross(f.w, a)[2]) for a in arms]
-    return v[0], v[1]
-
-
 def _enter_both(y2: np.ndarray, p: tuple) -> np.ndarray:
     """The run's state after both contacts closed (``y2`` on the manifold, flag 2): the double
     contact if both normal forces exceed BOTH_FORCE_MIN m g (a slip within the band settled,
@@ -1225,36 +1222,154 @@ def transition(
     """The state after the contact ``to`` ("ball" or "stem") closes on state ``y`` (the other
     contact, λ form), and the reason:
 
-    * the single dry impact (:func:`impact`), its slip settled, if the old contact then
-      separates (normal velocity > 0) and the impacts do not accumulate: "touchdown"/"landing";
-    * else both contacts closed by the dry closure impulse (:func:`close_both`): "accumulation"
-      (the impact times form a geometric sequence, :func:`mett.dynamics.stem.accumulation`) or
-      "closure" (the old contact would not separate); the double contact starts if both normal
-      forces are positive (:func:`_enter_both`).
+    * the impacts do not accumulate: the impact at both contacts
+      (:func:`mett.dynamics.stem.two_contact_impact`, the old contact closed with zero normal
+      velocity): the single dry impact (:func:`impact`), its slip settled, if the old contact
+      then separates, "touchdown"/"landing"; else both closed by the dry closure impulse
+      (:func:`close_both`, normal impulses ≥ 0), "closure";
+    * the impact times form a geometric sequence (:func:`mett.dynamics.stem.accumulation`):
+      both closed by the closure impulse of the tail, "accumulation";
+
+    after both closed the double contact starts if both normal forces are positive
+    (:func:`_enter_both`).
 
     The third value is the accumulation point t_∞ (s; NaN if none).
     """
     old = "ball" if to == "stem" else "stem"
     acc = stem.accumulation(_trailing_impacts(switches)) if len(switches) else None
-    after = impact(y, p, to)[0]
-    v_ball, v_stem = _normal_velocities(after, p)
-    v_old = v_ball if old == "ball" else v_stem
-    if acc is None and v_old > 0.0:
-        single = "touchdown" if to == "stem" else "landing"
-        return dry.settle(after, _contact(p, to == "stem")), single, math.nan
-    closed, Pi, _ = close_both(y, p, old, tail=acc is not None)
-    if acc is not None:  # the tail's contact impulses, P_n,i + λ_i (t_∞ − t_k), are ≥ 0
-        k = _gen(p[ix.RSTAR])
-        span = acc.t_limit - _trailing_impacts(switches)[-1]
-        lam = both_forces(closed, p)[:2]
-        if min(Pi[2] + lam[0] * span, Pi[k + 2] + lam[1] * span) < 0.0:
-            raise JumpFailed(
-                f"impacts accumulate (ratio {acc.ratio:.3g}, limit t = {acc.t_limit:.9g} s) "
-                "into a double contact that one contact cannot carry (its tail impulse < 0)"
-            )
     if acc is None:
-        return _enter_both(closed, p), "closure", math.nan
+        out, imp = _two_contact(y, p, stem.PHASE_NAMES.index(to))
+        if not all(imp.closed):
+            return out, "touchdown" if to == "stem" else "landing", math.nan
+        return out, "closure", math.nan
+    closed, Pi, _ = close_both(y, p, old, tail=True)
+    # the tail's contact impulses, P_n,i + λ_i (t_∞ − t_k), are ≥ 0
+    k = _gen(p[ix.RSTAR])
+    span = acc.t_limit - _trailing_impacts(switches)[-1]
+    lam = both_forces(closed, p)[:2]
+    if min(Pi[2] + lam[0] * span, Pi[k + 2] + lam[1] * span) < 0.0:
+        raise JumpFailed(
+            f"impacts accumulate (ratio {acc.ratio:.3g}, limit t = {acc.t_limit:.9g} s) "
+            "into a double contact that one contact cannot carry (its tail impulse < 0)"
+        )
     return _enter_both(closed, p), "accumulation", acc.t_limit
+
+
+def _two_contact(
+    y: np.ndarray, p: tuple, first: int, vz: float | None = None
+) -> tuple[np.ndarray, stem.TwoContactImpact]:
+    """The impact at both contacts (:func:`mett.dynamics.stem.two_contact_impact`) of the
+    λ-form state ``y`` with the dry law: one contact by :func:`dry_impulse`, both by
+    :func:`close_both`. Returns the state to continue from (this model's layout: a single
+    contact's slip settled; both closed: the double contact if both normal forces are positive,
+    :func:`_enter_both`) and the impact."""
+    m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
+    on = ("ball", "stem")[round(float(y[10]))]
+    yl = _lz(y, p)
+
+    def single(f: stem.ImpactFrame) -> tuple:
+        P, Q, _ = dry_impulse(f, m, mu, rs)
+        return P, Q
+
+    def both(frames: Any) -> tuple | None:
+        try:
+            after, Pi, _ = close_both(y, p, on, vz=vz)
+        except JumpFailed:  # no sliding direction of the slips before fits: those after
+            try:
+                after, Pi, _ = _moreau_closure(y, p, on, vz)
+            except JumpFailed:
+                return None
+        k = _gen(rs)
+        Q = rs * np.array([Pi[3], Pi[7]]) if k == 4 else np.zeros(2)
+        return after, np.array([Pi[0:3], Pi[k : k + 3]]), Q
+
+    imp = stem.two_contact_impact(yl, _viscous(p), first, single, both, vz)
+    if all(imp.closed):
+        return _enter_both(imp.state, p), imp
+    q = _contact(p, imp.closed[1])
+    return dry.settle(_converted(imp.state, p, dry.from_gliding), q), imp
+
+
+def _moreau_closure(
+    y: np.ndarray, p: tuple, on: str, vz: float | None = None
+) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """The impulse at both contacts that stops both normal velocities with the dry law at the
+    velocity level (Moreau; Leine & Glocker 2003): a sliding contact's tangential impulse is
+    −μ P_n,i γ̂⁺_i, opposite to its generalised slip **after** the impulse, a sticking one
+    stops it inside its cone. Where :func:`close_both`'s sliding directions (those before) admit
+    no consistent mode — a contact at rest before, whose direction the impulse itself sets —
+    this one is taken (:func:`_two_contact`). The kinetic energy changes by
+    ΔT = Π·g⁺ − ½ ΠᵀWΠ = −μ Σ P_n,i |γ⁺_i| − ½ ΠᵀWΠ ≤ 0 (P_n,i ≥ 0, g⁺_n = 0), checked.
+
+    Modes in :func:`close_both`'s order, each a root of its 2k equations (normal rows g⁺_n,i =
+    0; sliding Π_t,i |γ⁺_i| + μ P_n,i γ⁺_i = 0; sticking γ⁺_i = 0) by Powell's hybrid method
+    from the frictionless impulse. Returns as :func:`close_both`; raises :class:`JumpFailed` if
+    no mode is consistent."""
+    from scipy.optimize import root
+
+    m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
+    yl = _lz(y, p)
+    f = impact_frame(yl, _viscous(p), "stem" if on == "ball" else "ball", vz)
+    arms = _arms(f.e, p)
+    W = _delassus2(f.e, f.Iinv, m, arms, rs)
+    g0 = _gvel(f.V, f.w, arms, rs)
+    k = _gen(rs)
+    t = [0, 1, 3] if k == 4 else [0, 1]
+    nr = [2, k + 2]
+    E0 = _kinetic(yl, p, float(f.V[2]))
+    scale = max(float(np.max(np.abs(g0))), 1e-300)
+    guess = np.zeros(2 * k)
+    guess[nr] = np.linalg.lstsq(W[np.ix_(nr, nr)], -g0[nr], rcond=None)[0]
+    for mode in ((False, False), (True, False), (False, True), (True, True)):
+
+        def eqs(Pi: np.ndarray, mode: tuple = mode) -> np.ndarray:
+            gp = g0 + W @ Pi
+            out = [gp[2], gp[k + 2]]
+            for i in range(2):
+                ti = [i * k + j for j in t]
+                if mode[i]:
+                    out.extend(gp[ti])
+                else:
+                    out.extend(Pi[ti] * np.linalg.norm(gp[ti]) + mu * Pi[i * k + 2] * gp[ti])
+            return np.array(out)
+
+        Pi = root(eqs, guess, method="hybr", options={"xtol": 1e-14}).x
+        gp = g0 + W @ Pi
+        Pn = Pi[nr]
+        if not np.all(np.isfinite(Pi)) or np.max(np.abs(gp[nr])) > 1e-9 * scale:
+            continue
+        ok = bool(np.min(Pn) >= -1e-12 * np.max(np.abs(Pi)))
+        for i in range(2):
+            ti = [i * k + j for j in t]
+            slip = float(np.linalg.norm(gp[ti]))
+            if mode[i]:
+                ok &= slip <= 1e-9 * scale
+                ok &= float(np.linalg.norm(Pi[ti])) <= mu * Pn[i] * (1.0 + 1e-12)
+            else:  # sliding: a slip left, the impulse −μ P_n γ̂⁺ (to the root's tolerance)
+                ok &= slip > 1e-9 * scale
+                want = -mu * Pn[i] * gp[ti] / max(slip, 1e-300)
+                ok &= float(np.max(np.abs(Pi[ti] - want))) <= 1e-9 * np.max(np.abs(Pi))
+        if not ok:
+            continue
+        after = _apply2(yl, p, f.L, arms, Pi)
+        if _kinetic(after, p) > E0 * (1.0 + 1e-12):
+            continue
+        return after, Pi, mode
+    raise JumpFailed(
+        "both contacts close, but no impulse satisfies the dry law at both (a Painlevé-type "
+        "inconsistency of the impulse law): the run ends there"
+    )
+
+
+def land_both(
+    g: np.ndarray, vz: float, p: tuple, first: int
+) -> tuple[np.ndarray, stem.TwoContactImpact]:
+    """The landing from a flight of both spheres at once (the other sphere's gap within the
+    event tolerance when the sphere ``first`` touches): the two-contact impact of the
+    gliding-layout state ``g`` (L_z in row 6) with the vertical CM velocity ``vz`` (m/s), the
+    dry law (:func:`_two_contact`). Returns the state to continue from and the impact."""
+    y = _converted(np.append(np.asarray(g, dtype=float)[:10], float(first)), p, dry.from_gliding)
+    return _two_contact(y, p, first, vz)
 
 
 def _impact_to(to: str) -> Any:
