@@ -57,6 +57,14 @@ def _njit(fn):
 
 _glide = numba.njit(inline="always", error_model="numpy")(gliding_core)
 
+
+def _inline(fn):
+    """``numba.njit(inline="always")``: typed into its caller, no dispatcher and no cache file of
+    its own (a small helper; each compiled dispatcher costs a compilation, and its callers'
+    machine code is optimised again with every callee linked in)."""
+    return numba.njit(inline="always", error_model="numpy")(fn)
+
+
 # law codes of the kernels (mett.inversion._gyroscopic.drag_form / friction_rates)
 VISCOUS, REGULARISED, COULOMB = 0, 1, 2
 # the nutation's continuation (mett.inversion._nutation: CLEAR, SPLIT, DEPTH levels below)
@@ -66,7 +74,7 @@ _CLEAR, _SPLIT, _DEPTH = 0.3, 8, 3
 # --- eigenvalues of a small real matrix ----------------------------------------------------------
 
 
-@_njit
+@_inline
 def balance_matrix(a):
     """Scale ``a`` in place to D⁻¹ a D, D diagonal of powers of 2, until the off-diagonal norms of
     each row and its column are comparable (EISPACK balanc, without permutations); returns D's
@@ -296,7 +304,7 @@ def balance(th, lam, m, R, a, I1, I3, g):
     return phidot, omega3, E, nu, omega_n
 
 
-@_njit
+@_inline
 def _cm_slip2(w2, b, k2, a):
     """:func:`mett.inversion._gyroscopic.cm_slip2` for one node."""
     B = b + k2 - a * w2
@@ -306,7 +314,7 @@ def _cm_slip2(w2, b, k2, a):
     return (root - B) / (2.0 * a)
 
 
-@_njit
+@_inline
 def flow_rate(th, lam, top, law, mu, eps, cm_response):
     """(dθ/dt, φ̇, ω3, E, ν, ω_n) of the balance flow at one θ
     (:func:`mett.inversion._gyroscopic._flow_rate_and_state`)."""
@@ -454,13 +462,6 @@ def spectrum(th, lam, top, law, mu, eps):
         if i != i1 and wi[i] > wi[i2]:
             i2 = i
     return complex(wr[i1], wi[i1]), complex(wr[i2], wi[i2])
-
-
-def _inline(fn):
-    """``numba.njit(inline="always")``: typed into its caller, no dispatcher and no cache file of
-    its own (a small helper; each compiled dispatcher costs a compilation, and its callers'
-    machine code is optimised again with every callee linked in)."""
-    return numba.njit(inline="always", error_model="numpy")(fn)
 
 
 @_inline
