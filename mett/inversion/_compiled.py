@@ -57,16 +57,24 @@ def _njit(fn):
 
 _glide = numba.njit(inline="always", error_model="numpy")(gliding_core)
 
+
+def _inline(fn):
+    """``numba.njit(inline="always")``: typed into its caller, no dispatcher and no cache file of
+    its own (a small helper; each compiled dispatcher costs a compilation, and its callers'
+    machine code is optimised again with every callee linked in)."""
+    return numba.njit(inline="always", error_model="numpy")(fn)
+
+
 # law codes of the kernels (mett.inversion._gyroscopic.drag_form / friction_rates)
 VISCOUS, REGULARISED, COULOMB = 0, 1, 2
-# the nutation's continuation (mett.inversion._nutation: CLEAR, SPLIT; DEPTH = 3 levels below)
-_CLEAR, _SPLIT = 0.3, 8
+# the nutation's continuation (mett.inversion._nutation: CLEAR, SPLIT, DEPTH levels below)
+_CLEAR, _SPLIT, _DEPTH = 0.3, 8, 3
 
 
 # --- eigenvalues of a small real matrix ----------------------------------------------------------
 
 
-@_njit
+@_inline
 def balance_matrix(a):
     """Scale ``a`` in place to D⁻¹ a D, D diagonal of powers of 2, until the off-diagonal norms of
     each row and its column are comparable (EISPACK balanc, without permutations); returns D's
@@ -296,7 +304,7 @@ def balance(th, lam, m, R, a, I1, I3, g):
     return phidot, omega3, E, nu, omega_n
 
 
-@_njit
+@_inline
 def _cm_slip2(w2, b, k2, a):
     """:func:`mett.inversion._gyroscopic.cm_slip2` for one node."""
     B = b + k2 - a * w2
@@ -306,7 +314,7 @@ def _cm_slip2(w2, b, k2, a):
     return (root - B) / (2.0 * a)
 
 
-@_njit
+@_inline
 def flow_rate(th, lam, top, law, mu, eps, cm_response):
     """(dθ/dt, φ̇, ω3, E, ν, ω_n) of the balance flow at one θ
     (:func:`mett.inversion._gyroscopic._flow_rate_and_state`)."""
@@ -420,12 +428,14 @@ def spectrum(th, lam, top, law, mu, eps):
         for i in range(10):
             Y[i] = y0[i]
         Y[2 + col] += 1j * h[col]
-        if law == REGULARISED:
-            nux, nuy = _glide(Y, (m, R, l, I1, I3, 0j, g))[12]  # ν does not depend on μ
-            mu_c = mu / np.sqrt(nux * nux + nuy * nuy + eps**2)
-        else:
-            mu_c = complex(mu)
-        d = _glide(Y, (m, R, l, I1, I3, mu_c, g))
+        # one call site of the inlined field (each is a copy of its code to compile): under the
+        # regularised law a first pass for ν, which does not depend on μ, then μ(ν)
+        mu_c = complex(mu)
+        for k in range(2 if law == REGULARISED else 1):
+            d = _glide(Y, (m, R, l, I1, I3, mu_c, g))
+            if law == REGULARISED and k == 0:
+                nux, nuy = d[12]
+                mu_c = mu / np.sqrt(nux * nux + nuy * nuy + eps**2)
         hc = h[col]
         A[0, col] = d[2].imag / hc
         A[1, col] = d[3].imag / hc
@@ -454,84 +464,79 @@ def spectrum(th, lam, top, law, mu, eps):
     return complex(wr[i1], wi[i1]), complex(wr[i2], wi[i2])
 
 
-@_njit
+@_inline
 def _distances(th, a, b, t0, l0, t1, l1):
     """Distances of (a, b) from the value extrapolated linearly from (t0, l0), (t1, l1) to θ."""
     guess = l1 + (l1 - l0) * (th - t1) / (t1 - t0) if t1 != t0 else l1
     return abs(a - guess), abs(b - guess)
 
 
-@_njit
+@_inline
 def _unclear(da, db):
     return min(da, db) > _CLEAR * max(da, db)
 
 
-# The nutation's step (mett.inversion._nutation._follow): the eigenvalue at θ of the fast pair
-# (a, b) nearest the one extrapolated from the last two (θ, λ_n) of the history (one if not
-# ``has2``), the step split in _SPLIT where the pick is unclear, at most DEPTH = 3 times: one
-# function per depth (numba's disk cache cannot hold a recursive function). Each returns the
-# pick and the history's last entry before it: after a split, the split's last node (the next
-# step extrapolates from there, as _follow's history does).
+@_inline
+def _follow(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
+    """The nutation's step (:func:`mett.inversion._nutation._follow`): the eigenvalue at θ of the
+    fast pair (a, b) nearest the one extrapolated from the last two (θ, λ_n) of the history (one
+    if not ``has2``), the step split in _SPLIT where the pick is unclear, at most _DEPTH times.
 
-
-@_njit
-def _follow3(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
-    da, db = _distances(th, a, b, t0, l0, t1, l1)
-    return (a if da <= db else b), t1, l1
-
-
-@_njit
-def _follow2(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
-    da, db = _distances(th, a, b, t0, l0, t1, l1)
-    if has2 and _unclear(da, db):
-        step = (th - t1) / _SPLIT
-        u0, v0, u1, v1 = t0, l0, t1, l1
-        for k in range(1, _SPLIT):
-            x = k * step + t1
+    The reference's recursion written with an explicit stack (frame d: the node at depth d, its
+    pair and its history; a split's base, step and counter), one function instead of a copy
+    per depth. Returns the pick and the history's last entry before it: after a split, the
+    split's last node (the next step extrapolates from there, as _follow's history does); NaN
+    if a split's spectrum failed.
+    """
+    n = _DEPTH + 1
+    fth = np.empty(n)
+    fa = np.empty(n, dtype=np.complex128)
+    fb = np.empty(n, dtype=np.complex128)
+    ft0 = np.empty(n)
+    fl0 = np.empty(n, dtype=np.complex128)
+    ft1 = np.empty(n)
+    fl1 = np.empty(n, dtype=np.complex128)
+    base = np.empty(n)
+    step = np.empty(n)
+    count = np.zeros(n, dtype=np.int64)
+    fth[0], fa[0], fb[0] = th, a, b
+    ft0[0], fl0[0], ft1[0], fl1[0] = t0, l0, t1, l1
+    d = 0
+    while True:
+        # enter frame d: pick, or split its step and enter the split's first node
+        da, db = _distances(fth[d], fa[d], fb[d], ft0[d], fl0[d], ft1[d], fl1[d])
+        if d < _DEPTH and (has2 or d > 0) and _unclear(da, db):
+            base[d] = ft1[d]
+            step[d] = (fth[d] - ft1[d]) / _SPLIT
+            count[d] = 1
+            x = step[d] + base[d]
             sa, sb = spectrum(x, lam, top, law, mu, eps)
-            pk, u0, v0 = _follow3(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
-            if pk != pk:  # a spectrum failed (NaN): so does the walk
-                return pk, t1, l1
-            u1, v1 = x, pk
-        da, db = _distances(th, a, b, u0, v0, u1, v1)
-        t1, l1 = u1, v1
-    return (a if da <= db else b), t1, l1
-
-
-@_njit
-def _follow1(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
-    da, db = _distances(th, a, b, t0, l0, t1, l1)
-    if has2 and _unclear(da, db):
-        step = (th - t1) / _SPLIT
-        u0, v0, u1, v1 = t0, l0, t1, l1
-        for k in range(1, _SPLIT):
-            x = k * step + t1
-            sa, sb = spectrum(x, lam, top, law, mu, eps)
-            pk, u0, v0 = _follow2(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
-            if pk != pk:  # a spectrum failed (NaN): so does the walk
-                return pk, t1, l1
-            u1, v1 = x, pk
-        da, db = _distances(th, a, b, u0, v0, u1, v1)
-        t1, l1 = u1, v1
-    return (a if da <= db else b), t1, l1
-
-
-@_njit
-def _follow0(th, a, b, t0, l0, t1, l1, has2, lam, top, law, mu, eps):
-    da, db = _distances(th, a, b, t0, l0, t1, l1)
-    if has2 and _unclear(da, db):
-        step = (th - t1) / _SPLIT
-        u0, v0, u1, v1 = t0, l0, t1, l1
-        for k in range(1, _SPLIT):
-            x = k * step + t1
-            sa, sb = spectrum(x, lam, top, law, mu, eps)
-            pk, u0, v0 = _follow1(x, sa, sb, u0, v0, u1, v1, True, lam, top, law, mu, eps)
-            if pk != pk:  # a spectrum failed (NaN): so does the walk
-                return pk, t1, l1
-            u1, v1 = x, pk
-        da, db = _distances(th, a, b, u0, v0, u1, v1)
-        t1, l1 = u1, v1
-    return (a if da <= db else b), t1, l1
+            fth[d + 1], fa[d + 1], fb[d + 1] = x, sa, sb
+            ft0[d + 1], fl0[d + 1], ft1[d + 1], fl1[d + 1] = ft0[d], fl0[d], ft1[d], fl1[d]
+            d += 1
+            continue
+        pick = fa[d] if da <= db else fb[d]
+        # return the pick to the frames below until one has a node of its split left
+        while True:
+            if d == 0:
+                return pick, ft1[0], fl1[0]
+            if pick != pick:  # a spectrum failed (NaN): so does the walk
+                return pick, t1, l1
+            d -= 1
+            # the child's history entry before its pick, then the pick at the child's node
+            ft0[d], fl0[d] = ft1[d + 1], fl1[d + 1]
+            ft1[d], fl1[d] = fth[d + 1], pick
+            count[d] += 1
+            if count[d] < _SPLIT:
+                x = count[d] * step[d] + base[d]
+                sa, sb = spectrum(x, lam, top, law, mu, eps)
+                fth[d + 1], fa[d + 1], fb[d + 1] = x, sa, sb
+                ft0[d + 1], fl0[d + 1], ft1[d + 1], fl1[d + 1] = ft0[d], fl0[d], ft1[d], fl1[d]
+                d += 1
+                break
+            # the split done: pick with the history it left
+            da, db = _distances(fth[d], fa[d], fb[d], ft0[d], fl0[d], ft1[d], fl1[d])
+            pick = fa[d] if da <= db else fb[d]
 
 
 @_njit
@@ -585,8 +590,7 @@ def lift_off_kernel(t, theta, amp0, rate0, lam, top, law, mu, eps, bound_limit, 
     has2 = False
     growth = 0.0
     for j in range(N):
-        pick, t0, l0 = _follow0(theta[j], fa[j], fb[j], t0, l0, t1, l1, has2, lam, top, law, mu,
-                                eps)  # fmt: skip
+        pick, t0, l0 = _follow(theta[j], fa[j], fb[j], t0, l0, t1, l1, has2, lam, top, law, mu, eps)
         if pick != pick:  # a split's spectrum failed: no decision
             return math.nan, j, ratio, amp, lam_n
         t1, l1, has2 = theta[j], pick, True
@@ -668,6 +672,18 @@ def _lu_solve(M, b, floor):
     return x
 
 
+@_inline
+def _div_real(z, r):
+    """z / r for complex z and real r ≥ 0, as numpy's array division does it (r as r + 0i,
+    Smith's algorithm: the reciprocal's multiple), so the loops round as the array expressions
+    they replace did."""
+    if r == 0.0:
+        return complex(z.real / r, z.imag / r)
+    rat = 0.0 / r
+    scl = 1.0 / (r + 0.0 * rat)
+    return complex((z.real + z.imag * rat) * scl, (z.imag - z.real * rat) * scl)
+
+
 @_njit
 def eig_small(A):
     """Eigenvalues and unit right eigenvectors (columns) of the small real matrix ``A``, and ok.
@@ -705,7 +721,9 @@ def eig_small(A):
                 return ev, V, False
     M = np.empty((n, n), dtype=np.complex128)
     for k in range(n):
-        x = np.ones(n, dtype=np.complex128)
+        x = np.empty(n, dtype=np.complex128)
+        for i in range(n):
+            x[i] = 1.0
         for _ in range(2):
             for i in range(n):
                 for j in range(n):
@@ -715,18 +733,22 @@ def eig_small(A):
             s = 0.0
             for i in range(n):
                 s += x[i].real ** 2 + x[i].imag ** 2
-            x /= math.sqrt(s)
-        x *= scale  # back to the eigenvector of A
+            r = math.sqrt(s)
+            for i in range(n):  # loops, not array expressions: each of those compiles a kernel
+                x[i] = _div_real(x[i], r)
         s = 0.0
         for i in range(n):
+            x[i] *= scale[i]  # back to the eigenvector of A
             s += x[i].real ** 2 + x[i].imag ** 2
-        x /= math.sqrt(s)
+        r = math.sqrt(s)
         big = 0
         for i in range(n):
+            x[i] = _div_real(x[i], r)
             if abs(x[i]) > abs(x[big]):
                 big = i
-        x *= abs(x[big]) / x[big]
-        V[:, k] = x
+        f = abs(x[big]) / x[big]
+        for i in range(n):
+            V[i, k] = x[i] * f
     return ev, V, True
 
 
@@ -738,12 +760,16 @@ def upright_modes_kernel(y0, h, p, horizontal, dy):
     J = spin_jacobian_kernel(y0, h, p)
     n = len(horizontal)
     A = np.empty((n, n))
+    finite = True
     for i in range(n):
         for j in range(n):
             A[i, j] = J[horizontal[i], horizontal[j]]
+            finite = finite and math.isfinite(A[i, j])
     ev, V, ok = eig_small(A)
     coef = np.zeros(n, dtype=np.complex128)
-    if ok and np.all(np.isfinite(A)):
-        M = V.copy()
-        coef = _lu_solve(M, dy.astype(np.complex128), 0.0)
+    if ok and finite:
+        b = np.empty(n, dtype=np.complex128)
+        for i in range(n):
+            b[i] = dy[i]
+        coef = _lu_solve(V.copy(), b, 0.0)
     return J, ev, V, coef, ok

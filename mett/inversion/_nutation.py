@@ -127,8 +127,8 @@ def _fast_spectra(top: TippeTop, law, lam: float, theta) -> np.ndarray:
 # A choice between the two fast eigenvalues is taken when the nearer is within this fraction of
 # the other's distance from the extrapolated value; otherwise the step is split (SPLIT parts,
 # at most DEPTH times): where the nutation's frequency crosses the slip's, the two come close.
-# The compiled walk (mett.inversion._compiled) has its own copy of CLEAR and SPLIT and one
-# function per depth: a test checks that they agree.
+# The compiled walk (mett.inversion._compiled) has its own copy of CLEAR, SPLIT and DEPTH
+# (the recursion written with an explicit stack): a test checks that they agree.
 CLEAR, SPLIT, DEPTH = 0.3, 8, 3
 
 
