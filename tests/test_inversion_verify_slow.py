@@ -1,4 +1,4 @@
-"""The full verification table of mett.predict_inversion: 60 simulated cases with flight (slow).
+"""The full verification table of mett.predict_inversion: 72 simulated cases with flight (slow).
 
 The reference of each case is the first crossing of θ = π/2 by the full simulation continued
 through flights and landings (mett.inversion._cases.reference); see
