@@ -187,3 +187,20 @@ def test_coulomb_contensou_cases_extend_the_table_without_moving_it(table):
         )
         starts.add(float(c.state.nu_x) == 0.0 and float(c.state.nu_y) == 0.0)
     assert starts == {True, False}
+
+
+def test_reference_runs_a_coulomb_contensou_case_through_its_hops(table):
+    # Case 65 (Coulomb–Contensou, ν = 0 start): the reference runs the law's own model with
+    # flight and landing, records the hops before π/2 and the crossing in the air, as for the
+    # viscous case 7. The run to exactly that instant ends in flight (the gap from the geometry of
+    # the free motion); T_n is the nutation period 2π I1/(I3 ω3(0)).
+    case = table[65]
+    ref = reference(case, 8.0)
+    assert ref.status == "completed" and ref.has_crossing and ref.in_flight
+    assert ref.hops > 0 and 0.0 < ref.t_contact_lost < ref.t_half and ref.artefact == 0.0
+    assert 0.0 < ref.airborne < ref.t_half - ref.t_contact_lost
+    top = case.top
+    assert ref.T_n == pytest.approx(2 * math.pi * top.I1 / (top.I3 * float(case.state.omega3)))
+    traj = simulate(case.top, case.state, ref.t_half, friction=case.friction, rtol=1e-8)
+    assert traj.model == "coulomb-contensou"
+    assert traj.contact[-1] == "none" and traj.gap[-1] > 0.0
