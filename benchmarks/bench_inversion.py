@@ -7,7 +7,7 @@
     python benchmarks/bench_inversion.py contensou-check [out.jsonl]   # Coulomb–Contensou vs simulation
     python benchmarks/bench_inversion.py atlas-check   # Contensou atlas points vs simulation
 
-The 60-case verification table is made by ``python tools/inversion_table.py``.
+The 72-case verification table is made by ``python tools/inversion_table.py``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The reference of a case is the first crossing of θ = π/2 by the full compiled simulation
 (mett.inversion._cases.reference), continued through flights and landings where the top hops; a
-crossing in the air counts. The full 60-case table is tests/test_inversion_verify_slow.py and
+crossing in the air counts. The full 72-case table is tests/test_inversion_verify_slow.py and
 docs/theory/inversion.md#verification.
 """
 
@@ -160,3 +160,47 @@ def test_viscous_artefact_is_flagged(table):
     assert any("mu |v_A|" in n for n in pred.validity.notes)
     ref = reference(case, 2.0)
     assert ref.hops > 0 and ref.artefact > VISCOUS_ARTEFACT
+
+
+def test_coulomb_contensou_cases_extend_the_table_without_moving_it(table):
+    # The Coulomb–Contensou cases come from their own seeded stream (mett.inversion._cases.cases):
+    # adding them leaves cases 0–59 exactly as drawn without them (same tops, laws, starts), and
+    # they are drawn in their stated ranges, group II, with both starts.
+    plain = cases(n_contensou=0)
+    assert len(plain) == 60 and len(table) == 72
+    for a, b in zip(plain, table[:60], strict=True):
+        assert (a.name, a.top, repr(a.friction), a.law) == (b.name, b.top, repr(b.friction), b.law)
+        assert np.array_equal(a.state.as_array(), b.state.as_array())
+    extra = table[60:]
+    assert [c.name for c in extra] == [f"case{i}" for i in range(60, 72)]
+    starts = set()
+    for c in extra:
+        assert isinstance(c.friction, Coulomb) and c.law == "coulomb-contensou"
+        assert 0.1 <= c.friction.mu <= 0.5 and 0.5e-3 <= c.friction.contensou_radius <= 3e-3
+        top = c.top
+        assert 0.1 <= top.alpha <= 0.4 and 1 - top.alpha < top.I1 / top.I3 < 1 + top.alpha
+        theta0, w3 = float(c.state.theta), float(c.state.omega3)
+        assert 0.01 <= theta0 <= 0.5
+        lam = top.R * top.I3 * w3 * (math.cos(theta0) - top.alpha)  # Jellett's λ at φ̇ = 0
+        assert 1.5 <= lam / top.lambda_thres * (1 + 1e-12) and lam / top.lambda_thres <= 20 * (
+            1 + 1e-12
+        )
+        starts.add(float(c.state.nu_x) == 0.0 and float(c.state.nu_y) == 0.0)
+    assert starts == {True, False}
+
+
+def test_reference_runs_a_coulomb_contensou_case_through_its_hops(table):
+    # Case 65 (Coulomb–Contensou, ν = 0 start): the reference runs the law's own model with
+    # flight and landing, records the hops before π/2 and the crossing in the air, as for the
+    # viscous case 7. The run to exactly that instant ends in flight (the gap from the geometry of
+    # the free motion); T_n is the nutation period 2π I1/(I3 ω3(0)).
+    case = table[65]
+    ref = reference(case, 8.0)
+    assert ref.status == "completed" and ref.has_crossing and ref.in_flight
+    assert ref.hops > 0 and 0.0 < ref.t_contact_lost < ref.t_half and ref.artefact == 0.0
+    assert 0.0 < ref.airborne < ref.t_half - ref.t_contact_lost
+    top = case.top
+    assert ref.T_n == pytest.approx(2 * math.pi * top.I1 / (top.I3 * float(case.state.omega3)))
+    traj = simulate(case.top, case.state, ref.t_half, friction=case.friction, rtol=1e-8)
+    assert traj.model == "coulomb-contensou"
+    assert traj.contact[-1] == "none" and traj.gap[-1] > 0.0

@@ -1,4 +1,4 @@
-"""The full verification table of mett.predict_inversion: 60 simulated cases with flight (slow).
+"""The full verification table of mett.predict_inversion: 72 simulated cases with flight (slow).
 
 The reference of each case is the first crossing of θ = π/2 by the full simulation continued
 through flights and landings (mett.inversion._cases.reference); see
@@ -96,3 +96,26 @@ def test_averaged_method_never_gives_a_wrong_answer_on_the_table():
         answered += 1
         assert pred.inverts is True, case.name
     assert answered >= 5 and lifted >= 5
+
+
+@pytest.mark.slow
+def test_coulomb_contensou_cases_are_flagged_and_their_crossings_predicted():
+    # docs/theory/inversion.md#verification, cases 60–71: the law is outside the validity box, so
+    # every gyroscopic answer is flagged; the averaged flow does not cover the law (inverts None);
+    # where the simulated top crosses π/2 (after hops too) the gyroscopic answer is "inverts".
+    crossed = 0
+    for case in cases()[60:]:
+        assert case.law == "coulomb-contensou"
+        assert (
+            predict_inversion(case.top, case.state, case.friction, method="averaged").inverts
+            is None
+        )
+        pred = predict_inversion(case.top, case.state, case.friction)
+        assert pred.validity.outside_verified_range, case.name
+        if not math.isfinite(pred.t_half):
+            continue
+        ref = reference(case, min(2 * pred.t_half, 60.0))
+        if ref.has_crossing:
+            crossed += 1
+            assert pred.inverts is True, case.name
+    assert crossed >= 5

@@ -1,11 +1,12 @@
 """The verification table and figure of mett.predict_inversion against simulations with flight.
 
-    python tools/inversion_table.py                 # run the 60 cases, print the table
+    python tools/inversion_table.py                 # run the 72 cases, print the table
     python tools/inversion_table.py --write         # ... and write it into docs/theory/inversion.md
     python tools/inversion_table.py --cache F.json  # keep the runs in F.json (reused if present)
     python tools/inversion_table.py --figure        # ... and draw docs/figures/inversion_verification.png
 
-Each case (mett.inversion._cases.cases) is predicted by both reductions and simulated with flight
+Each case (mett.inversion._cases.cases: 60 viscous and regularised-Coulomb cases, then 12
+Coulomb–Contensou ones) is predicted by both reductions and simulated with flight
 and landing to twice the later finite prediction (at most 60 s): the reference is the first
 crossing of θ = π/2, in contact or in flight (mett.inversion._cases.reference). The error of a
 prediction is |Δt_half| less one nutation period (the phase of θ within the band), relative to
@@ -53,7 +54,7 @@ def run(cache: pathlib.Path | None = None) -> list[dict]:
         g = preds["gyroscopic"]
         rows.append({
             "name": c.name,
-            "law": c.law,
+            "law": _law_label(c),
             "start": "ν=0" if at_rest else "CM at rest",
             "ratio": g.validity.spin_ratio,
             "theta0": float(c.state.theta),
@@ -67,6 +68,14 @@ def run(cache: pathlib.Path | None = None) -> list[dict]:
             },
         })  # fmt: skip
     return rows
+
+
+def _law_label(case) -> str:
+    """The law's name; for Coulomb–Contensou with the radius r of its contact disc (the column
+    μ gives the friction coefficient, ε the reduction's T_n/t_half, for every law)."""
+    if case.law == "coulomb-contensou":
+        return f"coulomb-contensou, r = {1e3 * case.friction.contensou_radius:.2g} mm"
+    return case.law
 
 
 def _covers(ref: dict, t_end: float) -> bool:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..friction import FrictionLaw, RegularisedCoulomb, Viscous
+from ..friction import Coulomb, FrictionLaw, RegularisedCoulomb, Viscous
 from ..state import State
 from ..top import TippeTop
 from ._gyroscopic import nutation_period
@@ -42,24 +42,44 @@ def _spin_for(top: TippeTop, theta0: float, ratio: float) -> float:
     return ratio * top.lambda_thres / (top.R * top.I3 * (math.cos(theta0) - top.alpha))
 
 
-def cases(n: int = 60, seed: int = 2026) -> list[Case]:
+def _draw_common(rng: np.random.Generator) -> tuple[float, float, float, float, float]:
+    # α, γ, σ, λ/λ_thres, θ0, drawn in this order (the seed stream of cases 0–59)
+    alpha = rng.uniform(0.1, 0.4)
+    # γ strictly inside (1 − α, 1 + α), kept in the physical range γ ≥ 1/2.
+    gamma = rng.uniform(max(1.0 - 0.8 * alpha, 0.55), 1.0 + 0.8 * alpha)
+    sigma = rng.uniform(1.5, 3.5)
+    ratio = math.exp(rng.uniform(math.log(1.5), math.log(20.0)))
+    theta0 = math.exp(rng.uniform(math.log(0.01), math.log(0.5)))
+    return alpha, gamma, sigma, ratio, theta0
+
+
+def _case(i: int, top: TippeTop, law: FrictionLaw, name: str, theta0: float, ratio: float) -> Case:
+    omega3 = _spin_for(top, theta0, ratio)
+    if i % 2:
+        state = State(theta=theta0, omega3=omega3)
+    else:
+        state = State.with_cm_at_rest(top, theta=theta0, omega3=omega3)
+    return Case(f"case{i:02d}", top, law, state, name)
+
+
+def cases(n: int = 60, seed: int = 2026, n_contensou: int = 12) -> list[Case]:
     """``n`` cases: 2/3 viscous (μ log-uniform in [0.03, 3] s/m), the rest regularised Coulomb
-    (μ in [0.1, 0.5], ε in [0.01, 0.1] m/s); α in
+    (μ in [0.1, 0.5], ε in [0.01, 0.1] m/s); then ``n_contensou`` Coulomb–Contensou cases
+    (μ in [0.1, 0.5], contact-disc radius r in [0.5, 3] mm). For all: α in
     [0.1, 0.4], γ inside the group-II range, σ in [1.5, 3.5]; λ/λ_thres in [1.5, 20]
     (log-uniform), θ0 in [0.01, 0.5] (log-uniform); half the starts with the centre of mass at
-    rest, half with the contact point at rest (ν = 0)."""
+    rest, half with the contact point at rest (ν = 0), alternating with the case's number.
+
+    The Coulomb–Contensou cases (named from ``case{n}`` on) come from a second generator seeded
+    with ``(seed, 1)``, so the first ``n`` cases are those of the stream seeded with ``seed``
+    alone, whatever ``n_contensou``.
+    """
     rng = np.random.default_rng(seed)
     out = []
     for i in range(n):
-        alpha = rng.uniform(0.1, 0.4)
-        # γ strictly inside (1 − α, 1 + α), kept in the physical range γ ≥ 1/2.
-        gamma = rng.uniform(max(1.0 - 0.8 * alpha, 0.55), 1.0 + 0.8 * alpha)
-        sigma = rng.uniform(1.5, 3.5)
-        ratio = math.exp(rng.uniform(math.log(1.5), math.log(20.0)))
-        theta0 = math.exp(rng.uniform(math.log(0.01), math.log(0.5)))
-        kind = i % 3
+        alpha, gamma, sigma, ratio, theta0 = _draw_common(rng)
         law: FrictionLaw
-        if kind in (0, 1):
+        if i % 3 in (0, 1):
             mu = math.exp(rng.uniform(math.log(0.03), math.log(3.0)))
             top = _top(alpha, gamma, sigma, mu)
             law, name = Viscous(), "viscous"
@@ -67,12 +87,16 @@ def cases(n: int = 60, seed: int = 2026) -> list[Case]:
             mu = rng.uniform(0.1, 0.5)
             top = _top(alpha, gamma, sigma, 0.3)
             law, name = RegularisedCoulomb(mu, rng.uniform(0.01, 0.1)), "regularised-coulomb"
-        omega3 = _spin_for(top, theta0, ratio)
-        if i % 2:
-            state = State(theta=theta0, omega3=omega3)
-        else:
-            state = State.with_cm_at_rest(top, theta=theta0, omega3=omega3)
-        out.append(Case(f"case{i:02d}", top, law, state, name))
+        out.append(_case(i, top, law, name, theta0, ratio))
+    rng = np.random.default_rng((seed, 1))
+    for i in range(n, n + n_contensou):
+        alpha, gamma, sigma, ratio, theta0 = _draw_common(rng)
+        mu = rng.uniform(0.1, 0.5)
+        r = rng.uniform(0.5e-3, 3e-3)
+        top = _top(alpha, gamma, sigma, 0.3)
+        out.append(
+            _case(i, top, Coulomb(mu, contensou_radius=r), "coulomb-contensou", theta0, ratio)
+        )
     return out
 
 
