@@ -247,7 +247,7 @@ def predict_inversion(
     spin_ratio = lam / top.lambda_thres
     notes: list[str] = []
     if name not in VERIFIED["laws"]:
-        notes.append(f"law {name} not in the verification table")
+        notes.append(f"law {name} outside the verified range")
     lo, hi = VERIFIED["theta0"]
     if not lo <= theta0 <= hi:
         notes.append(f"theta0 outside [{lo}, {hi}]")
