@@ -127,6 +127,14 @@ def _settled(end: Any) -> bool:
     return bool(th.max() - th.min() < _SETTLE_THETA and share < _SETTLE_ENERGY)
 
 
+def _point_state(ic: dict) -> State:
+    """The initial :class:`~mett.state.State` of a point's initial conditions ``ic``."""
+    return State(
+        theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
+        omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
+    )  # fmt: skip
+
+
 def _point_setup(base: dict, point: dict) -> tuple[TippeTop, dict]:
     """The top and the initial-condition values of one grid point."""
     fields = {k: base["top"][k] for k in _TOP_FIELDS}
@@ -211,10 +219,7 @@ def _start(base: dict, point: dict, like: tuple | None = None) -> tuple[dict, An
             top, state, start = like[0]._with_mu(point["mu"]), like[1], like[3]
         else:
             top, ic = _point_setup(base, point)
-            state = State(
-                theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
-                omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
-            )  # fmt: skip
+            state = _point_state(ic)
             lam = float(jellett(top, state))
             start = dict(
                 omega3_start=float(ic["omega3"]), lam=lam, lam_ratio=lam / top.lambda_thres,
@@ -853,10 +858,7 @@ def _probe_options(base: dict, grid: _Grid) -> str:
     def setup(point: dict) -> tuple[Any, Any, dict] | None:
         try:
             top, ic = _point_setup(base, point)
-            state = State(
-                theta=ic["theta0"], thetadot=ic["thetadot"], phidot=ic["phidot"],
-                omega3=ic["omega3"], nu_x=ic["nu_x"], nu_y=ic["nu_y"],
-            )  # fmt: skip
+            state = _point_state(ic)
             law = _law(base, point, top)
         except (ValueError, TypeError, ArithmeticError):
             return None  # an invalid point: it becomes an "invalid" row
