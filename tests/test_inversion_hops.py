@@ -1,125 +1,114 @@
-"""The hopping top (docs/theory/inversion.md#the-hopping-top).
-
-Two kinds of checks: the candidate landing-map reduction (mett.inversion._hops, not used by
-predict_inversion) against closed forms and an independent integration of its landing impulse,
-and the measured facts that decided against the simpler "the flow stands still in the air"
-reduction, on a hopping table case simulated with flight and landing.
+"""The hopping top (docs/theory/inversion.md#the-hopping-top): after a predicted lift-off the
+gyroscopic method's flow runs at the hop cycle's power, measured on short runs of that cycle
+(mett.inversion._hops). Checked against full simulations with flight and landing of the
+verification table's hopping tops (their first crossing of π/2), which the reduction does not use.
 """
 
 from __future__ import annotations
 
 import math
+import statistics
 import warnings
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
+import mett
 from mett.dynamics import simulate
 from mett.dynamics.flight import ViscousArtefactWarning
-from mett.friction import RegularisedCoulomb, Viscous
-from mett.inversion import _hops, predict_inversion
-from mett.inversion._cases import cases
-from mett.inversion._gyroscopic import balance_state
+from mett.inversion import predict_inversion
+from mett.inversion._cases import cases, reference
+
+# The issue's target for t_half (relative, after one nutation period of slack), as for the table.
+TARGET = 0.10
+MEDIAN_TARGET = 0.03
+# The tops the lift-off criterion alone flags (docs/theory/inversion.md#verification): inside the
+# verified box but for the hop.
+HOP_ONLY = [3, 16, 30, 34, 43, 46, 54, 55]
 
 
 @pytest.fixture(scope="module")
-def case30():
-    # viscous, λ/λ_thres = 6.7, θ0 = 0.12, centre of mass at rest: lifts off near θ̄ = 0.45
-    return cases()[30]
+def table():
+    return cases()
 
 
-def _gliding_power(top, law, lam, theta):
-    """c |v_A|² of the gliding balance flow from the closed forms (independent of cm_slip2):
-    viscous |v_A|² = w²/(1 + k²); regularised Coulomb x = |v_A|² the positive root of
-    x² + (ε² + k² − w²) x − w² ε² = 0, k = μ g K/φ̇ (docs/theory/inversion.md, the response)."""
-    phidot, _, _, w, _ = (float(np.real(x)) for x in balance_state(top, lam, theta))
-    K = 1.0 + top.m * top.R**2 * (1.0 - top.alpha * math.cos(theta)) ** 2 / top.I1
-    gn = top.m * top.g
-    if isinstance(law, Viscous):
-        mu = top.mu if law.mu is None else law.mu
-        x = w * w / (1.0 + (mu * top.g * K / phidot) ** 2)
-        return mu * gn * x, phidot
-    k2 = (law.mu * top.g * K / phidot) ** 2
-    B = law.eps**2 + k2 - w * w
-    x = 2.0 * w * w * law.eps**2 / (B + math.sqrt(B * B + 4.0 * w * w * law.eps**2))
-    return law.mu * gn * x / math.sqrt(x + law.eps**2), phidot
+def _error(pred_t_half: float, ref) -> float:
+    return max(abs(pred_t_half - ref.t_half) - ref.T_n, 0.0) / ref.t_half
 
 
-@pytest.mark.parametrize("law", [None, RegularisedCoulomb(0.3, 0.01), RegularisedCoulomb(0.3, 1.0)])
-@pytest.mark.parametrize("theta", [0.3, 0.9, 1.4])
-def test_short_hops_give_the_gliding_flows_power(case30, law, theta):
-    # Hops much shorter than a precession turn (φ̇ T = 1e-4) and a small landing impulse: the
-    # landing map's fixed point tends to the contact point's continuous answer, with a relative
-    # error O(φ̇ T) + O(q), q = K μ g T / (slip scale) the impulse's relative size; 10× both.
-    top = case30.top
-    law = Viscous() if law is None else law
-    lam = float(predict_inversion(top, case30.state).lam[0])
-    P_ref, phidot = _gliding_power(top, law, lam, theta)
-    T = 1e-4 / phidot
-    P, _ = _hops.hop_power(top, law, lam, theta, T)
-    mu_lin = top.mu if isinstance(law, Viscous) else law.mu / law.eps
-    q = 2.0 * mu_lin * top.g * T  # K ≤ 2 for these tops
-    assert float(P[0]) == pytest.approx(P_ref, rel=10.0 * (phidot * T + q))
+def test_hops_must_be_a_bool():
+    top = mett.presets.get("rutstam2013")
+    state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
+    with pytest.raises(TypeError, match="hops"):
+        predict_inversion(top, state, hops="yes")
 
 
-def test_a_hop_per_precession_turn_lets_the_centre_of_mass_absorb_the_slip(case30):
-    # φ̇ T = 2π: between landings v_A − w turns back to itself, so the only fixed point is a
-    # landing without slip, and nothing is dissipated (to rounding of cos, sin at 2π).
-    top = case30.top
-    lam = float(predict_inversion(top, case30.state).lam[0])
-    P_ref, phidot = _gliding_power(top, Viscous(), lam, 0.9)
-    P, slip = _hops.hop_power(top, Viscous(), lam, 0.9, 2.0 * math.pi / phidot)
-    assert abs(float(P[0])) <= 1e-12 * P_ref and float(slip[0]) <= 1e-12
+def test_a_top_predicted_to_stay_on_the_table_is_unchanged_bit_for_bit():
+    # t_lift = inf: the hop flow is never entered, the prediction is the gliding one exactly.
+    top = mett.presets.get("rutstam2013")
+    state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
+    a, b = predict_inversion(top, state), predict_inversion(top, state, hops=False)
+    assert math.isinf(a.t_lift)
+    assert (a.t_start, a.t_half, a.t_inv, a.inverts, a.reason) == (
+        b.t_start, b.t_half, b.t_inv, b.inverts, b.reason)  # fmt: skip
+    for name in ("t", "theta", "D", "E_mod", "lam"):
+        assert np.array_equal(getattr(a, name), getattr(b, name))
+    assert a.validity == b.validity
 
 
-@pytest.mark.parametrize("u0", [1e-4, 0.02, 0.5])
-def test_regularised_landing_impulse_matches_a_direct_integration(case30, u0):
-    # du/dp = −μ u/√(u² + ε²) over p = K g T (the impulse per unit mass at the contact point's
-    # inverse mass): the closed form's bisection against an RK45 run at rtol 1e-11.
-    top, law = case30.top, RegularisedCoulomb(0.3, 0.01)
-    q_mu = 0.05  # m/s: K g T for T ≈ 4 ms
-    sol = solve_ivp(lambda p, u: -law.mu * u / np.sqrt(u * u + law.eps**2), (0.0, q_mu), [u0],
-                    rtol=1e-11, atol=1e-14 * u0)  # fmt: skip
-    assert _hops._after(law, top, u0, q_mu) == pytest.approx(float(sol.y[0, -1]), rel=1e-8)
-    # the viscous law: an exponential
-    assert _hops._after(Viscous(0.3), top, u0, q_mu) == pytest.approx(u0 * math.exp(-0.3 * q_mu),
-                                                                       rel=1e-15)  # fmt: skip
+def test_the_hops_move_the_path_later_after_the_lift_off_only(table):
+    # Case 30 (viscous, CM at rest, lifts off near θ̄ = 0.45): the path up to t_lift is the gliding
+    # one bit for bit; after it every node comes later (the hop cycle takes less power than the
+    # gliding contact, S > 1), and so do t_half and t_inv. A sign error of the correction, or a
+    # correction applied before the lift-off, fails here.
+    case = table[30]
+    hop = predict_inversion(case.top, case.state, case.friction)
+    glide = predict_inversion(case.top, case.state, case.friction, hops=False)
+    assert glide.t_lift < glide.t_half and hop.t_lift == glide.t_lift
+    before = glide.t <= glide.t_lift
+    assert np.array_equal(hop.t[before], glide.t[before])
+    assert np.array_equal(hop.theta, glide.theta)
+    assert np.all(hop.t[~before] > glide.t[~before])
+    assert hop.t_half > glide.t_half and hop.t_inv > glide.t_inv
+    assert hop.t_start == glide.t_start
+    assert any(
+        n.startswith("the path after t_lift follows the hop cycle") for n in hop.validity.notes
+    )
+    # still flagged: the hopping prediction is outside the verified range
+    assert hop.validity.outside_verified_range
 
 
-def test_hopping_times_move_later_after_the_lift_off_only(case30):
-    # The sign of the hop correction: nodes before t_lift keep their times bit for bit, the path
-    # after it is slower (the landings dissipate less than the gliding contact), and a path with
-    # t_lift = inf is returned unchanged.
-    pred = predict_inversion(case30.top, case30.state)
-    lam = float(pred.lam[0])
-    assert pred.t_lift < pred.t_half
-    t_hop = _hops.hopping_times(case30.top, Viscous(), lam, pred.t, pred.theta, pred.t_lift)
-    before = pred.t <= pred.t_lift
-    assert np.array_equal(t_hop[before], pred.t[before])
-    assert np.all(t_hop[~before] > pred.t[~before])
-    same = _hops.hopping_times(case30.top, Viscous(), lam, pred.t, pred.theta, math.inf)
-    assert np.array_equal(same, pred.t)
+@pytest.mark.parametrize("index", [16, 34])
+def test_hopping_tops_cross_when_the_hop_flow_says(table, index):
+    # Cases 16 (100 hops) and 34 (72 hops) before their simulated crossing, both in flight: the
+    # hop flow's t_half within the target of the simulated first crossing of π/2, and nearer to it
+    # than the gliding flow's (which is early: 4.7 % and 2.6 %).
+    case = table[index]
+    hop = predict_inversion(case.top, case.state, case.friction)
+    glide = predict_inversion(case.top, case.state, case.friction, hops=False)
+    ref = reference(case, min(2.0 * hop.t_half, 60.0))
+    assert ref.has_crossing and ref.hops > 0
+    assert _error(hop.t_half, ref) <= TARGET
+    assert abs(hop.t_half - ref.t_half) < abs(glide.t_half - ref.t_half)
 
 
-def test_the_hopping_top_is_slowed_far_less_than_its_time_in_the_air(case30):
-    # Case 30 simulated with flight and landing: past its first lift-off it is in the air more
-    # than half the time, and its mean inclination goes from 0.9 to 1.5 more slowly than the
-    # gliding prediction, but much faster than a flow that stood still in the air (a slowdown of
-    # 1/(1 − air fraction)): the landings, which carry the normal impulse m g per unit time, do
-    # most of the friction's work (docs/theory/inversion.md#the-hopping-top). Margins: measured
-    # slowdown 1.75 against 3.0; the mean over 8 start-nutation periods moves the bin ends by
-    # ≤ 8 T_n, 2 % of the 0.33 s span.
-    pred = predict_inversion(case30.top, case30.state)
+def test_the_hopping_top_is_slowed_far_less_than_its_time_in_the_air(table):
+    # Why the reduction is not "the flow stands still in the air": case 30 simulated with flight
+    # and landing is in the air more than half the time past its first lift-off, and its mean
+    # inclination goes from 0.9 to 1.5 more slowly than the gliding flow says, but much faster
+    # than 1/(1 − air fraction) times it (measured 1.75 against 3.0). The running mean over
+    # 8 start-nutation periods moves the span's ends by ≤ 8 T_n, 2 % of its 0.33 s.
+    case = table[30]
+    glide = predict_inversion(case.top, case.state, case.friction, hops=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ViscousArtefactWarning)
-        traj = simulate(case30.top, case30.state, 1.05 * 8.647, rtol=1e-8,
+        traj = simulate(case.top, case.state, 1.05 * 8.647, rtol=1e-8,
                         stop_on_contact_loss=False)  # fmt: skip
     assert traj.status == "completed"
     sw = traj.records["switches"]
     lifts = np.array([s.t for s in sw if s.reason == "lift-off"])
     lands = np.array([s.t for s in sw if s.reason == "touchdown"])
-    T_n = 2.0 * math.pi * case30.top.I1 / (case30.top.I3 * float(case30.state.omega3))
+    T_n = 2.0 * math.pi * case.top.I1 / (case.top.I3 * float(case.state.omega3))
     t = np.arange(0.0, traj.t_final, T_n / 16.0)
     theta_bar = np.convolve(traj.theta_at(t), np.ones(128) / 128.0, mode="same")
     air = np.zeros(t.shape, dtype=bool)
@@ -128,7 +117,27 @@ def test_the_hopping_top_is_slowed_far_less_than_its_time_in_the_air(case30):
     i0, i1 = int(np.argmax(theta_bar >= 0.9)), int(np.argmax(theta_bar >= 1.5))
     assert lifts[0] < t[i0] < t[i1]
     air_fraction = float(air[i0:i1].mean())
-    slowdown = (t[i1] - t[i0]) / (np.interp(1.5, pred.theta, pred.t)
-                                  - np.interp(0.9, pred.theta, pred.t))  # fmt: skip
+    slowdown = (t[i1] - t[i0]) / (np.interp(1.5, glide.theta, glide.t)
+                                  - np.interp(0.9, glide.theta, glide.t))  # fmt: skip
     assert air_fraction > 0.5
     assert 1.2 < slowdown < 0.8 / (1.0 - air_fraction)
+
+
+@pytest.mark.slow
+def test_hop_flow_on_the_tops_flagged_for_the_hop_alone(table):
+    # The eight table tops inside the verified box but for the predicted hop: with the hop flow
+    # every t_half moves later (towards the simulated crossing: the gliding one is early in all
+    # eight), the median error meets the issue's 3 %, and the worst is no worse than the gliding
+    # flow's. (Case 46 keeps most of its error: it is made before its first lift-off, in contact.)
+    hop_err, glide_err = [], []
+    for i in HOP_ONLY:
+        case = table[i]
+        hop = predict_inversion(case.top, case.state, case.friction)
+        glide = predict_inversion(case.top, case.state, case.friction, hops=False)
+        ref = reference(case, min(2.0 * hop.t_half, 60.0))
+        assert ref.has_crossing and ref.hops > 0
+        assert glide.t_half < hop.t_half
+        hop_err.append(_error(hop.t_half, ref))
+        glide_err.append(_error(glide.t_half, ref))
+    assert statistics.median(hop_err) <= MEDIAN_TARGET
+    assert max(hop_err) <= max(glide_err)

@@ -40,7 +40,7 @@ from ..integrals import jellett
 from ..stability import escape_modes
 from ..state import State
 from ..top import TippeTop
-from . import _averaged, _nutation
+from . import _averaged, _hops, _nutation
 from ._gyroscopic import (
     NoBalance,
     balance_D_and_E_mod,
@@ -153,6 +153,7 @@ def predict_inversion(
     *,
     method: str = "gyroscopic",
     tol: float = 0.05,
+    hops: bool = True,
 ) -> InversionPrediction:
     """Predict whether, when and how a gliding tippe top inverts, without resolving the nutation.
 
@@ -178,6 +179,12 @@ def predict_inversion(
         with ``t_lift`` where the band's normal force vanishes before π/2).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
+    hops : bool, default True
+        Method "gyroscopic", viscous and regularised Coulomb laws: where the nutation is predicted
+        to lift the top off before π/2 (``t_lift < t_half``), follow the hopping top after
+        ``t_lift``: its flow runs at the power friction takes over the hop cycle, measured on
+        short runs of that cycle with flight and landing (docs/theory/inversion.md#the-hopping-top;
+        0.05–1 s per such prediction, against ~1 ms). ``False``: the gliding flow throughout.
 
     Returns
     -------
@@ -213,6 +220,8 @@ def predict_inversion(
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}; got {method!r}")
     tol = _validate.finite_scalar("tol", tol)
+    if not isinstance(hops, bool):
+        raise TypeError(f"hops must be a bool; got {type(hops).__name__}")
     if not 0.0 < tol < 0.5:
         raise ValueError(f"tol must lie in (0, 0.5) rad; got {tol!r}")
     empty = functools.partial(_empty, tol=tol)
@@ -424,6 +433,21 @@ def predict_inversion(
         t_lift = math.nan
     if t_lift < t_half:
         notes.append(f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)")
+        if hops:
+            # From the lift-off on the top hops and friction takes the hop cycle's power, measured
+            # on short runs of that cycle (mett.inversion._hops): the path's times stretch by S.
+            t_new, _, slow = _hops.hopping_times(top, law, lam, t, theta, t_lift)
+            if np.all(np.isfinite(slow)):
+                times = {k: float(np.interp(v, t, t_new)) if math.isfinite(v) else v
+                         for k, v in times.items()}  # fmt: skip
+                t, t_half = t_new, times["half"]
+                notes.append(
+                    f"the path after t_lift follows the hop cycle (slowdown {slow.min():.3g} to "
+                    f"{slow.max():.3g})"
+                )
+            else:
+                notes.append("the hop cycle gains energy in a window: the path after t_lift is "
+                             "the gliding one")  # fmt: skip
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
         inverts, reason = True, "inverts"
