@@ -72,7 +72,8 @@ def test_the_hops_move_the_path_later_after_the_lift_off_only(table):
     assert hop.t_half > glide.t_half and hop.t_inv > glide.t_inv
     assert hop.t_start == glide.t_start
     assert any(
-        n.startswith("the path after t_lift follows the hop cycle") for n in hop.validity.notes
+        n.startswith("predicted to hop before pi/2") and "follows the hop cycle" in n
+        for n in hop.validity.notes
     )
     # still flagged: the hopping prediction is outside the verified range
     assert hop.validity.outside_verified_range

@@ -432,7 +432,7 @@ def predict_inversion(
     except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
         t_lift = math.nan
     if t_lift < t_half:
-        notes.append(f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)")
+        hop_note = f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)"
         if hops:
             # From the lift-off on the top hops and friction takes the hop cycle's power, measured
             # on short runs of that cycle (mett.inversion._hops): the path's times stretch by S.
@@ -441,13 +441,13 @@ def predict_inversion(
                 times = {k: float(np.interp(v, t, t_new)) if math.isfinite(v) else v
                          for k, v in times.items()}  # fmt: skip
                 t, t_half = t_new, times["half"]
-                notes.append(
-                    f"the path after t_lift follows the hop cycle (slowdown {slow.min():.3g} to "
+                hop_note += (
+                    f"; the path after it follows the hop cycle (slowdown {slow.min():.3g} to "
                     f"{slow.max():.3g})"
                 )
             else:
-                notes.append("the hop cycle gains energy in a window: the path after t_lift is "
-                             "the gliding one")  # fmt: skip
+                hop_note += "; the hop cycle gains energy in a window: the gliding path after it"
+        notes.append(hop_note)
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
         inverts, reason = True, "inverts"
