@@ -676,6 +676,7 @@ def atlas(
     cm_at_rest: bool = True,
     eps: float = 0.01,
     contensou_radius: float = 5e-4,
+    hops: bool = True,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Predicted inversion times over a grid of friction coefficients and spins, per law.
 
@@ -697,6 +698,9 @@ def atlas(
         Regularisation velocity (m/s) of "regularised-coulomb", > 0.
     contensou_radius : float, default 5e-4
         Contact-disc radius r (m) of "coulomb-contensou", > 0.
+    hops : bool, default True
+        Passed to :func:`predict_inversion`: follow the hopping top after a predicted lift-off
+        (0.1–1 s per such point); ``False`` keeps every point at ~1 ms.
 
     Returns
     -------
@@ -710,7 +714,8 @@ def atlas(
     Notes
     -----
     Each point is one :func:`predict_inversion` (about 1 ms for the viscous law, 20–100 ms for
-    Coulomb–Contensou, whose slow flow is an ODE in (θ, λ)). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
+    Coulomb–Contensou, whose slow flow is an ODE in (θ, λ), 0.1–1 s where the top is predicted
+    to hop before π/2 and ``hops`` is True). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
     reads the atlas of the thesis top.
     """
     mus = np.atleast_1d(np.asarray(mu, dtype=float))
@@ -747,7 +752,7 @@ def atlas(
                     st = State.with_cm_at_rest(top, theta=theta0, omega3=w)
                 else:
                     st = State(theta=theta0, omega3=w)
-                p = predict_inversion(top, st, law)
+                p = predict_inversion(top, st, law, hops=hops)
                 res["t_half"][i, j] = p.t_half
                 res["t_inv"][i, j] = p.t_inv if p.inverts else math.inf
                 res["inverts"][i, j] = -1 if p.inverts is None else float(p.inverts)

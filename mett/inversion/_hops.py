@@ -22,8 +22,9 @@ Engquist & E, Commun. Math. Sci. 1 (2003) 87; E et al., Commun. Comput. Phys. 2 
   :func:`mett.inversion._gyroscopic.balance_state`, the centre of mass at rest) with a nutation
   at the lift-off threshold of the linear criterion, a kick θ̇ = Θ ω_n with l ω_n² Θ sin θ = g
   (ω_n the frictionless nutation frequency, the fast eigenvalue other than the drift i φ̇);
-* run :data:`TURNS` precession turns; the hop cycle forgets its start within a few (checked:
-  starts at once and twice the threshold give ratios within 0.04 on cases 13, 16, 30 and 36);
+* run :data:`TURNS` precession turns; the hop cycle forgets its start within a few (checked on
+  40-turn runs: starts at once and twice the threshold give ratios within 0.04 on cases 13, 16,
+  30 and 36);
 * ⟨P⟩_hop: the slope of a straight-line fit of the energy at the lift-offs of the second half of
   the window (a lift-off is the same phase of every cycle; the energy is continuous there), and
   P_gliding at the mean θ of that span, where the flow has moved to.
