@@ -14,6 +14,9 @@
 * for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
   make the top fall back before it inverts;
+* where the nutation is predicted to lift the top off before π/2 (``t_lift``), the hopping top
+  after it: the balance flow slowed by the ratio of the gliding power to the hop cycle's,
+  measured on short runs of that cycle with flight and landing (:mod:`mett.inversion._hops`);
 * with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
   (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
   precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
