@@ -142,3 +142,17 @@ def test_hop_flow_on_the_tops_flagged_for_the_hop_alone(table):
         glide_err.append(_error(glide.t_half, ref))
     assert statistics.median(hop_err) <= MEDIAN_TARGET
     assert max(hop_err) <= max(glide_err)
+
+
+def test_a_window_that_gains_energy_leaves_the_gliding_path(table, monkeypatch):
+    # A window whose hop cycle loses no energy (here forced) gives no slowdown to follow: the
+    # prediction keeps the gliding path bit for bit and says so in its (single) hop note.
+    from mett.inversion import _hops
+
+    case = table[30]
+    glide = predict_inversion(case.top, case.state, case.friction, hops=False)
+    monkeypatch.setattr(_hops, "cycle_power_ratio", lambda top, law, lam, th: (-1.0, th, 10))
+    hop = predict_inversion(case.top, case.state, case.friction)
+    assert np.array_equal(hop.t, glide.t) and hop.t_half == glide.t_half
+    notes = [n for n in hop.validity.notes if n.startswith("predicted to hop before pi/2")]
+    assert len(notes) == 1 and "not followed" in notes[0]

@@ -439,7 +439,11 @@ def predict_inversion(
         if hops:
             # From the lift-off on the top hops and friction takes the hop cycle's power, measured
             # on short runs of that cycle (mett.inversion._hops): the path's times stretch by S.
-            t_new, _, slow = _hops.hopping_times(top, law, lam, t, theta, t_lift)
+            try:
+                t_new, _, slow = _hops.hopping_times(top, law, lam, t, theta, t_lift)
+            except (ValueError, RuntimeError, ArithmeticError) as exc:  # a window's run failed
+                t_new, slow = t, np.array([math.nan])
+                hop_note += f" (hop cycle not measured: {exc})"
             if np.all(np.isfinite(slow)):
                 times = {k: float(np.interp(v, t, t_new)) if math.isfinite(v) else v
                          for k, v in times.items()}  # fmt: skip
@@ -449,7 +453,7 @@ def predict_inversion(
                     f"{slow.max():.3g})"
                 )
             else:
-                hop_note += "; the hop cycle gains energy in a window: the gliding path after it"
+                hop_note += "; the hop cycle not followed: the gliding path after it"
         notes.append(hop_note)
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
