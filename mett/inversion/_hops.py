@@ -1,10 +1,10 @@
 """The hopping top: the balance flow after the nutation lifts it off (docs/theory/inversion.md#the-hopping-top).
 
 Past the lift-off (``t_lift``, :mod:`mett.inversion._nutation`) a top whose nutation is unstable
-under friction hops about once per precession turn, spends 50–80 % of its time in the air and
+under friction hops about once per precession turn, spends 53–77 % of its time in the air and
 lands perfectly inelastically. Measured on the verification table's hopping tops, its mean
 inclination still follows its energy through the balance state, E ≈ E_bal(θ̄) (the nutation's
-share stays near 1 mJ against tens of mJ spent), and λ is conserved (any force or impulse at the
+share stays within 2.7 mJ against 6–46 mJ spent over a span), and λ is conserved (any force or impulse at the
 contact point, and the free flight, keep it). What changes is the power friction takes:
 
     dθ̄/dt = −⟨P⟩_hop(θ̄)/E'(θ̄) = (dθ̄/dt)_gliding / S(θ̄),   S = P_gliding/⟨P⟩_hop,
@@ -12,7 +12,7 @@ contact point, and the free flight, keep it). What changes is the power friction
 with S between 1.0 and 2.8 on those tops. S is not the time in the air: the time-averaged normal
 force stays m g (the centre of mass does not drift vertically), the landings and the short
 contact phases carry it, and the friction acts there with a slip that the hop cycle's phase
-makes smaller than the gliding one (0.4–0.9 of it, g_n-weighted). That cycle is strongly
+makes smaller than the gliding one (its square 0.33–0.9 of w², g_n-weighted). That cycle is strongly
 nonlinear (the top flies most of the time, g_n reaches 2.8 m g in contact), so ⟨P⟩_hop is not
 written in closed form here: it is **measured on the cycle itself**, by short simulations of the
 full model with flight and landing at a few inclinations (the heterogeneous multiscale method:
