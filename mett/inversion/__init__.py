@@ -14,6 +14,9 @@
 * for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
   make the top fall back before it inverts;
+* where the nutation is predicted to lift the top off before π/2 (``t_lift``), the hopping top
+  after it: the balance flow slowed by the ratio of the gliding power to the hop cycle's,
+  measured on short runs of that cycle with flight and landing (:mod:`mett.inversion._hops`);
 * with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
   (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
   precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
@@ -40,7 +43,7 @@ from ..integrals import jellett
 from ..stability import escape_modes
 from ..state import State
 from ..top import TippeTop
-from . import _averaged, _nutation
+from . import _averaged, _hops, _nutation
 from ._gyroscopic import (
     NoBalance,
     balance_D_and_E_mod,
@@ -153,6 +156,7 @@ def predict_inversion(
     *,
     method: str = "gyroscopic",
     tol: float = 0.05,
+    hops: bool = True,
 ) -> InversionPrediction:
     """Predict whether, when and how a gliding tippe top inverts, without resolving the nutation.
 
@@ -178,6 +182,12 @@ def predict_inversion(
         with ``t_lift`` where the band's normal force vanishes before π/2).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
+    hops : bool, default True
+        Method "gyroscopic", viscous and regularised Coulomb laws: where the nutation is predicted
+        to lift the top off before π/2 (``t_lift < t_half``), follow the hopping top after
+        ``t_lift``: its flow runs at the power friction takes over the hop cycle, measured on
+        short runs of that cycle with flight and landing (docs/theory/inversion.md#the-hopping-top;
+        0.05–1 s per such prediction, against ~1 ms). ``False``: the gliding flow throughout.
 
     Returns
     -------
@@ -213,6 +223,8 @@ def predict_inversion(
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}; got {method!r}")
     tol = _validate.finite_scalar("tol", tol)
+    if not isinstance(hops, bool):
+        raise TypeError(f"hops must be a bool; got {type(hops).__name__}")
     if not 0.0 < tol < 0.5:
         raise ValueError(f"tol must lie in (0, 0.5) rad; got {tol!r}")
     empty = functools.partial(_empty, tol=tol)
@@ -423,7 +435,26 @@ def predict_inversion(
     except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
         t_lift = math.nan
     if t_lift < t_half:
-        notes.append(f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)")
+        hop_note = f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)"
+        if hops:
+            # From the lift-off on the top hops and friction takes the hop cycle's power, measured
+            # on short runs of that cycle (mett.inversion._hops): the path's times stretch by S.
+            try:
+                t_new, _, slow = _hops.hopping_times(top, law, lam, t, theta, t_lift)
+            except (ValueError, RuntimeError, ArithmeticError) as exc:  # a window's run failed
+                t_new, slow = t, np.array([math.nan])
+                hop_note += f" (hop cycle not measured: {exc})"
+            if np.all(np.isfinite(slow)):
+                times = {k: float(np.interp(v, t, t_new)) if math.isfinite(v) else v
+                         for k, v in times.items()}  # fmt: skip
+                t, t_half = t_new, times["half"]
+                hop_note += (
+                    f"; the path after it follows the hop cycle (slowdown {slow.min():.3g} to "
+                    f"{slow.max():.3g})"
+                )
+            else:
+                hop_note += "; the hop cycle not followed: the gliding path after it"
+        notes.append(hop_note)
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
     if end.kind == "inverted":
         inverts, reason = True, "inverts"
@@ -652,6 +683,7 @@ def atlas(
     cm_at_rest: bool = True,
     eps: float = 0.01,
     contensou_radius: float = 5e-4,
+    hops: bool = True,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Predicted inversion times over a grid of friction coefficients and spins, per law.
 
@@ -673,6 +705,9 @@ def atlas(
         Regularisation velocity (m/s) of "regularised-coulomb", > 0.
     contensou_radius : float, default 5e-4
         Contact-disc radius r (m) of "coulomb-contensou", > 0.
+    hops : bool, default True
+        Passed to :func:`predict_inversion`: follow the hopping top after a predicted lift-off
+        (0.1–1 s per such point); ``False`` keeps every point at ~1 ms.
 
     Returns
     -------
@@ -686,7 +721,8 @@ def atlas(
     Notes
     -----
     Each point is one :func:`predict_inversion` (about 1 ms for the viscous law, 20–100 ms for
-    Coulomb–Contensou, whose slow flow is an ODE in (θ, λ)). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
+    Coulomb–Contensou, whose slow flow is an ODE in (θ, λ), 0.1–1 s where the top is predicted
+    to hop before π/2 and ``hops`` is True). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
     reads the atlas of the thesis top.
     """
     mus = np.atleast_1d(np.asarray(mu, dtype=float))
@@ -723,7 +759,7 @@ def atlas(
                     st = State.with_cm_at_rest(top, theta=theta0, omega3=w)
                 else:
                     st = State(theta=theta0, omega3=w)
-                p = predict_inversion(top, st, law)
+                p = predict_inversion(top, st, law, hops=hops)
                 res["t_half"][i, j] = p.t_half
                 res["t_inv"][i, j] = p.t_inv if p.inverts else math.inf
                 res["inverts"][i, j] = -1 if p.inverts is None else float(p.inverts)
