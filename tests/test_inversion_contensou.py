@@ -113,3 +113,39 @@ def test_contensou_lift_off_time_matches_the_simulated_first_lift_off():
                              max_step=0.1 * T_n, stop_on_contact_loss=True)  # fmt: skip
         assert traj.status == "contact_lost"
         assert p.t_lift == pytest.approx(traj.t_contact_lost, rel=0.1)
+
+
+# Centre-of-mass-at-rest starts of the Contensou check (docs/theory/inversion.md#coulombcontensou)
+# whose slip R θ0 ω3 is 2.0–6.0 r* ω3 (R sin θ0 > 1.9 r*) and that stay on the table:
+# (preset, μ, ω3, r, θ0). Before the saturated start they were 11.3, 9.7 and 9.1 % early beyond
+# one nutation period.
+SATURATED = [
+    ("rutstam2013", 0.3, 155.0, 1.5e-3, 0.1),
+    ("rutstam2013", 0.5, 155.0, 5e-4, 0.1),
+    ("friedl1997", 0.3, 180.0, 5e-4, 0.1),
+]
+
+
+@pytest.mark.parametrize(("preset", "mu", "omega3", "r", "theta0"), SATURATED)
+def test_saturated_start_prediction_matches_simulation(preset, mu, omega3, r, theta0, monkeypatch):
+    # Reference: the full Coulomb–Contensou simulation (compiled DOP853, rtol 1e-8, steps bounded
+    # by T_n/10), its first crossing of π/2. Declared accuracy with the saturated start: 6 % of
+    # t_half + one nutation period, as for the linear starts with θ0 <= 0.03; the linear split
+    # alone misses it.
+    import mett.inversion as inversion
+
+    top = mett.presets.get(preset)
+    state = mett.State.with_cm_at_rest(top, theta=theta0, omega3=omega3)
+    law = Coulomb(mu, contensou_radius=r)
+    assert top.R * math.sin(theta0) > 1.9 * law.r_star  # the start's slip, beyond r* ω3
+    p = mett.predict_inversion(top, state, law)
+    assert p.t_lift == math.inf and math.isfinite(p.t_half)
+    T_n = nutation_period(top, omega3)
+    traj = mett.simulate(top, state, 1.3 * p.t_half, friction=law, rtol=1e-8, max_step=0.1 * T_n,
+                         stop_on_contact_loss=True)  # fmt: skip
+    assert traj.status == "completed"
+    t_sim = float(traj.crossings(0.5 * math.pi)[0])
+    assert abs(p.t_half - t_sim) <= 0.06 * t_sim + T_n
+    monkeypatch.setattr(inversion, "saturated_start", lambda *a, **k: None)
+    linear = mett.predict_inversion(top, state, law)
+    assert abs(linear.t_half - t_sim) > 0.06 * t_sim + T_n
