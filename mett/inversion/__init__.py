@@ -13,7 +13,8 @@
   (then the top rolls, conserves E, D, λ and does not invert);
 * for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
-  make the top fall back before it inverts;
+  make the top fall back before it inverts; a start whose slip is beyond the law's linear range
+  is first followed until it is linear (:func:`mett.inversion._gyroscopic.saturated_start`);
 * with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
   (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
   precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
@@ -167,9 +168,11 @@ def predict_inversion(
         :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
         or :class:`~mett.friction.Coulomb`. Without a Contensou radius: whether the slip stops
         (then the top rolls and does not invert). With one: the balance flow in (θ, λ), λ lowered
-        by the drilling torque (method "gyroscopic" only; declared accuracy of ``t_half``: 6 % +
-        one nutation period for θ0 ≤ 0.03, 12 % + one nutation period for θ0 ≤ 0.1;
-        ``inverts=None`` where λ arrives below ``CONTENSOU_MARGIN`` λ_thres).
+        by the drilling torque, from the start's saturated phase where its slip exceeds
+        r* |ω_n| (method "gyroscopic" only; declared accuracy of ``t_half``: 6 % + one nutation
+        period for θ0 ≤ 0.03, and for θ0 ≤ 0.1 with the centre of mass at rest; 12 % + one
+        nutation period for θ0 ≤ 0.1 with the contact point at rest; ``inverts=None`` where λ
+        arrives below ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the same initiation, then the flow of the
