@@ -68,7 +68,7 @@ def test_start_departs_from_the_slow_motion_by_the_heavy_top_nutation():
 
 def test_saturated_start_damps_the_inversion_mode_as_simulated():
     # Case 60 of the verification table: slip 5.6 r* ω_n at the start. The linear split gives the
-    # inversion mode 1.2e-2 rad; the saturated phase (1.8 s) leaves 4e-8 rad in the simulation.
+    # inversion mode 1.2e-2 rad; the saturated phase (1.6 s) leaves 3e-8 rad in the simulation.
     # saturated_start's amplitude at its end against the nutation fitted to the simulated axis
     # there; the frozen-coefficient rate errs by O(ṙate/Ω²) ≈ 20/1100² per unit time and the
     # slow state by O(slow/fast) ≈ 2 %: 5 % of the log gain (|∫ rate dt| ≈ 8.4) allows 2.5×.

@@ -474,9 +474,9 @@ def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty):
     sat = saturated_start(top, law, state, t_max=10.0 * t_spin)
     if sat is not None:
         t_sat, amp, lam_flow = float(sat.t[-1]), sat.amplitude, float(sat.lam[-1])
-        if not 0.0 < amp < theta0:
+        if not 0.0 < amp < 0.5:  # the flow starts from a small inversion mode
             return empty(None, f"saturated start: inversion-mode amplitude {amp:.3g} rad at "
-                         f"t = {t_sat:.3g} s is outside (0, theta0)", "gyroscopic",
+                         f"t = {t_sat:.3g} s is outside (0, 0.5)", "gyroscopic",
                          validity(math.nan), theta0=theta0, lam=lam)  # fmt: skip
     try:
         path = contensou_path(top, law, lam_flow, amp, target, 10.0 * t_spin)

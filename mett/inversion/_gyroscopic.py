@@ -534,9 +534,11 @@ def saturated_start(top: TippeTop, law, state, linear: float = 0.01, samples: in
 
     ``None`` if the start's slip |v_A| is within r* |ω_n| (the linear split applies). Otherwise
     the gyroscopic slow state (module comment above) is integrated (RK45, rtol 1e-8) until the
-    slip ratio |v_A|/(r* |ω_n|) stops falling (the floor of a nearly rolling top: what is left
-    of the start's tilt is the neutral, slow mode, and the fast mode's rate is the linear one
-    there), or has fallen to ``linear``, or ``t_max``; the fast eigenvalue's real part at ``samples`` + 1 equally
+    slip ratio |v_A|/(r* |ω_n|) is below 1 and within 1 % of its floor (its logarithmic rate
+    above a hundredth of the linear law's relaxation rate μ g/(r* |ω_n|): the floor of a nearly
+    rolling top, whose remaining tilt is the neutral, slow mode, and where the fast mode's rate
+    is the linear one), or has fallen to ``linear``, or ``t_max``; the fast eigenvalue's real
+    part at ``samples`` + 1 equally
     spaced times gives the fast mode's amplitude by the trapezoidal rule (its rate is smooth on
     the slip's scale, 1/(μ g K)).
     """
@@ -571,19 +573,25 @@ def saturated_start(top: TippeTop, law, state, linear: float = 0.01, samples: in
         return ratio(u) - linear
 
     h_stall = 1e-5 / (law.mu * top.g)  # 1e-5 of the slip's time scale
+    # the linear law relaxes the slip at μ g K/(r* |ω_n|) (K >= 1, taken as 1)
+    k_lin = law.mu * top.g / (law.r_star * abs(wn0))
 
-    def stalls(t, u):
-        # d/dt of |v_A|/(r* ω_n) along the slow state's own rates (forward difference)
-        return ratio(u + h_stall * _slow_rhs(top, law, u)[0]) - ratio(u)
+    def settles(t, u):
+        # the slip is linear and has settled on its floor (the slow, neutral mode's own slip):
+        # d ln(ratio)/dt above −k_lin/100, i.e. within 1 % of its floor. Not fired while saturated.
+        r = ratio(u)
+        if r > 1.0:
+            return -1.0
+        return (ratio(u + h_stall * _slow_rhs(top, law, u)[0]) - r) / (h_stall * r) + 0.01 * k_lin
 
     linear_event.terminal = True  # type: ignore[attr-defined]
-    stalls.terminal = True  # type: ignore[attr-defined]
-    stalls.direction = 1.0  # type: ignore[attr-defined]
+    settles.terminal = True  # type: ignore[attr-defined]
+    settles.direction = 1.0  # type: ignore[attr-defined]
     if not math.isfinite(t_max):
         # the slip falls at ≈ μ g K, K ≥ 1: ten times its Coulomb stop time bounds the phase
         t_max = 10.0 * math.hypot(*nu0) / (law.mu * top.g)
     sol = solve_ivp(rhs, (0.0, t_max), u0, method="RK45", rtol=1e-8, dense_output=True,
-                    events=(linear_event, stalls))  # fmt: skip
+                    events=(linear_event, settles))  # fmt: skip
     t1 = float(sol.t[-1])
     ts = np.linspace(0.0, t1, samples + 1)
     th, lam, slip = (np.empty(samples + 1) for _ in range(3))
