@@ -149,3 +149,22 @@ def test_saturated_start_prediction_matches_simulation(preset, mu, omega3, r, th
     monkeypatch.setattr(inversion, "saturated_start", lambda *a, **k: None)
     linear = mett.predict_inversion(top, state, law)
     assert abs(linear.t_half - t_sim) > 0.06 * t_sim + T_n
+
+
+def test_saturated_start_that_grows_the_inversion_mode_is_not_predicted():
+    # A start whose centre of mass moves against the slip (thesis top, θ0 = 0.064, ω3 = 290 rad/s,
+    # φ̇ = −54.6 rad/s, ν_y = −4.07 m/s): the saturated force grows the inversion mode past 0.5 rad
+    # before the slip is linear, so the balance flow has no small mode to start from and the
+    # answer is None. The simulation (steps bounded by T_n/10) loses contact within 0.5 s.
+    top = mett.presets.get("rutstam2013")
+    st = mett.State(theta=0.06433459619024676, omega3=290.166878696609,
+                    phidot=-54.56644508478546, nu_y=-4.065626238614218)  # fmt: skip
+    law = Coulomb(0.24309019430883655, contensou_radius=0.0003565067903765574)
+    sat = saturated_start(top, law, st)
+    assert sat.amplitude > 0.5 > sat.amplitude0
+    p = mett.predict_inversion(top, st, law)
+    assert p.inverts is None and "saturated start" in p.reason
+    T_n = nutation_period(top, float(st.omega3))
+    traj = mett.simulate(top, st, 1.0, friction=law, rtol=1e-8, max_step=0.1 * T_n,
+                         stop_on_contact_loss=True)  # fmt: skip
+    assert traj.status == "contact_lost" and traj.t_contact_lost < 0.5
