@@ -537,10 +537,27 @@ def saturated_start(top: TippeTop, law, state, linear: float = 0.01, samples: in
     slip ratio |v_A|/(r* |ω_n|) is below 1 and within 1 % of its floor (its logarithmic rate
     above a hundredth of the linear law's relaxation rate μ g/(r* |ω_n|): the floor of a nearly
     rolling top, whose remaining tilt is the neutral, slow mode, and where the fast mode's rate
-    is the linear one), or has fallen to ``linear``, or ``t_max``; the fast eigenvalue's real
-    part at ``samples`` + 1 equally
-    spaced times gives the fast mode's amplitude by the trapezoidal rule (its rate is smooth on
-    the slip's scale, 1/(μ g K)).
+    is the linear one), or has fallen to ``linear``, or ``t_max``. The fast eigenvalue's real
+    part at ``samples`` + 1 equally spaced times gives the fast mode's amplitude by the
+    trapezoidal rule (its rate is smooth on the slip's scale, 1/(μ g K)).
+
+    Parameters
+    ----------
+    top : TippeTop
+    law : Coulomb
+        With a Contensou radius (r* > 0) and μ > 0.
+    state : State
+        The start (ω3 > 0, θ < π/2).
+    linear : float, default 0.01
+        Slip ratio |v_A|/(r* |ω_n|) at which the phase ends at the latest.
+    samples : int, default 24
+        Intervals of the trapezoidal rule.
+    t_max : float, optional
+        Longest phase (s); by default ten Coulomb stop times of the slip, 10 |v_A|/(μ g).
+
+    Returns
+    -------
+    SaturatedStart or None
     """
     from scipy.integrate import solve_ivp
 
@@ -605,4 +622,5 @@ def saturated_start(top: TippeTop, law, state, linear: float = 0.01, samples: in
         states.append((e, a, L, u[0:2]))
     rate = _fast_rates(top, law, states)
     log_gain = float(np.sum(0.5 * (rate[1:] + rate[:-1]) * np.diff(ts)))
-    return SaturatedStart(ts, th, lam, slip, rate, amp0, amp0 * math.exp(log_gain))
+    # a gain beyond e^700 is a mode far past any small amplitude (the caller refuses > 0.5 rad)
+    return SaturatedStart(ts, th, lam, slip, rate, amp0, amp0 * math.exp(min(log_gain, 700.0)))
