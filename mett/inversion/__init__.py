@@ -13,7 +13,8 @@
   (then the top rolls, conserves E, D, λ and does not invert);
 * for Coulomb–Contensou friction (Leine & Glocker 2003), whose slip never stops while the top
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
-  make the top fall back before it inverts;
+  make the top fall back before it inverts; a start whose slip is beyond the law's linear range
+  is first followed until it is linear (:func:`mett.inversion._gyroscopic.saturated_start`);
 * where the nutation is predicted to lift the top off before π/2 (``t_lift``), the hopping top
   after it: the balance flow slowed by the ratio of the gliding power to the hop cycle's,
   measured on short runs of that cycle with flight and landing (:mod:`mett.inversion._hops`);
@@ -50,6 +51,7 @@ from ._gyroscopic import (
     balance_state,
     contensou_path,
     nutation_period,
+    saturated_start,
     slow_path,
 )
 from ._result import InversionPrediction, Validity
@@ -170,9 +172,11 @@ def predict_inversion(
         :class:`~mett.friction.Viscous` (default, μ = ``top.mu``), :class:`~mett.friction.RegularisedCoulomb`
         or :class:`~mett.friction.Coulomb`. Without a Contensou radius: whether the slip stops
         (then the top rolls and does not invert). With one: the balance flow in (θ, λ), λ lowered
-        by the drilling torque (method "gyroscopic" only; declared accuracy of ``t_half``: 6 % +
-        one nutation period for θ0 ≤ 0.03, 12 % + one nutation period for θ0 ≤ 0.1;
-        ``inverts=None`` where λ arrives below ``CONTENSOU_MARGIN`` λ_thres).
+        by the drilling torque, from the start's saturated phase where its slip exceeds
+        r* |ω_n| (method "gyroscopic" only; declared accuracy of ``t_half``: 6 % + one nutation
+        period for θ0 ≤ 0.03, and for θ0 ≤ 0.1 with the centre of mass at rest; 12 % + one
+        nutation period for θ0 ≤ 0.1 with the contact point at rest; ``inverts=None`` where λ
+        arrives below ``CONTENSOU_MARGIN`` λ_thres).
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the same initiation, then the flow of the
@@ -383,7 +387,7 @@ def predict_inversion(
         )
     amp = esc.amplitude
     if contensou:
-        return _predict_contensou(top, state, law, lam, tol, esc, validity, empty)
+        return _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty)
     if method == "averaged":
         return _predict_averaged(
             top, state, law, lam, theta_end, end.kind, tol, esc, validity, empty
@@ -486,7 +490,7 @@ def predict_inversion(
     )
 
 
-def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
+def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty):
     """Coulomb–Contensou: the balance flow in (θ, λ), the drilling torque lowering λ
     (docs/theory/inversion.md#coulombcontensou)."""
     theta0 = float(state.theta)
@@ -495,8 +499,21 @@ def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
     t_spin = top.I3 * float(state.omega3) / (law.mu * top.m * top.g * law.r_star)
     target = math.pi - tol
     amp = esc.amplitude
+    # A start whose slip is beyond the law's linear range: its saturated phase sets the inversion
+    # mode's amplitude and λ where the slip becomes linear (docs/theory/inversion.md#a-start-beyond-the-laws-linear-range)
+    t_sat, lam_flow = 0.0, lam
+    sat = saturated_start(top, law, state, t_max=10.0 * t_spin)
+    if sat is not None:
+        t_sat, amp, lam_flow = float(sat.t[-1]), sat.amplitude, float(sat.lam[-1])
+        if not 0.0 < amp < 0.5:  # the flow starts from a small inversion mode
+            return empty(None, f"saturated start: inversion-mode amplitude {amp:.3g} rad at "
+                         f"t = {t_sat:.3g} s is outside (0, 0.5)", "gyroscopic",
+                         validity(math.nan), theta0=theta0, lam=lam)  # fmt: skip
     try:
-        path = contensou_path(top, law, lam, amp, target, 10.0 * t_spin)
+        path = contensou_path(top, law, lam_flow, amp, target, 10.0 * t_spin)
+        if t_sat > 0.0:
+            path = path._replace(t=path.t + t_sat, t_half=path.t_half + t_sat,
+                                 t_end=path.t_end + t_sat)  # fmt: skip
     except ValueError as exc:
         return empty(None, f"slow flow: {exc}", "gyroscopic", validity(math.nan), theta0=theta0,
                      lam=lam)  # fmt: skip
@@ -555,6 +572,10 @@ def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
         inverts, reason = None, f"the slow flow has not ended by t = {float(path.t[-1]):.3g} s"
     T_n = nutation_period(top, float(state.omega3))
     eps = T_n / path.t_half if math.isfinite(path.t_half) else math.nan
+    t_lift = _contensou_lift_off(top, law, lam_flow, path, modes, sat)
+    extra = (
+        [f"predicted to hop before pi/2 (t_lift = {t_lift:.3g} s)"] if t_lift < path.t_half else []
+    )
     D, E_mod = balance_D_and_E_mod(top, path.lam, path.theta, path.state)
     if amp >= theta0:
         t_start = 0.0
@@ -576,8 +597,33 @@ def _predict_contensou(top, state, law, lam, tol, esc, validity, empty):
         E_mod=np.asarray(E_mod),
         lam=np.asarray(path.lam),
         theta_end=math.pi if inverts else float(path.theta[-1]),
-        validity=validity(eps),
+        validity=validity(eps, extra),
+        t_lift=t_lift,
     )
+
+
+def _contensou_lift_off(top, law, lam, path, modes, sat) -> float:
+    """t_lift (s) of the Coulomb–Contensou path: the lift-off criterion of mett.inversion._nutation
+    with the law's force as the regularised Coulomb law it is at a fixed spin, ε = r* |ω_n|
+    (F_t = −μ g_n v_A/√(v_A² + (r* ω_n)²)), ε and λ those of the flow's first node. The drilling
+    torque is left out of the nutation's linearisation, and λ falls along the path (by the
+    fraction ``1 − lam[-1]/lam[0]``), so the criterion is approximate beyond the first order
+    of the viscous one (docs/theory/inversion.md#coulombcontensou)."""
+    up = np.flatnonzero(path.theta <= 0.5 * math.pi)
+    if up.size < 2:
+        return math.inf
+    if up[-1] + 1 < len(path.theta):  # and the first node past π/2
+        up = np.r_[up, up[-1] + 1]
+    omega_n = float(balance_state(top, lam, float(path.theta[0]))[4])
+    lin = RegularisedCoulomb(law.mu, law.r_star * abs(omega_n))
+    try:
+        amp0, rate0 = _nutation.upright_nutation(modes)
+    except np.linalg.LinAlgError:
+        return math.nan
+    if sat is not None:
+        # after a saturated start the slow tilt is what is left of the start's inclination
+        amp0 = float(sat.theta[-1])
+    return _nutation.lift_off_time(top, lin, lam, path.t[up], path.theta[up], amp0, rate0)
 
 
 def _end_reason(top: TippeTop, theta_end: float) -> str:

@@ -346,6 +346,10 @@ class ContensouPath(NamedTuple):
     stop: str  # "end", "turns back", "no balance", "t_max"
 
 
+# The smallest inclination (rad) at which the Contensou flow's rate is evaluated (contensou_path).
+THETA_LINEAR = 1e-4
+
+
 def contensou_path(top: TippeTop, law, lam0: float, theta_from: float, theta_to: float,
                    t_max: float, rtol: float = 1e-8, cm_response: bool = True) -> ContensouPath:  # fmt: skip
     """Integrate the Contensou balance flow from (θ_u(0), λ0) until θ reaches ``theta_to``.
@@ -362,7 +366,7 @@ def contensou_path(top: TippeTop, law, lam0: float, theta_from: float, theta_to:
     sign = 1.0 if theta_to > theta_from else -1.0
 
     def theta_of(s):
-        return 2.0 * math.atan(math.exp(s))
+        return 2.0 * math.atan(math.exp(min(s, 700.0)))  # π to rounding beyond s = 40
 
     cache: dict[tuple[float, float], tuple[float, float]] = {}
 
@@ -370,7 +374,10 @@ def contensou_path(top: TippeTop, law, lam0: float, theta_from: float, theta_to:
         # the turning event asks at the step ends, where RK45 (FSAL) has the rates already
         key = (float(y[0]), float(y[1]))
         if key not in cache:
-            th = theta_of(key[0])
+            # below THETA_LINEAR the flow is linear in θ to O(θ²) = 1e-8, and its bracket's
+            # rounding (1e-16/θ² relative, contensou_rates) would be larger: the rate per unit
+            # θ there (a saturated start leaves the inversion mode at 1e-10 rad)
+            th = max(theta_of(key[0]), THETA_LINEAR)
             thd, lamd, _ = contensou_rates(top, law, key[1], th, cm_response)
             cache[key] = (float(thd) / math.sin(th), float(lamd))
         return cache[key]
@@ -421,3 +428,199 @@ def contensou_path(top: TippeTop, law, lam0: float, theta_from: float, theta_to:
     t_half = float(sol.t_events[0][0]) if len(sol.t_events[0]) else math.inf
     t_end = float(sol.t[-1]) if stop == "end" else math.inf
     return ContensouPath(sol.t, theta, lam, balance_state(top, lam, theta), t_half, t_end, stop)
+
+
+# --- Coulomb–Contensou: a start beyond the law's linear range -------------------------------------
+#
+# Where the start's slip |v_A| exceeds r* |ω_n| the law is Coulomb-like, not viscous: the force
+# has the fixed size μ g_n while the slip falls at about μ g K, and the upright spin's linear modes
+# (split with the law's small-slip coefficient μ/(r* ω_n)) do not describe the start
+# (docs/theory/inversion.md#a-start-beyond-the-laws-linear-range). Two things happen there:
+#
+# * the inversion (fast, nutation-like) mode is not the linear split's: the start's departure from
+#   the slow motion of its axis is I1 |ω_⊥ − 3̂ × τ_⊥/|L||/(I3 ω3), the cone between the axis
+#   and L that the slow motion does not have (a gyroscope's axis follows L, lagging it by
+#   I1 3̂̇/(I3 ω3)); the linear split instead reads an O(θ0³) mismatch of the reference spin's
+#   ω3 (the same λ) as a component of the fast mode;
+# * while the slip is large, friction damps that mode: its magnitude μ g_n follows the normal
+#   force, which the nutation modulates at its own frequency by m l Ω² sin θ δθ when the axis is
+#   tilted, in phase with the nutation's slip along v_A. The damping is the real part of the fast
+#   eigenvalue of the sliding field linearised at the slow state (frozen: the slow state changes
+#   at O(μ g/(R ω)) against the fast frequency Ω ≈ I3 ω3/I1).
+#
+# The slow state is the gyroscopic one (3̂ = L/|L|, g_n = m g): m r̈ = F, L̇ = a × (F + g_n ẑ) + M ẑ.
+
+
+class SaturatedStart(NamedTuple):
+    """The saturated start of a Coulomb–Contensou top, followed until its slip is linear."""
+
+    t: np.ndarray
+    """Times (s) of the slow state's samples."""
+    theta: np.ndarray
+    """Inclination of L (rad) at the samples: the slow tilt."""
+    lam: np.ndarray
+    """Jellett's λ (kg m³/s) at the samples (the drilling torque lowers it)."""
+    slip: np.ndarray
+    """|v_A| / (r* |ω_n|) at the samples."""
+    rate: np.ndarray
+    """Real part (1/s) of the fast eigenvalue of the sliding field at the samples."""
+    amplitude0: float
+    """The fast mode's amplitude (rad) at the start."""
+    amplitude: float
+    """Its amplitude (rad) at the end, t[-1]: exp(∫ rate dt) times ``amplitude0``."""
+
+
+def _cross(u, v) -> np.ndarray:
+    # 3-vectors in plain float arithmetic: np.cross costs ~0.3 ms a call here
+    return np.array(
+        [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+    )
+
+
+def _slow_rhs(top: TippeTop, law, u: np.ndarray) -> tuple:
+    """(du/dt, ν, ω_n, e, a, L) of the gyroscopic slow state u = (ẋ, ẏ, L_x, L_y, L_z)."""
+    m, R, l, I3, g = top.m, top.R, top.R * top.alpha, top.I3, top.g
+    L = u[2:5]
+    Ln = math.sqrt(float(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]))
+    e = L / Ln
+    w3 = Ln / I3  # L·3̂ = I3 ω3 with 3̂ = L/|L|
+    a = np.array([l * e[0], l * e[1], l * e[2] - R])
+    wa = w3 * _cross(e, a)  # ω × a, ω = ω3 3̂ (the transverse part is O(slow/fast))
+    nu = np.array([u[0] + wa[0], u[1] + wa[1]])
+    wn = w3 * e[2]
+    gn = m * g
+    gam = math.sqrt(float(nu[0] * nu[0] + nu[1] * nu[1]) + (law.r_star * wn) ** 2)
+    F = np.array([-law.mu * gn * nu[0] / gam, -law.mu * gn * nu[1] / gam, gn])
+    M = -law.mu * gn * law.r_star**2 * wn / gam
+    dL = _cross(a, F)
+    dL[2] += M
+    return np.r_[F[:2] / m, dL], nu, wn, e, a, L
+
+
+def _fast_rates(top: TippeTop, law, states: list) -> np.ndarray:
+    """Re of the fast eigenvalue (1/s) of the sliding Coulomb–Contensou field
+    (mett.dynamics.contact) at each slow state (e, a, L, ṙ) of ``states`` (3̂ = e along L):
+    complex-step Jacobians of the 10 states, every column of every state in one call."""
+    from ..dynamics.contact import slide_law
+    from ..dynamics.registry import MODELS
+
+    p = MODELS["coulomb-contensou"].params(top, {"friction": law})
+    n = len(states)
+    y = np.zeros((10, n))
+    scale = np.ones((10, n))
+    for j, (e, a, L, rdot) in enumerate(states):
+        lam = -float(L @ a)
+        y[:, j] = (0.0, 0.0, rdot[0], rdot[1], L[0], L[1], lam, e[0], e[1], e[2])
+        Ln = math.sqrt(float(L @ L))
+        scale[0:2, j] = top.R
+        scale[2:4, j] = top.R * Ln / top.I3
+        scale[4:6, j] = Ln
+        scale[6, j] = abs(lam)
+    h = 1e-30
+    Y = np.repeat(y[:, :, None], 10, axis=2).astype(complex)  # (state, node, column)
+    for k in range(10):
+        Y[k, :, k] += 1j * h * scale[k]
+    d = slide_law([Y[i].ravel() for i in range(10)], p)[0]
+    J = np.imag(np.array([np.broadcast_to(x, (n * 10,)) for x in d])).reshape(10, n, 10)
+    J = J.transpose(1, 0, 2) / (h * scale.T[:, None, :])  # (node, row, column)
+    ev = np.linalg.eigvals(J)
+    pick = np.argmax(np.abs(ev.imag), axis=1)
+    return ev[np.arange(n), pick].real
+
+
+def saturated_start(top: TippeTop, law, state, linear: float = 0.01, samples: int = 24,
+                    t_max: float = math.inf) -> SaturatedStart | None:  # fmt: skip
+    """Follow a Coulomb–Contensou start whose slip is beyond the law's linear range.
+
+    ``None`` if the start's slip |v_A| is within r* |ω_n| (the linear split applies). Otherwise
+    the gyroscopic slow state (module comment above) is integrated (RK45, rtol 1e-8) until the
+    slip ratio |v_A|/(r* |ω_n|) is below 1 and within 1 % of its floor (its logarithmic rate
+    above a hundredth of the linear law's relaxation rate μ g/(r* |ω_n|): the floor of a nearly
+    rolling top, whose remaining tilt is the neutral, slow mode, and where the fast mode's rate
+    is the linear one), or has fallen to ``linear``, or ``t_max``. The fast eigenvalue's real
+    part at ``samples`` + 1 equally spaced times gives the fast mode's amplitude by the
+    trapezoidal rule (its rate is smooth on the slip's scale, 1/(μ g K)).
+
+    Parameters
+    ----------
+    top : TippeTop
+    law : Coulomb
+        With a Contensou radius (r* > 0) and μ > 0.
+    state : State
+        The start (ω3 > 0, θ < π/2).
+    linear : float, default 0.01
+        Slip ratio |v_A|/(r* |ω_n|) at which the phase ends at the latest.
+    samples : int, default 24
+        Intervals of the trapezoidal rule.
+    t_max : float, optional
+        Longest phase (s); by default ten Coulomb stop times of the slip, 10 |v_A|/(μ g).
+
+    Returns
+    -------
+    SaturatedStart or None
+    """
+    from scipy.integrate import solve_ivp
+
+    from ..dynamics.registry import MODELS
+
+    gl = MODELS["gliding"]
+    y0 = gl.initial(state, gl.params(top, {}))
+    rdot0, L0, e0 = y0[2:4], y0[4:7], y0[7:10]
+    u0 = np.r_[rdot0, L0]
+    _, nu0, wn0, e, a, _ = _slow_rhs(top, law, u0)
+    if math.hypot(*nu0) <= law.r_star * abs(wn0):
+        return None
+    # the start's cone (axis against L) less the slow motion's: I1 |ω_⊥ − 3̂ × τ_⊥/|L|| / |L|
+    du, *_ = _slow_rhs(top, law, u0)
+    Ln = math.sqrt(float(L0 @ L0))
+    w = L0 / top.I1 + (1.0 / top.I3 - 1.0 / top.I1) * float(L0 @ e0) * e0
+    w_perp = w - float(w @ e0) * e0
+    tau = du[2:5]
+    tau_perp = tau - float(tau @ e0) * e0
+    amp0 = top.I1 * float(np.linalg.norm(w_perp - _cross(e0, tau_perp) / Ln)) / Ln
+
+    def rhs(t, u):
+        return _slow_rhs(top, law, u)[0]
+
+    def ratio(u):
+        _, nu, wn, *_ = _slow_rhs(top, law, u)
+        return math.hypot(*nu) / (law.r_star * abs(wn))
+
+    def linear_event(t, u):
+        return ratio(u) - linear
+
+    h_stall = 1e-5 / (law.mu * top.g)  # 1e-5 of the slip's time scale
+    # the linear law relaxes the slip at μ g K/(r* |ω_n|) (K >= 1, taken as 1)
+    k_lin = law.mu * top.g / (law.r_star * abs(wn0))
+
+    def settles(t, u):
+        # the slip is linear and has settled on its floor (the slow, neutral mode's own slip):
+        # d ln(ratio)/dt above −k_lin/100, i.e. within 1 % of its floor. Not fired while saturated.
+        r = ratio(u)
+        if r > 1.0:
+            return -1.0
+        return (ratio(u + h_stall * _slow_rhs(top, law, u)[0]) - r) / (h_stall * r) + 0.01 * k_lin
+
+    linear_event.terminal = True  # type: ignore[attr-defined]
+    settles.terminal = True  # type: ignore[attr-defined]
+    settles.direction = 1.0  # type: ignore[attr-defined]
+    if not math.isfinite(t_max):
+        # the slip falls at ≈ μ g K, K ≥ 1: ten times its Coulomb stop time bounds the phase
+        t_max = 10.0 * math.hypot(*nu0) / (law.mu * top.g)
+    sol = solve_ivp(rhs, (0.0, t_max), u0, method="RK45", rtol=1e-8, dense_output=True,
+                    events=(linear_event, settles))  # fmt: skip
+    t1 = float(sol.t[-1])
+    ts = np.linspace(0.0, t1, samples + 1)
+    th, lam, slip = (np.empty(samples + 1) for _ in range(3))
+    states = []
+    for i, t in enumerate(ts):
+        u = sol.sol(t)
+        _, nu, wn, e, a, L = _slow_rhs(top, law, u)
+        th[i] = math.acos(min(1.0, e[2]))
+        lam[i] = -float(L @ a)
+        slip[i] = math.hypot(*nu) / (law.r_star * abs(wn))
+        states.append((e, a, L, u[0:2]))
+    rate = _fast_rates(top, law, states)
+    log_gain = float(np.sum(0.5 * (rate[1:] + rate[:-1]) * np.diff(ts)))
+    # a gain beyond e^700 is a mode far past any small amplitude (the caller refuses > 0.5 rad)
+    return SaturatedStart(ts, th, lam, slip, rate, amp0, amp0 * math.exp(min(log_gain, 700.0)))
