@@ -34,6 +34,7 @@ docs/theory/inversion.md#verification.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -213,3 +214,134 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
             t, theta, float(amp0), complex(rate0), lam, top_a, code, mu, eps, BOUND, False
         )[0]
     )
+
+
+# --- the resolved start: the nonlinear split of a large tilt -------------------------------------
+#
+# The linear split (mett.stability.escape_modes) is first order in the start's deviation from the
+# upright spin. Where the start lies mostly in the decaying modes (a tilt θ0 whose growing part
+# θ_u(0) is a small fraction of it), their nonlinear interaction during the slip's transient sets
+# the growing mode's amplitude: measured on the thesis top, the amplitude the growing mode carries
+# once the transient is over, θ_u(t1) e^{−σ t1}, is 1.9× the linear split's with the contact point
+# at rest (θ0 = 0.1, μ = 0.3 s/m) and 0.38× with the centre of mass at rest (θ0 = 0.3), and 0.13×
+# at ω3 = 620 rad/s (μ = 0.05 s/m, θ0 = 0.1): docs/theory/inversion.md#the-initial-tilt.
+# The resolved start integrates that transient with the full model and splits the state there.
+
+# the transient is over after this many e-foldings of the slowest decaying mode other than the
+# nutation (the slip of the contact point, at ≈ μ g κ)
+SLIP_FOLDS = 6.0
+# ... unless the growing mode's linear amplitude would pass this before (rad): the split at t1
+# must stay linear in the growing mode (its own nonlinearity is O(θ_u²), 1e-3 relative here)
+GROWING_CAP = 0.03
+# the resolved start is used where the linear split leaves less than this fraction of the
+# start's tilt in the growing mode (docs/theory/inversion.md#the-initial-tilt)
+SPLIT_FRACTION = 0.3
+# the resolved integration's relative tolerance: its global error on the horizontal state, about
+# 1e-7 of the spin's scale over the window, is below 1e-3 of the growing part's size there
+RESOLVED_RTOL = 1e-9
+# samples of the growing mode's last period at the end of the window
+AVERAGE_SAMPLES = 16
+
+
+class ResolvedStart(NamedTuple):
+    """The start split after its transient (:func:`resolved_start`)."""
+
+    amplitude: float
+    """θ_u(0) (rad): the growing mode's amplitude at t1 carried back at its rate, θ_u(t1) e^{−σ t1}."""
+    nutation: float
+    """Θ(0) (rad): the nutation's amplitude at t1 carried back at its rate."""
+    t1: float
+    """End of the resolved window (s)."""
+    linear: float
+    """θ_u(0) of the linear split (rad), for comparison."""
+
+
+def _mode_groups(ev: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Index arrays of the growing pair, the nutation pair and the slip pair of the upright
+    spin's horizontal eigenvalues (as :func:`upright_nutation` and :func:`mett.escape_time`)."""
+    order = np.argsort(-ev.real, kind="stable")
+    grow, rest = order[:2], order[2:]
+    by_rate = rest[np.argsort(np.abs(ev.real[rest]), kind="stable")]
+    return grow, by_rate[:2], by_rate[2:]
+
+
+def _size(vecs: np.ndarray, coef: np.ndarray, sel: np.ndarray) -> float:
+    # the radius of the axis's circle in these modes: their 3̂_x, 3̂_y rows
+    u = vecs[4:6][:, sel] * coef[sel]
+    return float(np.sqrt(np.sum(np.abs(u) ** 2)))
+
+
+def _frozen_growth(top: TippeTop, y: np.ndarray, lam_u: complex) -> float:
+    """Re of the eigenvalue nearest ``lam_u`` of the gliding model's Jacobian at the state ``y``
+    (10,) (complex steps, :func:`mett.inversion._compiled.spin_jacobian_kernel`)."""
+    from . import _compiled
+
+    scale = np.maximum(np.abs(y), [top.R, top.R, *([1e-30] * 8)])
+    p = (top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.mu, top.g)
+    J = _compiled.spin_jacobian_kernel(np.ascontiguousarray(y, dtype=float), 1e-30 * scale, p)
+    e = np.linalg.eigvals(J)
+    return float(e[np.argmin(np.abs(e - lam_u))].real)
+
+
+def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart | None:
+    """The nonlinear split of a start: the full model over the transient, then the linear split.
+
+    ``top`` carries the viscous coefficient (s/m) the start is integrated with; ``modes`` is the
+    start's linear split at the upright spin with the same λ (:func:`mett.stability.escape_modes`).
+    The gliding model (:func:`mett.simulate`, rtol :data:`RESOLVED_RTOL`) runs from the start for
+    t1 = :data:`SLIP_FOLDS` e-foldings of the slip (the decaying pair farther from the imaginary
+    axis), cut where the growing mode's linear amplitude would reach :data:`GROWING_CAP`. Its
+    state at t1 is split into the same eigenvectors; its growing part θ_u(t1) and nutation Θ(t1)
+    carried back at their rates give the amplitudes the slow flow and the lift-off criterion
+    start from at t = 0 (the modes evolve linearly after t1: the growing one is still small, the
+    decaying ones have decayed). ``None`` where the run does not complete (the top lifts off in
+    the window) or the split fails: the linear split stands.
+
+    Cost: the resolved run over t1, about (μ g κ)⁻¹ ω3 I3/I1 nutation periods (6 e-foldings):
+    it grows with ω3 and is spent only where the linear split is not enough (:data:`SPLIT_FRACTION`).
+    """
+    from ..dynamics.simulation import simulate
+
+    ev, vecs, coef = modes
+    grow, nut, slip = _mode_groups(ev)
+    sigma = float(ev.real[grow[0]])
+    linear = _size(vecs, coef, grow)
+    if not (sigma > 0.0 and linear > 0.0):
+        return None
+    t1 = SLIP_FOLDS / abs(float(ev.real[slip[0]]))
+    t1 = min(t1, math.log(GROWING_CAP / linear) / sigma) if linear < GROWING_CAP else 0.0
+    if not t1 > 0.0:
+        return None
+    traj = simulate(top, state, t1, rtol=RESOLVED_RTOL, stop_on_contact_loss=True)
+    if traj.status != "completed":
+        return None
+    # The growing part over the window's last period of the growing mode, each sample carried
+    # back at its eigenvalue and averaged: the decaying modes' nonlinear (cubic) share of the
+    # horizontal state projects onto the growing eigenvector too, but at their own slow
+    # frequencies, so carried back at λ_u it turns at ≈ Im λ_u and averages out over the period
+    # (uniform samples: exact for its harmonics below AVERAGE_SAMPLES).
+    w = abs(float(ev.imag[grow[0]]))
+    t_end = float(traj.t[-1])
+    ts = t_end - (2.0 * math.pi / w) * np.arange(AVERAGE_SAMPLES) / AVERAGE_SAMPLES
+    if w == 0.0 or ts[-1] < 0.0:
+        return None
+    ys = traj.states_at(ts)[[2, 3, 4, 5, 7, 8]]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y
+    try:
+        c = np.linalg.solve(vecs, ys)
+    except np.linalg.LinAlgError:
+        return None
+    back = np.mean(c[grow] * np.exp(-np.outer(ev[grow], ts)), axis=1)
+    amp = _size(vecs[:, grow], back, np.arange(2))
+    rate_n = float(ev.real[nut[0]])
+    theta_n = _size(vecs, c[:, 0], nut) * math.exp(-rate_n * t_end)
+    if not (math.isfinite(amp) and amp > 0.0 and math.isfinite(theta_n)):
+        return None
+    # After t1 the nutation is still there (it decays at Re λ_n, slowly), and it slows (or speeds)
+    # the growing mode: the resonant cubic term of the normal form, d ln θ_u/dt = σ + β |z_n|²,
+    # whose |z_n|² decays like e^{2 Re λ_n t}. β |z_n(t1)|² is the growing eigenvalue's shift in
+    # the Jacobian frozen at the state at t1 (the growing mode turns at ≈ φ̇, far faster than the
+    # nutation changes), and its integral from t1 on is that shift over 2 |Re λ_n|.
+    shift = _frozen_growth(top, traj.states[:, -1], complex(ev[grow[0]])) - sigma
+    if rate_n < 0.0 and math.isfinite(shift):
+        amp *= math.exp(shift / (-2.0 * rate_n))
+    return ResolvedStart(amp, theta_n, t_end, linear)
