@@ -239,6 +239,10 @@ SPLIT_FRACTION = 0.3
 # the resolved integration's relative tolerance: its global error on the horizontal state, about
 # 1e-7 of the spin's scale over the window, is below 1e-3 of the growing part's size there
 RESOLVED_RTOL = 1e-9
+# the nutation's resonant effect on the growing mode is integrated while that climbs to this
+# (rad): the thesis starts move by < 1 % of t_half between 0.3 rad and no limit, and a nutation
+# that barely decays (Re λ_n → 0) acts for that time, not for ever
+HORIZON_THETA = 1.0
 # samples of the growing mode's last period at the end of the window
 AVERAGE_SAMPLES = 16
 
@@ -340,8 +344,12 @@ def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart |
     # the growing mode: the resonant cubic term of the normal form, d ln θ_u/dt = σ + β |z_n|²,
     # whose |z_n|² decays like e^{2 Re λ_n t}. β |z_n(t1)|² is the growing eigenvalue's shift in
     # the Jacobian frozen at the state at t1 (the growing mode turns at ≈ φ̇, far faster than the
-    # nutation changes), and its integral from t1 on is that shift over 2 |Re λ_n|.
+    # nutation changes). It acts while the growing mode climbs to HORIZON_THETA, after which the
+    # balance flow is no longer its linear growth: ∫ β |z_n|² dt over that horizon H.
     shift = _frozen_growth(top, traj.states[:, -1], complex(ev[grow[0]])) - sigma
-    if rate_n < 0.0 and math.isfinite(shift):
-        amp *= math.exp(shift / (-2.0 * rate_n))
+    horizon = max(math.log(HORIZON_THETA / (amp * math.exp(sigma * t_end))) / sigma, 0.0)
+    if math.isfinite(shift):
+        # (1 − e^{2 Re λ_n H})/(−2 Re λ_n), → H as Re λ_n → 0
+        span = horizon if rate_n == 0.0 else math.expm1(2.0 * rate_n * horizon) / (2.0 * rate_n)
+        amp *= math.exp(shift * span)
     return ResolvedStart(amp, theta_n, t_end, linear)
