@@ -230,9 +230,11 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
 # the transient is over after this many e-foldings of the slowest decaying mode other than the
 # nutation (the slip of the contact point, at ≈ μ g κ)
 SLIP_FOLDS = 6.0
-# ... unless the growing mode's linear amplitude would pass this before (rad): the split at t1
-# must stay linear in the growing mode (its own nonlinearity is O(θ_u²), 1e-3 relative here)
-GROWING_CAP = 0.03
+# the split is taken where the growing part is below this (rad): it must still be linear in the
+# growing mode (its own nonlinearity is O(θ_u²), 0.25 % relative here)
+GROWING_CAP = 0.05
+# times tried for the split, from the window's end back to a quarter of it
+SPLIT_TRIES = 7
 # the resolved start is used where the linear split leaves less than this fraction of the
 # start's tilt in the growing mode (docs/theory/inversion.md#the-initial-tilt)
 SPLIT_FRACTION = 0.3
@@ -243,6 +245,9 @@ RESOLVED_RTOL = 1e-9
 # (rad): the thesis starts move by < 1 % of t_half between 0.3 rad and no limit, and a nutation
 # that barely decays (Re λ_n → 0) acts for that time, not for ever
 HORIZON_THETA = 1.0
+# the nutation's drift of the growing part is measured from this fraction of the split time on
+# (4 of the window's 6 e-foldings of the slip)
+DRIFT_FROM = 2.0 / 3.0
 # samples of the growing mode's last period at the end of the window
 AVERAGE_SAMPLES = 16
 
@@ -255,7 +260,7 @@ class ResolvedStart(NamedTuple):
     nutation: float
     """Θ(0) (rad): the nutation's amplitude at t1 carried back at its rate."""
     t1: float
-    """End of the resolved window (s)."""
+    """Time of the split (s): the end of the resolved window, or earlier (:data:`GROWING_CAP`)."""
     linear: float
     """θ_u(0) of the linear split (rad), for comparison."""
 
@@ -275,18 +280,6 @@ def _size(vecs: np.ndarray, coef: np.ndarray, sel: np.ndarray) -> float:
     return float(np.sqrt(np.sum(np.abs(u) ** 2)))
 
 
-def _frozen_growth(top: TippeTop, y: np.ndarray, lam_u: complex) -> float:
-    """Re of the eigenvalue nearest ``lam_u`` of the gliding model's Jacobian at the state ``y``
-    (10,) (complex steps, :func:`mett.inversion._compiled.spin_jacobian_kernel`)."""
-    from . import _compiled
-
-    scale = np.maximum(np.abs(y), [top.R, top.R, *([1e-30] * 8)])
-    p = (top.m, top.R, top.R * top.alpha, top.I1, top.I3, top.mu, top.g)
-    J = _compiled.spin_jacobian_kernel(np.ascontiguousarray(y, dtype=float), 1e-30 * scale, p)
-    e = np.linalg.eigvals(J)
-    return float(e[np.argmin(np.abs(e - lam_u))].real)
-
-
 def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart | None:
     """The nonlinear split of a start: the full model over the transient, then the linear split.
 
@@ -294,8 +287,9 @@ def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart |
     start's linear split at the upright spin with the same λ (:func:`mett.stability.escape_modes`).
     The gliding model (:func:`mett.simulate`, rtol :data:`RESOLVED_RTOL`) runs from the start for
     t1 = :data:`SLIP_FOLDS` e-foldings of the slip (the decaying pair farther from the imaginary
-    axis), cut where the growing mode's linear amplitude would reach :data:`GROWING_CAP`. Its
-    state at t1 is split into the same eigenvectors; its growing part θ_u(t1) and nutation Θ(t1)
+    axis). Its state there (or earlier, where the growing part is still below
+    :data:`GROWING_CAP`) is split into the same eigenvectors; its growing part θ_u(t1), averaged
+    over the growing mode's period, and its nutation Θ(t1)
     carried back at their rates give the amplitudes the slow flow and the lift-off criterion
     start from at t = 0 (the modes evolve linearly after t1: the growing one is still small, the
     decaying ones have decayed). ``None`` where the run does not complete (the top lifts off in
@@ -313,43 +307,64 @@ def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart |
     if not (sigma > 0.0 and linear > 0.0):
         return None
     t1 = SLIP_FOLDS / abs(float(ev.real[slip[0]]))
-    t1 = min(t1, math.log(GROWING_CAP / linear) / sigma) if linear < GROWING_CAP else 0.0
-    if not t1 > 0.0:
+    w = abs(float(ev.imag[grow[0]]))
+    period = 2.0 * math.pi / w if w > 0.0 else math.inf
+    if not t1 > period:
         return None
     traj = simulate(top, state, t1, rtol=RESOLVED_RTOL, stop_on_contact_loss=True)
     if traj.status != "completed":
         return None
-    # The growing part over the window's last period of the growing mode, each sample carried
-    # back at its eigenvalue and averaged: the decaying modes' nonlinear (cubic) share of the
-    # horizontal state projects onto the growing eigenvector too, but at their own slow
-    # frequencies, so carried back at λ_u it turns at ≈ Im λ_u and averages out over the period
-    # (uniform samples: exact for its harmonics below AVERAGE_SAMPLES).
-    w = abs(float(ev.imag[grow[0]]))
+
+    def growing_part(t_split: float) -> tuple[float, np.ndarray] | None:
+        # The growing part over the growing mode's period before t_split, each sample carried
+        # back at its eigenvalue and averaged: the decaying modes' nonlinear (cubic) share of
+        # the horizontal state projects onto the growing eigenvector too, but at their own slow
+        # frequencies, so carried back at λ_u it turns at ≈ Im λ_u and averages out over the
+        # period (uniform samples: exact for its harmonics below AVERAGE_SAMPLES).
+        ts = t_split - period * np.arange(AVERAGE_SAMPLES) / AVERAGE_SAMPLES
+        ys = traj.states_at(ts)[[2, 3, 4, 5, 7, 8]]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y
+        try:
+            c = np.linalg.solve(vecs, ys)
+        except np.linalg.LinAlgError:
+            return None
+        back = np.mean(c[grow] * np.exp(-np.outer(ev[grow], ts)), axis=1)
+        return _size(vecs[:, grow], back, np.arange(2)), c[:, 0]
+
+    # The split is taken at the end of the window, or earlier where the growing part has
+    # already passed GROWING_CAP there (a large start whose growing part is large too): the
+    # latest of SPLIT_TRIES times back to a quarter of the window with it below the cap.
     t_end = float(traj.t[-1])
-    ts = t_end - (2.0 * math.pi / w) * np.arange(AVERAGE_SAMPLES) / AVERAGE_SAMPLES
-    if w == 0.0 or ts[-1] < 0.0:
+    for k in range(SPLIT_TRIES):
+        t_split = t_end * (1.0 - 0.75 * k / (SPLIT_TRIES - 1))
+        if t_split - period < 0.0:
+            return None
+        part = growing_part(t_split)
+        if part is None:
+            return None
+        amp, c = part
+        if math.isfinite(amp) and amp * math.exp(sigma * t_split) <= GROWING_CAP:
+            break
+    else:
         return None
-    ys = traj.states_at(ts)[[2, 3, 4, 5, 7, 8]]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y
-    try:
-        c = np.linalg.solve(vecs, ys)
-    except np.linalg.LinAlgError:
-        return None
-    back = np.mean(c[grow] * np.exp(-np.outer(ev[grow], ts)), axis=1)
-    amp = _size(vecs[:, grow], back, np.arange(2))
     rate_n = float(ev.real[nut[0]])
-    theta_n = _size(vecs, c[:, 0], nut) * math.exp(-rate_n * t_end)
+    theta_n = _size(vecs, c, nut) * math.exp(-rate_n * t_split)
     if not (math.isfinite(amp) and amp > 0.0 and math.isfinite(theta_n)):
         return None
-    # After t1 the nutation is still there (it decays at Re λ_n, slowly), and it slows (or speeds)
-    # the growing mode: the resonant cubic term of the normal form, d ln θ_u/dt = σ + β |z_n|²,
-    # whose |z_n|² decays like e^{2 Re λ_n t}. β |z_n(t1)|² is the growing eigenvalue's shift in
-    # the Jacobian frozen at the state at t1 (the growing mode turns at ≈ φ̇, far faster than the
-    # nutation changes). It acts while the growing mode climbs to HORIZON_THETA, after which the
-    # balance flow is no longer its linear growth: ∫ β |z_n|² dt over that horizon H.
-    shift = _frozen_growth(top, traj.states[:, -1], complex(ev[grow[0]])) - sigma
-    horizon = max(math.log(HORIZON_THETA / (amp * math.exp(sigma * t_end))) / sigma, 0.0)
-    if math.isfinite(shift):
+    # After the split the nutation is still there (it decays at Re λ_n, slowly), and it slows
+    # (or speeds) the growing mode: the resonant cubic term of the normal form,
+    # d ln θ_u/dt = σ + β |z_n|², |z_n|² ∝ e^{2 Re λ_n t}. Its rate is measured on the run, as
+    # the drift of the carried-back growing part between DRIFT_FROM of the split time and the
+    # split (past the slip's transient: its own share has decayed like e^{2 Re λ_slip t}), and
+    # integrated from the split while the growing mode climbs to HORIZON_THETA (after which the
+    # balance flow is no longer its linear growth).
+    t_a = DRIFT_FROM * t_split
+    earlier = growing_part(t_a) if t_a - period >= 0.0 else None
+    if earlier is not None and earlier[0] > 0.0:
+        drift = math.log(amp / earlier[0]) / (t_split - t_a)  # at the middle of [t_a, t_split]
+        drift *= math.exp(rate_n * (t_split - t_a))  # e^{2 Re λ_n (t_split − t_mid)}
+        horizon = max(math.log(HORIZON_THETA / (amp * math.exp(sigma * t_split))) / sigma, 0.0)
         # (1 − e^{2 Re λ_n H})/(−2 Re λ_n), → H as Re λ_n → 0
         span = horizon if rate_n == 0.0 else math.expm1(2.0 * rate_n * horizon) / (2.0 * rate_n)
-        amp *= math.exp(shift * span)
-    return ResolvedStart(amp, theta_n, t_end, linear)
+        if math.isfinite(drift):
+            amp *= math.exp(drift * span)
+    return ResolvedStart(amp, theta_n, t_split, linear)
