@@ -248,6 +248,10 @@ HORIZON_THETA = 1.0
 # the nutation's drift of the growing part is measured from this fraction of the split time on
 # (4 of the window's 6 e-foldings of the slip)
 DRIFT_FROM = 2.0 / 3.0
+# ... where the growing part there is at least this (rad): below it the drift is the
+# integration's own error (rtol 1e-9 of states of size θ0, over some 1e4 steps), as at
+# ω3 = 2480 rad/s on the thesis top, where the growing part is ~1e-9 rad
+DRIFT_FLOOR = 1e-6
 # samples of the growing mode's last period at the end of the window
 AVERAGE_SAMPLES = 16
 
@@ -359,7 +363,7 @@ def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart |
     # balance flow is no longer its linear growth).
     t_a = DRIFT_FROM * t_split
     earlier = growing_part(t_a) if t_a - period >= 0.0 else None
-    if earlier is not None and earlier[0] > 0.0:
+    if earlier is not None and earlier[0] * math.exp(sigma * t_a) >= DRIFT_FLOOR:
         drift = math.log(amp / earlier[0]) / (t_split - t_a)  # at the middle of [t_a, t_split]
         drift *= math.exp(rate_n * (t_split - t_a))  # e^{2 Re λ_n (t_split − t_mid)}
         horizon = max(math.log(HORIZON_THETA / (amp * math.exp(sigma * t_split))) / sigma, 0.0)
