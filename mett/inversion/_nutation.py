@@ -252,6 +252,9 @@ DRIFT_FROM = 2.0 / 3.0
 # integration's own error (rtol 1e-9 of states of size θ0, over some 1e4 steps), as at
 # ω3 = 2480 rad/s on the thesis top, where the growing part is ~1e-9 rad
 DRIFT_FLOOR = 1e-6
+# the drift is used where its rates on the two halves of the measured interval agree to this
+# factor, or where its integral is below DRIFT_NEGLIGIBLE (log) anyway
+DRIFT_AGREE, DRIFT_NEGLIGIBLE = 3.0, 0.05
 # samples of the growing mode's last period at the end of the window
 AVERAGE_SAMPLES = 16
 
@@ -362,13 +365,29 @@ def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart |
     # integrated from the split while the growing mode climbs to HORIZON_THETA (after which the
     # balance flow is no longer its linear growth).
     t_a = DRIFT_FROM * t_split
-    earlier = growing_part(t_a) if t_a - period >= 0.0 else None
-    if earlier is not None and earlier[0] * math.exp(sigma * t_a) >= DRIFT_FLOOR:
-        drift = math.log(amp / earlier[0]) / (t_split - t_a)  # at the middle of [t_a, t_split]
-        drift *= math.exp(rate_n * (t_split - t_a))  # e^{2 Re λ_n (t_split − t_mid)}
+    t_m = 0.5 * (t_a + t_split)
+    early = growing_part(t_a) if t_a - period >= 0.0 else None
+    mid = growing_part(t_m) if early is not None else None
+    if (
+        early is not None
+        and mid is not None
+        and early[0] * math.exp(sigma * t_a) >= DRIFT_FLOOR
+        and mid[0] > 0.0
+    ):
+        # the drift on each half of [t_a, t_split]: the growing part must drift steadily (the
+        # same sign, rates within DRIFT_AGREE of each other) for the drift to be the nutation's
+        # resonant term; where it jumps about (a nutation far beyond the linear range, e.g.
+        # 0.5 rad) the split keeps the value at t_split
+        d1 = math.log(mid[0] / early[0]) / (t_m - t_a)
+        d2 = math.log(amp / mid[0]) / (t_split - t_m)
+        drift = 0.5 * (d1 + d2)  # at t_m
+        drift *= math.exp(rate_n * (t_split - t_a))  # e^{2 Re λ_n (t_split − t_m)}
         horizon = max(math.log(HORIZON_THETA / (amp * math.exp(sigma * t_split))) / sigma, 0.0)
         # (1 − e^{2 Re λ_n H})/(−2 Re λ_n), → H as Re λ_n → 0
         span = horizon if rate_n == 0.0 else math.expm1(2.0 * rate_n * horizon) / (2.0 * rate_n)
-        if math.isfinite(drift):
+        steady = d1 * d2 > 0.0 and max(abs(d1), abs(d2)) <= DRIFT_AGREE * min(abs(d1), abs(d2))
+        if steady or abs(drift * span) <= DRIFT_NEGLIGIBLE:
             amp *= math.exp(drift * span)
+    if not amp < float(state.theta):
+        return None  # a growing part larger than the start's tilt: not a split of this start
     return ResolvedStart(amp, theta_n, t_split, linear)
