@@ -107,3 +107,31 @@ def test_start_lifting_off_in_the_window_keeps_the_linear_split(thesis, monkeypa
 
     monkeypatch.setattr(mett.dynamics.simulation, "simulate", lambda *a, **k: Lost())
     assert _nutation.resolved_start(thesis, state, modes) is None
+
+
+@pytest.mark.slow
+def test_fast_spin_lifts_off_where_the_resolved_start_says():
+    # Thesis top, μ = 0.05 s/m, ω3 = 620 rad/s, θ0 = 0.1, centre of mass at rest: the escape is
+    # slowed on the table by the start (its growing part is 8× below the linear split's), and the
+    # top first leaves the table at 37.55 s. The linear split put the lift-off at 27.5 s (−27 %).
+    # The lift-off criterion is first order in the nutation: 5 % allowed.
+    top = mett.presets.get("rutstam2013", mu=0.05)
+    state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=620.0)
+    pred = predict_inversion(top, state)
+    traj = mett.simulate(top, state, 45.0, rtol=1e-9, stop_on_contact_loss=True)
+    assert traj.status == "contact_lost"
+    assert traj.theta.max() < 0.5  # it leaves the table long before π/2
+    assert pred.t_lift == pytest.approx(traj.t_contact_lost, rel=0.05)
+    assert pred.t_half > traj.t_contact_lost
+
+
+@pytest.mark.slow
+def test_large_tilt_with_the_centre_of_mass_at_rest_is_no_false_lift_off(thesis):
+    # θ0 = 0.5: the linear split said "hops at 1.6 s" and t_half 2.37 s; the top stays on the
+    # table and crosses at 4.89 s. 3 % of t_half plus one nutation period, no lift-off.
+    state = mett.State.with_cm_at_rest(thesis, theta=0.5, omega3=155.0)
+    pred = predict_inversion(thesis, state)
+    t_sim = _sim_t_half(thesis, state, 1.5 * pred.t_half)
+    T_n = 2 * math.pi * thesis.I1 / (thesis.I3 * 155.0)
+    assert pred.t_lift == math.inf
+    assert abs(pred.t_half - t_sim) <= 0.03 * t_sim + T_n
