@@ -242,7 +242,7 @@ SPLIT_FRACTION = 0.3
 # 1e-7 of the spin's scale over the window, is below 1e-3 of the growing part's size there
 RESOLVED_RTOL = 1e-9
 # the nutation's resonant effect on the growing mode is integrated while that climbs to this
-# (rad): the thesis starts move by < 1 % of t_half between 0.3 rad and no limit, and a nutation
+# (rad): the thesis starts move by at most 1.2 % of t_half between 0.3 rad and no limit, and a nutation
 # that barely decays (Re λ_n → 0) acts for that time, not for ever
 HORIZON_THETA = 1.0
 # the nutation's drift of the growing part is measured from this fraction of the split time on
