@@ -34,6 +34,7 @@ docs/theory/inversion.md#verification.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -213,3 +214,180 @@ def lift_off_time(top: TippeTop, law, lam: float, t, theta, amp0: float, rate0: 
             t, theta, float(amp0), complex(rate0), lam, top_a, code, mu, eps, BOUND, False
         )[0]
     )
+
+
+# --- the resolved start: the nonlinear split of a large tilt -------------------------------------
+#
+# The linear split (mett.stability.escape_modes) is first order in the start's deviation from the
+# upright spin. Where the start lies mostly in the decaying modes (a tilt θ0 whose growing part
+# θ_u(0) is a small fraction of it), their nonlinear interaction during the slip's transient sets
+# the growing mode's amplitude: measured on the thesis top, the amplitude the growing mode carries
+# once the transient is over, θ_u(t1) e^{−σ t1}, is 1.9× the linear split's with the contact point
+# at rest (θ0 = 0.1, μ = 0.3 s/m) and 0.38× with the centre of mass at rest (θ0 = 0.3), and 0.13×
+# at ω3 = 620 rad/s (μ = 0.05 s/m, θ0 = 0.1): docs/theory/inversion.md#the-initial-tilt.
+# The resolved start integrates that transient with the full model and splits the state there.
+
+# the transient is over after this many e-foldings of the slowest decaying mode other than the
+# nutation (the slip of the contact point, at ≈ μ g κ)
+SLIP_FOLDS = 6.0
+# the split is taken where the growing part is below this (rad): it must still be linear in the
+# growing mode (its own nonlinearity is O(θ_u²), 0.25 % relative here)
+GROWING_CAP = 0.05
+# times tried for the split, from the window's end back to a quarter of it
+SPLIT_TRIES = 7
+# the resolved start is used where the linear split leaves less than this fraction of the
+# start's tilt in the growing mode (docs/theory/inversion.md#the-initial-tilt)
+SPLIT_FRACTION = 0.3
+# the resolved integration's relative tolerance: its global error on the horizontal state, about
+# 1e-7 of the spin's scale over the window, is below 1e-3 of the growing part's size there
+RESOLVED_RTOL = 1e-9
+# the nutation's resonant effect on the growing mode is integrated while that climbs to this
+# (rad): the thesis starts move by at most 1.2 % of t_half between 0.3 rad and no limit, and a nutation
+# that barely decays (Re λ_n → 0) acts for that time, not for ever
+HORIZON_THETA = 1.0
+# the nutation's drift of the growing part is measured from this fraction of the split time on
+# (4 of the window's 6 e-foldings of the slip)
+DRIFT_FROM = 2.0 / 3.0
+# ... where the growing part there is at least this (rad): below it the drift is the
+# integration's own error (rtol 1e-9 of states of size θ0, over some 1e4 steps), as at
+# ω3 = 2480 rad/s on the thesis top, where the growing part is ~1e-9 rad
+DRIFT_FLOOR = 1e-6
+# the drift is used where its rates on the two halves of the measured interval agree to this
+# factor, or where its integral is below DRIFT_NEGLIGIBLE (log) anyway
+DRIFT_AGREE, DRIFT_NEGLIGIBLE = 3.0, 0.05
+# samples of the growing mode's last period at the end of the window
+AVERAGE_SAMPLES = 16
+
+
+class ResolvedStart(NamedTuple):
+    """The start split after its transient (:func:`resolved_start`)."""
+
+    amplitude: float
+    """θ_u(0) (rad): the growing mode's amplitude at t1 carried back at its rate, θ_u(t1) e^{−σ t1}."""
+    nutation: float
+    """Θ(0) (rad): the nutation's amplitude at t1 carried back at its rate."""
+    t1: float
+    """Time of the split (s): the end of the resolved window, or earlier (:data:`GROWING_CAP`)."""
+    linear: float
+    """θ_u(0) of the linear split (rad), for comparison."""
+
+
+def _mode_groups(ev: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Index arrays of the growing pair, the nutation pair and the slip pair of the upright
+    spin's horizontal eigenvalues (as :func:`upright_nutation` and :func:`mett.escape_time`)."""
+    order = np.argsort(-ev.real, kind="stable")
+    grow, rest = order[:2], order[2:]
+    by_rate = rest[np.argsort(np.abs(ev.real[rest]), kind="stable")]
+    return grow, by_rate[:2], by_rate[2:]
+
+
+def _size(vecs: np.ndarray, coef: np.ndarray, sel: np.ndarray) -> float:
+    # the radius of the axis's circle in these modes: their 3̂_x, 3̂_y rows
+    u = vecs[4:6][:, sel] * coef[sel]
+    return float(np.sqrt(np.sum(np.abs(u) ** 2)))
+
+
+def resolved_start(top: TippeTop, state, modes: UprightModes) -> ResolvedStart | None:
+    """The nonlinear split of a start: the full model over the transient, then the linear split.
+
+    ``top`` carries the viscous coefficient (s/m) the start is integrated with; ``modes`` is the
+    start's linear split at the upright spin with the same λ (:func:`mett.stability.escape_modes`).
+    The gliding model (:func:`mett.simulate`, rtol :data:`RESOLVED_RTOL`) runs from the start for
+    t1 = :data:`SLIP_FOLDS` e-foldings of the slip (the decaying pair farther from the imaginary
+    axis). Its state there (or earlier, where the growing part is still below
+    :data:`GROWING_CAP`) is split into the same eigenvectors; its growing part θ_u(t1), averaged
+    over the growing mode's period, and its nutation Θ(t1)
+    carried back at their rates give the amplitudes the slow flow and the lift-off criterion
+    start from at t = 0 (the modes evolve linearly after t1: the growing one is still small, the
+    decaying ones have decayed). ``None`` where the run does not complete (the top lifts off in
+    the window) or the split fails: the linear split stands.
+
+    Cost: the resolved run over t1, about (μ g κ)⁻¹ ω3 I3/I1 nutation periods (6 e-foldings):
+    it grows with ω3 and is spent only where the linear split is not enough (:data:`SPLIT_FRACTION`).
+    """
+    from ..dynamics.simulation import simulate
+
+    ev, vecs, coef = modes
+    grow, nut, slip = _mode_groups(ev)
+    sigma = float(ev.real[grow[0]])
+    linear = _size(vecs, coef, grow)
+    if not (sigma > 0.0 and linear > 0.0):
+        return None
+    t1 = SLIP_FOLDS / abs(float(ev.real[slip[0]]))
+    w = abs(float(ev.imag[grow[0]]))
+    period = 2.0 * math.pi / w if w > 0.0 else math.inf
+    if not t1 > period:
+        return None
+    traj = simulate(top, state, t1, rtol=RESOLVED_RTOL, stop_on_contact_loss=True)
+    if traj.status != "completed":
+        return None
+
+    def growing_part(t_split: float) -> tuple[float, np.ndarray] | None:
+        # The growing part over the growing mode's period before t_split, each sample carried
+        # back at its eigenvalue and averaged: the decaying modes' nonlinear (cubic) share of
+        # the horizontal state projects onto the growing eigenvector too, but at their own slow
+        # frequencies, so carried back at λ_u it turns at ≈ Im λ_u and averages out over the
+        # period (uniform samples: exact for its harmonics below AVERAGE_SAMPLES).
+        ts = t_split - period * np.arange(AVERAGE_SAMPLES) / AVERAGE_SAMPLES
+        ys = traj.states_at(ts)[[2, 3, 4, 5, 7, 8]]  # ẋ, ẏ, L_x, L_y, 3̂_x, 3̂_y
+        try:
+            c = np.linalg.solve(vecs, ys)
+        except np.linalg.LinAlgError:
+            return None
+        back = np.mean(c[grow] * np.exp(-np.outer(ev[grow], ts)), axis=1)
+        return _size(vecs[:, grow], back, np.arange(2)), c[:, 0]
+
+    # The split is taken at the end of the window, or earlier where the growing part has
+    # already passed GROWING_CAP there (a large start whose growing part is large too): the
+    # latest of SPLIT_TRIES times back to a quarter of the window with it below the cap.
+    t_end = float(traj.t[-1])
+    for k in range(SPLIT_TRIES):
+        t_split = t_end * (1.0 - 0.75 * k / (SPLIT_TRIES - 1))
+        if t_split - period < 0.0:
+            return None
+        part = growing_part(t_split)
+        if part is None:
+            return None
+        amp, c = part
+        if math.isfinite(amp) and amp * math.exp(sigma * t_split) <= GROWING_CAP:
+            break
+    else:
+        return None
+    rate_n = float(ev.real[nut[0]])
+    theta_n = _size(vecs, c, nut) * math.exp(-rate_n * t_split)
+    if not (math.isfinite(amp) and amp > 0.0 and math.isfinite(theta_n)):
+        return None
+    # After the split the nutation is still there (it decays at Re λ_n, slowly), and it slows
+    # (or speeds) the growing mode: the resonant cubic term of the normal form,
+    # d ln θ_u/dt = σ + β |z_n|², |z_n|² ∝ e^{2 Re λ_n t}. Its rate is measured on the run, as
+    # the drift of the carried-back growing part between DRIFT_FROM of the split time and the
+    # split (past the slip's transient: its own share has decayed like e^{2 Re λ_slip t}), and
+    # integrated from the split while the growing mode climbs to HORIZON_THETA (after which the
+    # balance flow is no longer its linear growth).
+    t_a = DRIFT_FROM * t_split
+    t_m = 0.5 * (t_a + t_split)
+    early = growing_part(t_a) if t_a - period >= 0.0 else None
+    mid = growing_part(t_m) if early is not None else None
+    if (
+        early is not None
+        and mid is not None
+        and early[0] * math.exp(sigma * t_a) >= DRIFT_FLOOR
+        and mid[0] > 0.0
+    ):
+        # the drift on each half of [t_a, t_split]: the growing part must drift steadily (the
+        # same sign, rates within DRIFT_AGREE of each other) for the drift to be the nutation's
+        # resonant term; where it jumps about (a nutation far beyond the linear range, e.g.
+        # 0.5 rad) the split keeps the value at t_split
+        d1 = math.log(mid[0] / early[0]) / (t_m - t_a)
+        d2 = math.log(amp / mid[0]) / (t_split - t_m)
+        drift = 0.5 * (d1 + d2)  # at t_m
+        drift *= math.exp(rate_n * (t_split - t_a))  # e^{2 Re λ_n (t_split − t_m)}
+        horizon = max(math.log(HORIZON_THETA / (amp * math.exp(sigma * t_split))) / sigma, 0.0)
+        # (1 − e^{2 Re λ_n H})/(−2 Re λ_n), → H as Re λ_n → 0
+        span = horizon if rate_n == 0.0 else math.expm1(2.0 * rate_n * horizon) / (2.0 * rate_n)
+        steady = d1 * d2 > 0.0 and max(abs(d1), abs(d2)) <= DRIFT_AGREE * min(abs(d1), abs(d2))
+        if steady or abs(drift * span) <= DRIFT_NEGLIGIBLE:
+            amp *= math.exp(drift * span)
+    if not amp < float(state.theta):
+        return None  # a growing part larger than the start's tilt: not a split of this start
+    return ResolvedStart(amp, theta_n, t_split, linear)
