@@ -134,6 +134,6 @@ def hopping_times(top: TippeTop, law, lam: float, t, theta, t_lift: float,
     where, S = where[order], S[order]
     after = np.flatnonzero(t > t_lift)
     tt = np.r_[max(t_lift, t[0]), t[after]]
-    s_path = np.interp(np.r_[th_lift, theta[after]], where, S)
+    s_path = np.asarray(np.interp(np.r_[th_lift, theta[after]], where, S))
     out[after] = tt[0] + np.cumsum(0.5 * (s_path[1:] + s_path[:-1]) * np.diff(tt))
     return out, where, S
