@@ -16,6 +16,7 @@ import pytest
 
 import mett
 from mett.friction import Coulomb, Viscous
+from mett.inversion import SATURATED_CAP
 from mett.inversion._cases import cases
 from mett.inversion._gyroscopic import nutation_period, saturated_start
 
@@ -151,11 +152,12 @@ def test_saturated_start_prediction_matches_simulation(preset, mu, omega3, r, th
     assert abs(linear.t_half - t_sim) > 0.06 * t_sim + T_n
 
 
-def test_saturated_start_that_grows_the_inversion_mode_is_not_predicted():
+def test_saturated_start_whose_mode_outgrows_the_linear_regime_hands_over_at_the_cap():
     # A start whose centre of mass moves against the slip (thesis top, θ0 = 0.064, ω3 = 290 rad/s,
     # φ̇ = −54.6 rad/s, ν_y = −4.07 m/s): the saturated force grows the inversion mode past 0.5 rad
-    # before the slip is linear, so the balance flow has no small mode to start from and the
-    # answer is None. The simulation (steps bounded by T_n/10) loses contact within 0.5 s.
+    # before the slip is linear. The balance flow (the law's full |γ|) takes over where the mode
+    # reaches SATURATED_CAP, and its nutation lifts the top off at once, as the simulation (steps
+    # bounded by T_n/10) does: contact lost within 0.5 s.
     top = mett.presets.get("rutstam2013")
     st = mett.State(theta=0.06433459619024676, omega3=290.166878696609,
                     phidot=-54.56644508478546, nu_y=-4.065626238614218)  # fmt: skip
@@ -163,8 +165,30 @@ def test_saturated_start_that_grows_the_inversion_mode_is_not_predicted():
     sat = saturated_start(top, law, st)
     assert sat.amplitude > 0.5 > sat.amplitude0
     p = mett.predict_inversion(top, st, law)
-    assert p.inverts is None and "saturated start" in p.reason
+    assert p.t_lift < 0.5 and p.validity.outside_verified_range
     T_n = nutation_period(top, float(st.omega3))
     traj = mett.simulate(top, st, 1.0, friction=law, rtol=1e-8, max_step=0.1 * T_n,
                          stop_on_contact_loss=True)  # fmt: skip
     assert traj.status == "contact_lost" and traj.t_contact_lost < 0.5
+
+
+@pytest.mark.slow
+def test_slow_law_inverts_in_its_saturated_phase_and_falls_back_as_simulated():
+    # Thesis top, Coulomb(0.1, r = 3 mm), θ0 = 0.1, centre of mass at rest, ω3 = 155 rad/s: the
+    # slip is still beyond r* |ω_n| when the inversion mode has grown large, so the saturated
+    # start hands over at the cap. The simulation crosses π/2, climbs to θ ≈ 3 and falls back as
+    # the drilling torque spends λ; the prediction must say the same, t_half within the declared
+    # 6 % + one nutation period.
+    top = mett.presets.get("rutstam2013")
+    st = mett.State.with_cm_at_rest(top, theta=0.1, omega3=155.0)
+    law = Coulomb(0.1, contensou_radius=3e-3)
+    sat = saturated_start(top, law, st)
+    assert sat is not None and sat.amplitude > SATURATED_CAP  # the mode outgrows the cap first
+    p = mett.predict_inversion(top, st, law)
+    assert p.inverts is False and "falls back" in p.reason
+    T_n = nutation_period(top, float(st.omega3))
+    traj = mett.simulate(top, st, 12.0, friction=law, rtol=1e-8, max_step=0.1 * T_n,
+                         stop_on_contact_loss=False)  # fmt: skip
+    hits = traj.crossings(0.5 * math.pi)
+    assert len(hits) >= 2  # up through π/2 and back down
+    assert abs(p.t_half - hits[0]) <= 0.06 * hits[0] + T_n

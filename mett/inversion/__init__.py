@@ -85,6 +85,11 @@ VERIFIED: _Verified = {
 
 # Below this initial tilt (rad) the linear split of the start is kept: its second-order error is
 # O(θ0²) relative, under 0.5 % of t_half on the thesis top at θ0 = 0.03 (docs/theory/inversion.md#the-initial-tilt).
+SATURATED_CAP = 0.05
+"""Inversion-mode amplitude (rad) at which a Coulomb–Contensou start still saturated hands over to
+the balance flow (docs/theory/inversion.md#a-start-beyond-the-laws-linear-range): small enough
+for the mode to be linear, large against the slow tilt's rounding."""
+
 SMALL_TILT = 0.03
 
 
@@ -525,6 +530,19 @@ def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty):
     sat = saturated_start(top, law, state, t_max=10.0 * t_spin)
     if sat is not None:
         t_sat, amp, lam_flow = float(sat.t[-1]), sat.amplitude, float(sat.lam[-1])
+        # The mode may outgrow the linear regime before the slip is linear (a slow law, μ small):
+        # the flow, which has the law's full |γ|, takes over where the mode reaches SATURATED_CAP.
+        log_amp = math.log(sat.amplitude0) + np.r_[
+            0.0, np.cumsum(0.5 * (sat.rate[1:] + sat.rate[:-1]) * np.diff(sat.t))
+        ]
+        k = int(np.argmax(log_amp >= math.log(SATURATED_CAP)))
+        if sat.amplitude0 < SATURATED_CAP and log_amp[k] >= math.log(SATURATED_CAP):
+            # log-amplitude is piecewise quadratic (trapezoid on a linear rate): linear in t is
+            # within the rule's own error on the interval
+            f = (math.log(SATURATED_CAP) - log_amp[k - 1]) / (log_amp[k] - log_amp[k - 1])
+            t_sat = float(sat.t[k - 1] + f * (sat.t[k] - sat.t[k - 1]))
+            lam_flow = float(sat.lam[k - 1] + f * (sat.lam[k] - sat.lam[k - 1]))
+            amp = SATURATED_CAP
         if not 0.0 < amp < 0.5:  # the flow starts from a small inversion mode
             return empty(None, f"saturated start: inversion-mode amplitude {amp:.3g} rad at "
                          f"t = {t_sat:.3g} s is outside (0, 0.5)", "gyroscopic",
