@@ -532,9 +532,10 @@ def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty):
         t_sat, amp, lam_flow = float(sat.t[-1]), sat.amplitude, float(sat.lam[-1])
         # The mode may outgrow the linear regime before the slip is linear (a slow law, μ small):
         # the flow, which has the law's full |γ|, takes over where the mode reaches SATURATED_CAP.
-        log_amp = math.log(sat.amplitude0) + np.r_[
-            0.0, np.cumsum(0.5 * (sat.rate[1:] + sat.rate[:-1]) * np.diff(sat.t))
-        ]
+        log_amp = (
+            math.log(sat.amplitude0)
+            + np.r_[0.0, np.cumsum(0.5 * (sat.rate[1:] + sat.rate[:-1]) * np.diff(sat.t))]
+        )
         k = int(np.argmax(log_amp >= math.log(SATURATED_CAP)))
         if sat.amplitude0 < SATURATED_CAP and log_amp[k] >= math.log(SATURATED_CAP):
             # log-amplitude is piecewise quadratic (trapezoid on a linear rate): linear in t is
