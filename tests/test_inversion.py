@@ -339,27 +339,33 @@ def test_averaged_flow_stands_still_without_friction(thesis, law):
         assert r[0] == 0.0 and r[1] == 0.0
 
 
+@pytest.mark.parametrize("rotation", [True, False])
 @pytest.mark.parametrize("law", [Viscous(0.3), Viscous(3.0), RegularisedCoulomb(0.3, 0.01)])
-def test_slip_of_a_steady_precession_is_the_closed_form_answer(thesis, law):
+def test_slip_of_a_steady_precession_is_the_closed_form_answer(thesis, law, rotation):
     # In a collapsed band (the fast steady precession at θ) the slaved slip solves
-    # i Ω m (ν − w) = −c g_n ν: ν = w/(1 − i κ), κ = c g_n/(m Ω), |ν|² the root of the quadratic
-    # of the gyroscopic method (mett.inversion._gyroscopic.cm_slip2 with K = 1: the centre of mass
-    # gives way, docs/theory/inversion.md#the-contact-points-response). The torque on ω3 is then
-    # −c g_n R sin θ Re(ν along w) = −c g_n R sin θ |ν|²/w: checked against the flow's dn1/dt.
+    # i Ω m (ν − w) = −K c g_n ν: ν = w/(1 − i κ K), κ = c g_n/(m Ω), |ν|² the root of the
+    # quadratic of the gyroscopic method (mett.inversion._gyroscopic.cm_slip2), with the contact
+    # point's inverse mass K = 1 + m R² (1 − α cos θ)²/I1 (the centre of mass and the rotation
+    # give way, docs/theory/inversion.md#the-contact-points-response) or, without the rotation's
+    # share, K = 1. The torque on ω3 is then −c g_n R sin θ Re(ν along w) = −c g_n R sin θ |ν|²/w:
+    # checked against the flow's dn1/dt. The regularised law's slip is the safeguarded Newton
+    # solve's; the reference is the closed-form root.
     from mett.inversion import _averaged
     from mett.inversion._gyroscopic import cm_slip2, drag_form
 
     lam = float(mett.jellett(thesis, mett.State(theta=0.1, omega3=155.0)))
-    for theta in (0.05, 0.5, 1.2):
+    for theta in (0.05, 0.5, 1.2, 2.5):
         ph, w3, _, w, _ = (float(x) for x in balance_state(thesis, lam, theta))
         n1, e = _averaged.start(thesis, ph, w3, theta)
         nodes = _averaged._Nodes(thesis, lam, n1, e)
         assert nodes.empty and nodes.Omega == pytest.approx(ph, rel=1e-9)
         mu_c, a, b = drag_form(law, thesis)
         gn = thesis.m * thesis.g
-        x = float(cm_slip2(w * w, b, (mu_c * gn / (thesis.m * ph)) ** 2, a))
+        K = 1 + thesis.m * thesis.R**2 * (1 - thesis.alpha * math.cos(theta)) ** 2 / thesis.I1
+        K = K if rotation else 1.0
+        x = float(cm_slip2(w * w, b, (mu_c * gn * K / (thesis.m * ph)) ** 2, a))
         c = mu_c * gn / math.sqrt(a * x + b)
-        r = _averaged.rates(thesis, law, lam, n1, e)
+        r = _averaged.rates(thesis, law, lam, n1, e, rotation)
         dw3 = -r[0] / (thesis.R * thesis.I3 * (1 - thesis.alpha))
         nu = 1j * w + r[6]  # complex x̂ + iŷ: w lies along ŷ; the band frame is the mean frame
         assert abs(nu) ** 2 == pytest.approx(x, rel=1e-9)

@@ -578,10 +578,8 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         return empty(None, "no fast precession at the start's growing mode", "averaged",
                      validity(math.nan), theta0=theta0, lam=lam)  # fmt: skip
     target = theta_end - tol if theta_end > amp else theta_end + tol
-    # The slow time scale is 1/(μ g) (the rates are proportional to the friction coefficient):
-    # a few hundred of them bound any inversion the flow can describe.
     mu_lin = _linear_mu(top, law, state)
-    t_max = 300.0 / (mu_lin * top.g)
+    t_max = _averaged.time_cap(top, law, float(w3_0), float(phidot_0))
     try:
         n1, e = _averaged.start(top, float(phidot_0), float(w3_0), amp)
         t, theta, D, E_mod, t_half, t_end, t_lift, slip = _averaged.slow_path(

@@ -56,6 +56,7 @@ _CUM = (
 )
 _SIN, _COS2 = np.sin(_UNODES), np.cos(_UNODES) ** 2
 _ONE = (np.zeros(1), np.ones(1), np.array([math.pi]))
+_METHOD = "LSODA"
 
 
 class AveragingFails(Exception):
@@ -150,8 +151,7 @@ class _Nodes:
 
     __slots__ = (
         "Delta",
-        "Kx",
-        "Ky",
+        "K",
         "Omega",
         "T",
         "dm",
@@ -200,11 +200,11 @@ class _Nodes:
         # δφ on the rising half: ∫ (φ̇ − Ω) dt from the turning point δ_a; −δφ on the other half
         self.Delta = _CUM @ (dtdu * (self.phid - self.Omega)) if not empty else np.zeros(1)
         self.half_w2 = 0.5 * m * (self.wx**2 + self.wy**2)
-        # The answering slip's inverse mass (units 1/m) along x̂ and ŷ: the centre of mass's
-        # alone. The rotation's share (K_x = 1 + m R² (1 − α z)²/I1, K_y = I3 d(z)/I1 for the
-        # contact point) is a forced offset from the frictionless band that this flow does not
-        # carry (docs page: where it matters, the flow is outside its range).
-        self.Kx = self.Ky = 1.0
+        # The contact point's inverse mass in units of 1/m, K = 1 + m R² (1 − α z)²/I1, at each
+        # node: the centre of mass and the rotation both give way to the friction force (the
+        # gyroscopic method's K, docs page "The contact point's response"). A scalar: the
+        # answering slip is taken along the force, as in that response.
+        self.K = 1.0 + m * R * R * (1.0 - a * self.z) ** 2 / I1
 
 
 def _forces(nodes: _Nodes, mu: float, eps: float | None, U: complex):
@@ -220,65 +220,77 @@ def _forces(nodes: _Nodes, mu: float, eps: float | None, U: complex):
     return out
 
 
-def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, w2b: float) -> complex:
-    """The contact point's steady answer U (mean frame): i Ω m U = ⟨e^{iδφ} 𝒦 F⟩, F = −c g_n ν.
+def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, rotation: bool = True
+                 ) -> complex:  # fmt: skip
+    """The contact point's steady answer U (mean frame): i Ω m U = ⟨e^{iδφ} K F⟩, F = −c g_n ν.
 
-    𝒦 = diag(K_x, K_y) is the contact point's inverse mass in the band frame, in units of 1/m
-    (the ν̇ equations, docs/theory/equations.md): the centre of mass and the rotation both give
-    way. The residual is affine in (Re U, Im U) for the viscous law (one Newton step solves it);
-    for the regularised law Newton's method with backtracking starts from the collapsed band's
-    closed form (:func:`mett.inversion._gyroscopic.cm_slip2`, at the band's mean slip).
+    K is the contact point's inverse mass in units of 1/m at each node (:class:`_Nodes`; 1, the
+    centre of mass's alone, if not ``rotation``). The viscous law's equation is linear in U and
+    solved in closed form. The regularised law's is i Ω m U + ∇Φ(U) = 0 with the convex
+    Φ = ⟨K μ g_n √(|ν|² + ε²)⟩: a rotation plus a convex gradient, so its Jacobian (skew part
+    i Ω m, symmetric part ∇²Φ ⪰ 0) is never singular, its root is unique, and every stationary
+    point of |residual|² is that root. Newton's method with the exact Jacobian and an Armijo
+    backtracking on |residual|² (the Newton step is always a descent direction for it) therefore
+    converges from any start; it starts from a collapsed band's closed form
+    (:func:`mett.inversion._gyroscopic.cm_slip2` at the band's mean slip and inverse mass).
     """
     wt = nodes.wt
-
-    def residual(U: complex) -> complex:
-        r = 1j * nodes.Omega * m * U
-        for cg, nu, e, _ in _forces(nodes, mu, eps, U):
-            r += 0.5 * (wt @ (e * cg * (nodes.Kx * nu.real + 1j * nodes.Ky * nu.imag)))
-        return r
-
-    scale = math.sqrt(w2b) + (0.0 if eps is None else eps)
+    K = nodes.K if rotation else np.ones_like(nodes.K)
+    iOm = 1j * nodes.Omega * m
+    base = [(np.exp(1j * sign * nodes.Delta), sign * nodes.wx + 1j * nodes.wy)
+            for sign in (1.0, -1.0)]  # fmt: skip
     if eps is None:
-        # c constant: (i Ω m + ⟨c g_n⟩) U = −⟨c g_n e^{iδφ} w⟩ (𝒦 = 1)
-        num, den = 0j, 1j * nodes.Omega * m
-        for cg, nu, ph, _ in _forces(nodes, mu, eps, 0j):
-            num += 0.5 * (wt @ (ph * cg * nu))
-            den += 0.5 * float(wt @ cg)
-        return -num / den
-    else:
-        # the steady answer of a collapsed band, v_A = w/(1 − i κ K): |v_A|² from cm_slip2
-        K = float(np.mean(0.5 * (nodes.Kx + nodes.Ky)))
-        k2 = (mu * float(wt @ nodes.gn) * K / (m * nodes.Omega)) ** 2
-        x = float(cm_slip2(w2b, eps * eps, k2, 1.0))
-        c = mu * float(wt @ nodes.gn) / math.sqrt(x + eps * eps)
-        w = float(wt @ nodes.wy)
-        U = w / (1.0 - 1j * c * K / (m * nodes.Omega)) - w
-    r = residual(U)
-    for _ in range(60):
-        h = 1e-7 * scale
-        jr = (residual(U + h) - r) / h  # ∂res/∂Re U
-        ji = (residual(U + 1j * h) - r) / h  # ∂res/∂Im U
-        J = np.array([[jr.real, ji.real], [jr.imag, ji.imag]])
-        try:
-            dx = np.linalg.solve(J, [-r.real, -r.imag])
-        except np.linalg.LinAlgError:
-            raise AveragingFails("the slip has no steady answer (singular)") from None
-        step = complex(dx[0], dx[1])
-        if eps is None:
-            return U + step
-        lam_ = 1.0
-        while True:  # backtracking: the residual must fall
-            r_new = residual(U + lam_ * step)
-            if abs(r_new) < abs(r) or lam_ < 1e-6:
-                break
-            lam_ *= 0.5
-        U, r = U + lam_ * step, r_new
-        if abs(lam_ * step) <= 1e-12 * scale:
+        # c constant: (i Ω m + ⟨K c g_n⟩) U = −⟨K c g_n e^{iδφ} w⟩
+        kc = 0.5 * mu * K * nodes.gn * wt
+        num = sum(kc @ (e * w) for e, w in base)
+        return -num / (iOm + 2.0 * float(kc.sum()))
+    kg = 0.5 * mu * K * nodes.gn * wt
+    # the answer of a collapsed band: ν = i w/(1 − i κ K), κ K = μ g_n K/(m Ω √(|ν|² + ε²))
+    w = float(wt @ nodes.wy)
+    Kb = float(wt @ K)
+    k2 = (mu * float(wt @ nodes.gn) * Kb / (m * nodes.Omega)) ** 2
+    x = float(cm_slip2(w * w, eps * eps, k2, 1.0))
+    kK = mu * float(wt @ nodes.gn) * Kb / (m * nodes.Omega * math.sqrt(x + eps * eps))
+    U = 1j * w * (1.0 / (1.0 - 1j * kK) - 1.0)
+
+    def residual(U: complex):
+        """(residual, its Jacobian in (Re U, Im U), the sum of its terms' sizes)."""
+        r, size = iOm * U, abs(iOm * U)
+        A, Bxx, Bxy, Byy = 0.0, 0.0, 0.0, 0.0
+        for e, w in base:
+            nt = e * w + U  # the slip turned into the mean frame, e^{iδφ} ν
+            s = np.sqrt(nt.real**2 + nt.imag**2 + eps * eps)
+            f = kg / s
+            r += f @ nt
+            size += float(f @ np.abs(nt))
+            g3 = f / (s * s)
+            A += float(f.sum())
+            Bxx += float(g3 @ (nt.real * nt.real))
+            Bxy += float(g3 @ (nt.real * nt.imag))
+            Byy += float(g3 @ (nt.imag * nt.imag))
+        J = np.array([[A - Bxx, -nodes.Omega * m - Bxy], [nodes.Omega * m - Bxy, A - Byy]])
+        return r, J, size
+
+    r, J, size = residual(U)
+    for _ in range(100):
+        if abs(r) <= 1e-13 * size:
             return U
+        dx = np.linalg.solve(J, [-r.real, -r.imag])
+        step = complex(dx[0], dx[1])
+        t = 1.0
+        while True:  # Armijo on |r|²: the Newton step lowers it at the rate 2 |r|² t
+            r_new, J_new, size_new = residual(U + t * step)
+            if abs(r_new) ** 2 <= (1.0 - 1e-4 * t) * abs(r) ** 2:
+                break
+            t *= 0.5
+            if t < 1e-12:
+                # no decrease is left to find in the rounding: the root to working precision
+                return U
+        U, r, J, size = U + t * step, r_new, J_new, size_new
     raise AveragingFails("the slip's steady answer does not converge")
 
 
-def rates(top: TippeTop, law, lam: float, n1: float, e: float):
+def rates(top: TippeTop, law, lam: float, n1: float, e: float, rotation: bool = True):
     """(dn1/dt, de/dt, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, T, U, min g_n, de/dt before the floor, max |ν|) of the
     averaged flow at (n1, e).
 
@@ -294,7 +306,7 @@ def rates(top: TippeTop, law, lam: float, n1: float, e: float):
     w3 = omega3_of(top, lam, n1)
     nodes = _Nodes(top, lam, n1, e)
     wt = nodes.wt
-    U = _slaved_slip(nodes, m, mu, eps, float(wt @ (nodes.wx**2 + nodes.wy**2)))
+    U = _slaved_slip(nodes, m, mu, eps, rotation)
     forces = _forces(nodes, mu, eps, U)
     # the centre of mass's share of the answer, i Ω m U_cm = ⟨e^{iδφ} F⟩; the rest, U − U_cm, is
     # the rotation's, and ω × a = w + e^{−iδφ} (U − U_cm) is what the force does work on
@@ -321,8 +333,27 @@ def rates(top: TippeTop, law, lam: float, n1: float, e: float):
     return dn1, de, theta, D, Et, nodes.T, U, float(nodes.gn.min()), de_power, slip
 
 
+def time_cap(top: TippeTop, law, omega3: float, phidot: float) -> float:
+    """A bound (s) on any inversion the flow can describe: 300 of its slowest time scales.
+
+    The rates are those of a drag c at the answering slip, c/(1 + (c g K/φ̇)²) per unit mass
+    (the contact point's response, :func:`_slaved_slip`), which is slowest for the stiffest c:
+    the viscous coefficient at small slip (μ, or μ/ε for the regularised law) with the largest
+    inverse mass K(π) = 1 + m R² (1 + α)²/I1 and the start's precession ``phidot`` (rad/s). A
+    regularised law far above ε acts as Coulomb's, whose time scale is the slip R |ω3| over μ g.
+    """
+    mu, eps = _law(top, law)
+    g = top.g
+    c = mu if eps is None else mu / eps
+    K = 1.0 + top.m * top.R**2 * (1.0 + top.alpha) ** 2 / top.I1
+    t = (1.0 + (c * g * K / abs(phidot)) ** 2) / (c * g)
+    if eps is not None:
+        t = max(t, top.R * abs(omega3) / (mu * g))
+    return 300.0 * t
+
+
 def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: float, t_max: float,
-              rtol: float = 1e-6):  # fmt: skip
+              rtol: float = 1e-6, rotation: bool = True):  # fmt: skip
     """Integrate the averaged flow from (n1, e) (see :func:`rates`) until ⟨θ⟩ = ``theta_to``.
 
     Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift, max |ν|): arrays at the solver's steps,
@@ -337,13 +368,21 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
     from scipy.integrate import solve_ivp
 
     cache: dict[tuple[float, float], tuple] = {}
+    failed = (math.nan,) * 10
 
     def evaluate(y):
         key = (float(y[0]), float(y[1]))
         if key not in cache:
-            out = rates(top, law, lam, key[0], key[1])
+            # A trial step may leave the bands (past a separatrix, onto a pole: near the inverted
+            # pole θ moves far for a small change of (n1, e)). Its rates are NaN, so the step's
+            # error norm is NaN and the solver rejects it and shrinks the step; the band that
+            # cannot be followed at an accepted step ends the path (below).
+            try:
+                out = rates(top, law, lam, key[0], key[1], rotation)
+            except AveragingFails:
+                out = failed
             if not math.isfinite(out[5]) or not all(math.isfinite(v) for v in out[:5]):
-                raise AveragingFails("the band reaches a separatrix or a pole (no finite period)")
+                out = failed
             cache[key] = out
         return cache[key]
 
@@ -367,10 +406,12 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
     # overflow the error norm or reach a pole; such values are rejected (the step shrinks) or
     # caught by evaluate(), so numpy's warnings are silenced here, not passed on to the caller.
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        sol = solve_ivp(rhs, (0.0, t_max), [n1, e], method="RK45", rtol=rtol, atol=atol,
+        sol = solve_ivp(rhs, (0.0, t_max), [n1, e], method=_METHOD, rtol=rtol, atol=atol,
                         events=(half, end, lift))  # fmt: skip
-    if sol.status < 0:
-        raise AveragingFails(sol.message)
     out = np.array([[*evaluate(y)[2:5], evaluate(y)[9]] for y in sol.y.T])
     t_half, t_end, t_lift = (float(te[0]) if len(te) else math.inf for te in sol.t_events)
+    if sol.status < 0 and not math.isfinite(t_half):
+        raise AveragingFails(sol.message)
+    # past π/2 a failure (the step shrinking to nothing near the inverted pole) keeps the path
+    # and t_half; t_end stays inf (not reached)
     return sol.t, out[:, 0], out[:, 1], out[:, 2], t_half, t_end, t_lift, out[:, 3]
