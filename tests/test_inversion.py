@@ -376,8 +376,8 @@ def test_slip_of_a_steady_precession_is_the_closed_form_answer(thesis, law, rota
 def test_averaged_flow_on_the_thesis_start(thesis):
     # The averaged flow against the full simulation (an independent integration) on both starts
     # of the thesis top: the same declared target as the gyroscopic method in its range (5 % of
-    # t_half plus one nutation period, docs/theory/inversion.md#verification). Measured: 5.065 s
-    # against 5.067 s (centre of mass at rest), 6.30 s against 5.88 s (contact point at rest,
+    # t_half plus one nutation period, docs/theory/inversion.md#verification). Measured: 5.074 s
+    # against 5.067 s (centre of mass at rest), 6.31 s against 5.88 s (contact point at rest,
     # θ0 = 0.1: outside the range, the initiation's O(θ0) transient, as for the gyroscopic method).
     state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
     p = predict_inversion(thesis, state, method="averaged")
@@ -477,8 +477,7 @@ def test_balance_exists_wherever_the_top_can_invert():
 def test_averaged_method_answers_inverts_right_on_a_fast_table_case():
     # Table case 22 (viscous, μ = 2.5 s/m, the simulated top passes π/2 at 0.49 s): the averaged
     # flow must say that the top inverts, flagged (μ |ν| > 1 on the way: the viscous law's
-    # artefact, and the rotation's share of the contact point's answer that the flow does not
-    # carry, docs/theory/inversion.md#the-averaged-flow); the full table is in
+    # artefact, docs/theory/inversion.md#the-averaged-flow); the full table is in
     # test_inversion_verify_slow.py.
     case = cases()[22]
     pred = predict_inversion(case.top, case.state, case.friction, method="averaged")

@@ -374,7 +374,7 @@ def predict_inversion(
         return _predict_contensou(top, state, law, lam, tol, esc, validity, empty)
     if method == "averaged":
         return _predict_averaged(
-            top, state, law, lam, theta_end, end.kind, tol, esc, validity, empty
+            top, state, law, lam, theta_end, end.kind, tol, esc, modes, validity, empty
         )
     target = theta_end - tol if theta_end > amp else theta_end + tol
     try:
@@ -558,7 +558,23 @@ def _end_reason(top: TippeTop, theta_end: float) -> str:
     return f"hangs at theta_t = {theta_end:.4g} rad ({why})"
 
 
-def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity, empty):
+def _averaged_lift_off(top, law, lam, t, theta, modes) -> float:
+    """The first-order lift-off time (s) along the averaged flow's path (t, θ̄) up to π/2."""
+    up = theta <= 0.5 * math.pi
+    if np.count_nonzero(up) < 2 or np.any(np.diff(theta[up]) <= 0.0):
+        return math.nan  # no rising path to follow
+    s = np.log(np.tan(0.5 * theta[up]))
+    nodes = np.linspace(s[0], s[-1], max(2, math.ceil((s[-1] - s[0]) / 0.3) + 1))
+    t_nodes = np.interp(nodes, s, t[up])
+    th_nodes = 2.0 * np.arctan(np.exp(nodes))
+    try:
+        amp0, rate0 = _nutation.upright_nutation(modes)
+        return _nutation.lift_off_time(top, law, lam, t_nodes, th_nodes, amp0, rate0)
+    except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
+        return math.nan
+
+
+def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, validity, empty):
     """method="averaged": the band-averaged flow of (ω3, E') from the growing mode's start."""
     theta0 = float(state.theta)
     if not isinstance(law, (Viscous, RegularisedCoulomb)):
@@ -600,11 +616,22 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         coef = mu_lin * float(np.max(slip[theta <= 0.5 * math.pi], initial=0.0))
         if coef > VISCOUS_ARTEFACT:
             extra.append(f"viscous mu |v_A| = {coef:.3g} > {VISCOUS_ARTEFACT:g} before pi/2")
-    if t_lift < t_half:
+    band_lifts = t_lift < t_half
+    if band_lifts:
         extra.append(f"the nutation band lifts the top off before pi/2 (t_lift = {t_lift:.3g} s)")
+    else:
+        # The contact point's response keeps the flow's band near its floor, where it has no
+        # nutation to lift off with; the nutation the initiation leaves grows at the rate of
+        # the fast pair linearised along the path (mett.inversion._nutation), as for the
+        # gyroscopic method: its first-order criterion on the flow's own path up to π/2, on
+        # nodes 0.3 apart in ln tan(θ/2) (the gyroscopic method's spacing).
+        t_nut = _averaged_lift_off(top, law, lam, t, theta, modes)
+        if t_nut < t_half:
+            extra.append(f"predicted to hop before pi/2 (t_lift = {t_nut:.3g} s)")
+        t_lift = min(t_lift, t_nut)
     T_n = nutation_period(top, float(state.omega3))
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
-    if t_lift < t_half:
+    if band_lifts:
         # the band's own normal force vanishes: the nutation lifts the top off and the flow,
         # which assumes contact, stops there
         inverts, reason = (
