@@ -26,11 +26,16 @@ band's own frame (x̂, ŷ) is turned from it by δφ(t) = ∫ (φ̇ − Ω) dt. 
 frozen (ω3, E', U):
 
     I3 dω3/dt = −⟨c g_n R sin θ ν_y⟩,   dE'/dt = −⟨c g_n ν·w⟩ − I3 ω3 dω3/dt,
-    m dU/dt = −i Ω m U − ⟨c g_n e^{iδφ} ν⟩,   ν = w + e^{−iδφ} U   (complex, x̂ + iŷ),
+    m dU/dt = −i Ω m U − ⟨K c g_n e^{iδφ} ν⟩,   ν = w + e^{−iδφ} U   (complex, x̂ + iŷ),
 
-with g_n = m g + ½ m R α dP/G/dδ from the band's own vertical motion. The fast precession
-(Ω ≈ λ/(R I1)) turns U far faster than the integrals change, so U is slaved: dU/dt = 0 is solved
-at every step (the lag is O(slow rate/Ω)).
+with g_n = m g + ½ m R α dP/G/dδ from the band's own vertical motion. U is the contact point's
+answer: K = 1 + m R² (1 − α z)²/I1 is its inverse mass in units of 1/m, the centre of mass and
+the rotation both giving way (the gyroscopic method's response, docs page "The contact point's
+response"); the centre of mass's share U_cm (K = 1) moves the body, the rest offsets the
+rotation, on which the force does its work. The fast precession (Ω ≈ λ/(R I1)) turns U far
+faster than the integrals change, so U is slaved: dU/dt = 0 is solved at every step (the lag is
+O(slow rate/Ω)). Where the band stays at the bottom of its well the flow is the gyroscopic
+method's balance flow, reached by another route.
 """
 
 from __future__ import annotations
@@ -359,11 +364,13 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
     Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift, max |ν|): arrays at the solver's steps,
     the times ⟨θ⟩ passes π/2 and ``theta_to`` (inf if not by ``t_max``), the time the band's
     normal force first vanishes (the nutation lifts the top off; the path stops there, inf if
-    never) and the largest slip in the band at each step (m/s). Explicit Runge–Kutta 4(5) (scipy's
-    RK45) with relative tolerance ``rtol`` (the absolute tolerance 1e-3 rtol of the start's
-    values: n1 and e grow like θ² from a start that may be θ ~ 1e-5): with U slaved the flow is
-    smooth and not stiff (its rates are O(μ g)), so its error is rtol-sized. Raises
-    AveragingFails where the band cannot be followed.
+    never) and the largest slip in the band at each step (m/s). LSODA (scipy's, Adams or BDF as
+    the flow needs) with relative tolerance ``rtol`` (the absolute tolerance 1e-3 rtol of the
+    start's values: n1 and e grow like θ² from a start that may be θ ~ 1e-5). The slow drift
+    along the well's bottom is smooth, at rates O(μ g); the band's width is stiff under strong
+    friction (the nutation damps at ~ μ g K, 1000/s at μ/ε = 100 s/m, where the explicit RK45
+    took 10× the steps), hence the switching method. Raises AveragingFails where the band cannot
+    be followed before π/2; past π/2 a failure keeps the path (t_end inf).
     """
     from scipy.integrate import solve_ivp
 
