@@ -398,8 +398,12 @@ def test_averaged_flow_on_the_thesis_start(thesis):
 
 
 def test_averaged_flow_refuses_laws_it_has_no_rate_for(thesis):
+    # rolling resistance: a registered law without a power balance in either reduction (the
+    # Coulomb–Contensou law is covered since λ became a slow variable of the averaged flow)
+    from mett.dynamics.resistance import RollingResistance
+
     state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
-    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3), method="averaged")
+    p = predict_inversion(thesis, state, RollingResistance(1e-4), method="averaged")
     assert p.inverts is None
     # below λ_0 the averaged method answers from the thresholds like the gyroscopic one
     omega3 = 0.5 * thesis.lambda_0 / (thesis.R * thesis.I3 * (math.cos(0.1) - thesis.alpha))

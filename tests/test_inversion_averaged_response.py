@@ -167,3 +167,83 @@ def test_hopping_tops_are_flagged_by_the_nutation_criterion_on_the_averaged_path
     assert avg.t_lift < avg.t_half
     assert avg.t_lift == pytest.approx(gyr.t_lift, rel=0.02)
     assert any("hop" in note for note in avg.validity.notes)
+
+
+# --- Coulomb–Contensou: λ a slow variable of the averaged flow ------------------------------------
+
+
+def test_contensou_rates_are_the_laws_drilling_torque_and_power():
+    # In a collapsed band (the fast steady precession at θ) the flow's rates against the law's
+    # own force and drilling torque (Coulomb.force, Leine & Glocker 2003) at the flow's slip ν and
+    # the balance state's spin ω_n: dλ/dt = M R (1 − α cos θ) (λ = −L·a under a couple M ẑ),
+    # I3 dω3/dt = R sin θ F_y + M cos θ, and dE'/dt = F·(ω × a) + M ω_n − I3 ω3 dω3/dt with
+    # ω × a = ν − ṙ, ṙ the centre of mass's share (F ⟂ ṙ in a steady precession, so F·ν).
+    # Written from the definitions here; 1e-9 is rounding over the band's sums.
+    from mett.friction import Coulomb
+    from mett.inversion._gyroscopic import balance_state
+
+    top = mett.presets.get("rutstam2013")
+    law = Coulomb(0.3, contensou_radius=2e-3)
+    lam = 6.8944e-6
+    m, R, a, I3 = top.m, top.R, top.alpha, top.I3
+    for th in (0.05, 0.5, 1.5, 2.5):
+        ph, w3, _, w, wn = (float(x) for x in balance_state(top, lam, th))
+        n1, e = _averaged.start(top, ph, w3, th)
+        r = _averaged.rates(top, law, lam, n1, e)
+        nu = 1j * w + r[6]  # the flow's slip, complex x̂ + iŷ (w along ŷ)
+        (fx, fy), M = law.force([nu.real, nu.imag], m * top.g, wn)
+        fx, fy, M = float(fx), float(fy), float(M)
+        assert r[10] == pytest.approx(M * R * (1 - a * math.cos(th)), rel=1e-9)
+        dw3 = (R * math.sin(th) * fy + M * math.cos(th)) / I3
+        dn1 = r[10] - R * I3 * (1 - a) * dw3
+        assert r[0] == pytest.approx(dn1, rel=1e-9, abs=1e-12 * abs(r[10]))
+        power = fx * nu.real + fy * nu.imag + M * wn
+        assert r[8] == pytest.approx(power - I3 * w3 * dw3, rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("preset", "mu", "omega3", "r", "theta0", "cm"),
+    [("rutstam2013", 0.3, 155.0, 3e-3, 0.03, False), ("rutstam2013", 0.3, 155.0, 5e-4, 0.03, True)],
+)
+def test_contensou_averaged_flow_follows_the_balance_flow_in_theta_and_lambda(
+    preset, mu, omega3, r, theta0, cm
+):
+    # The band stays at its floor under Coulomb–Contensou, so the averaged flow in (n1, e, λ)
+    # slides along the steady precessions that the gyroscopic method's flow in (θ, λ) follows:
+    # two numerical routes of the same reduction (ODE at rtol 1e-6 against RK45 in (θ, λ) at its
+    # own tolerance), t_half to 1e-4; the outcome (inverts, or falls back when the drilling
+    # torque has consumed the spin) is the same.
+    from mett.friction import Coulomb
+
+    top = mett.presets.get(preset)
+    state = (mett.State.with_cm_at_rest(top, theta=theta0, omega3=omega3) if cm
+             else mett.State(theta=theta0, omega3=omega3))  # fmt: skip
+    law = Coulomb(mu, contensou_radius=r)
+    avg = predict_inversion(top, state, law, method="averaged")
+    gyr = predict_inversion(top, state, law)
+    assert avg.inverts is gyr.inverts and avg.inverts is not None
+    assert avg.t_half == pytest.approx(gyr.t_half, rel=1e-4)
+    assert avg.validity.outside_verified_range
+    assert np.all(np.diff(avg.lam) <= 0.0) and avg.lam[-1] < avg.lam[0]
+
+
+@pytest.mark.slow
+def test_contensou_averaged_flow_against_the_simulation():
+    # The full Coulomb–Contensou simulation (compiled DOP853, exact law), the thesis top at
+    # μ = 0.3, r = 0.5 mm, θ0 = 0.03, centre of mass at rest: the declared accuracy of the
+    # Contensou reduction for θ0 <= 0.03, 6 % of t_half plus one nutation period
+    # (docs/theory/inversion.md#coulombcontensou), and the top reaches the inverted spin.
+    from mett.friction import Coulomb
+
+    top = mett.presets.get("rutstam2013")
+    state = mett.State.with_cm_at_rest(top, theta=0.03, omega3=155.0)
+    law = Coulomb(0.3, contensou_radius=5e-4)
+    p = predict_inversion(top, state, law, method="averaged")
+    assert p.inverts is True
+    traj = mett.simulate(top, state, 1.5 * p.t_inv, friction=law, rtol=1e-8,
+                         stop_on_contact_loss=True)  # fmt: skip
+    assert traj.status == "completed"
+    t_sim = traj.crossings(0.5 * math.pi)[0]
+    T_n = 2 * math.pi * top.I1 / (top.I3 * 155.0)
+    assert abs(p.t_half - t_sim) <= 0.06 * t_sim + T_n
+    assert float(np.max(traj.theta)) >= math.pi - p.tol

@@ -288,16 +288,6 @@ def predict_inversion(
             lam=lam,
         )
     contensou = isinstance(law, Coulomb) and law.contensou_radius > 0.0
-    if contensou and method == "averaged":
-        return empty(
-            None,
-            "the averaged flow covers the viscous and regularised Coulomb laws only (the "
-            "Coulomb-Contensou law has the gyroscopic method)",
-            method,
-            validity(math.nan),
-            theta0=theta0,
-            lam=lam,
-        )
     if contensou and isinstance(law, Coulomb) and not law.mu > 0.0:
         return empty(
             False,
@@ -370,7 +360,7 @@ def predict_inversion(
             lam=lam,
         )
     amp = esc.amplitude
-    if contensou:
+    if contensou and method != "averaged":
         return _predict_contensou(top, state, law, lam, tol, esc, validity, empty)
     if method == "averaged":
         return _predict_averaged(
@@ -577,10 +567,12 @@ def _averaged_lift_off(top, law, lam, t, theta, modes) -> float:
 def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, validity, empty):
     """method="averaged": the band-averaged flow of (ω3, E') from the growing mode's start."""
     theta0 = float(state.theta)
-    if not isinstance(law, (Viscous, RegularisedCoulomb)):
+    contensou = isinstance(law, Coulomb) and law.contensou_radius > 0.0
+    if not (isinstance(law, (Viscous, RegularisedCoulomb)) or contensou):
         return empty(
             None,
-            "the averaged flow covers the viscous and regularised Coulomb laws only",
+            "the averaged flow covers the viscous, regularised Coulomb and Coulomb-Contensou "
+            "laws only",
             "averaged",
             validity(math.nan),
             theta0=theta0,
@@ -598,7 +590,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, va
     t_max = _averaged.time_cap(top, law, float(w3_0), float(phidot_0))
     try:
         n1, e = _averaged.start(top, float(phidot_0), float(w3_0), amp)
-        t, theta, D, E_mod, t_half, t_end, t_lift, slip = _averaged.slow_path(
+        t, theta, D, E_mod, t_half, t_end, t_lift, slip, lams = _averaged.slow_path(
             top, law, lam, n1, e, target, t_max
         )
     except _averaged.AveragingFails as exc:
@@ -625,7 +617,8 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, va
         # the fast pair linearised along the path (mett.inversion._nutation), as for the
         # gyroscopic method: its first-order criterion on the flow's own path up to π/2, on
         # nodes 0.3 apart in ln tan(θ/2) (the gyroscopic method's spacing).
-        t_nut = _averaged_lift_off(top, law, lam, t, theta, modes)
+        # (not evaluated under Coulomb–Contensou, as for the gyroscopic method: λ moves)
+        t_nut = math.nan if contensou else _averaged_lift_off(top, law, lam, t, theta, modes)
         if t_nut < t_half:
             extra.append(f"predicted to hop before pi/2 (t_lift = {t_nut:.3g} s)")
         t_lift = min(t_lift, t_nut)
@@ -641,6 +634,33 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, va
                 f"{theta[-1]:.3g}), before pi/2: the averaged flow assumes contact"
             ),
         )
+    elif contensou:
+        # λ is slow: the drilling torque decides, as for the gyroscopic method's flow in (θ, λ)
+        drop = 1.0 - float(lams[-1]) / lam
+        margin = float(lams[-1]) / top.lambda_thres
+        if math.isfinite(t_end) and margin >= CONTENSOU_MARGIN:
+            inverts, reason = True, (f"inverts (the drilling torque lowers lam by {drop:.1%} on "
+                                     "the way; the inverted spin then decays too)")  # fmt: skip
+        elif math.isfinite(t_end):
+            inverts, reason = (
+                None,
+                (
+                    f"undecided: the mean inclination reaches pi - tol, but the drilling torque has "
+                    f"lowered lam to {margin:.3g} lam_thres (below {CONTENSOU_MARGIN} lam_thres the "
+                    "inverted spin is unstable: the top may leave it again)"
+                ),
+            )
+        elif len(theta) and theta[-1] < float(np.max(theta)) - 0.01:
+            inverts, reason = (
+                False,
+                (
+                    f"falls back from theta = {float(np.max(theta)):.3g} rad: the drilling torque "
+                    f"has lowered lam by {drop:.1%}, to {margin:.3g} lam_thres, and the top no "
+                    "longer climbs"
+                ),
+            )
+        else:
+            inverts, reason = None, f"the averaged flow has not ended by t = {t[-1]:.3g} s"
     elif kind == "inverted":
         inverts, reason = (True, "inverts") if math.isfinite(t_half) else (None, "")
         if inverts is None:
@@ -660,7 +680,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, va
         theta=np.asarray(theta),
         D=np.asarray(D),
         E_mod=np.asarray(E_mod),
-        lam=np.full(len(t), lam),
+        lam=np.asarray(lams),
         theta_end=theta_end,
         validity=validity(eps, extra),
         t_lift=t_lift,

@@ -45,7 +45,7 @@ import math
 import numpy as np
 
 from .. import _formulas as fm
-from ..friction import RegularisedCoulomb, Viscous
+from ..friction import Coulomb, RegularisedCoulomb, Viscous
 from ..top import TippeTop
 from ._gyroscopic import cm_slip2
 
@@ -69,11 +69,21 @@ class AveragingFails(Exception):
 
 
 def _law(top: TippeTop, law):
+    """(μ, ε, r*): the drag c = μ g_n/√(|ν|² + ε²) (ε None: viscous, c = μ g_n), and for
+    Coulomb–Contensou ε = r* |ω_n| at each node (Leine & Glocker 2003's law with the effective
+    radius r*, :class:`mett.friction.Coulomb`), r* = 0 otherwise."""
     if isinstance(law, Viscous):
-        return (top.mu if law.mu is None else law.mu), None
+        return (top.mu if law.mu is None else law.mu), None, 0.0
     if isinstance(law, RegularisedCoulomb):
-        return law.mu, law.eps
+        return law.mu, law.eps, 0.0
+    if isinstance(law, Coulomb) and law.contensou_radius > 0.0:
+        return law.mu, None, law.r_star
     raise TypeError(f"the averaged flow has no rate for {law!r}")
+
+
+def _node_eps(nodes, eps, rstar):
+    """ε of the drag at each node: the law's own, or r* |ω_n| for Coulomb–Contensou."""
+    return eps if rstar == 0.0 else rstar * np.abs(nodes.wn)
 
 
 def _cubic(top: TippeTop, lam: float, n1: float, e: float) -> np.ndarray:
@@ -166,6 +176,7 @@ class _Nodes:
         "phid",
         "s",
         "theta",
+        "wn",
         "wt",
         "wx",
         "wy",
@@ -199,6 +210,8 @@ class _Nodes:
         self.theta = 2.0 * np.arcsin(np.sqrt(0.5 * dl))
         self.phid = (n1 + R * I3 * w3 * dl) / (R * I1 * s2)
         self.wy = R * self.s * (w3 + self.phid * (a - self.z))
+        # the spin about the vertical, ω·ẑ = φ̇ sin²θ + ω3 cos θ (Contensou's drilling)
+        self.wn = self.phid * s2 + w3 * self.z
         # |θ̇|: P/(G s²); the half u: −π/2 → π/2 has δ rising (θ rising, θ̇ > 0)
         self.wx = -R * np.sqrt(P / (G * s2)) * (1.0 - a * self.z)
         self.Omega = float(self.wt @ self.phid)
@@ -254,8 +267,9 @@ def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, rotation
     w = float(wt @ nodes.wy)
     Kb = float(wt @ K)
     k2 = (mu * float(wt @ nodes.gn) * Kb / (m * nodes.Omega)) ** 2
-    x = float(cm_slip2(w * w, eps * eps, k2, 1.0))
-    kK = mu * float(wt @ nodes.gn) * Kb / (m * nodes.Omega * math.sqrt(x + eps * eps))
+    eps2 = float(wt @ np.broadcast_to(eps * eps, wt.shape))
+    x = float(cm_slip2(w * w, eps2, k2, 1.0))
+    kK = mu * float(wt @ nodes.gn) * Kb / (m * nodes.Omega * math.sqrt(x + eps2))
     U = 1j * w * (1.0 / (1.0 - 1j * kK) - 1.0)
 
     def residual(U: complex):
@@ -296,8 +310,8 @@ def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, rotation
 
 
 def rates(top: TippeTop, law, lam: float, n1: float, e: float, rotation: bool = True):
-    """(dn1/dt, de/dt, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, T, U, min g_n, de/dt before the floor, max |ν|) of the
-    averaged flow at (n1, e).
+    """(dn1/dt, de/dt, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, T, U, min g_n, de/dt before the floor, max |ν|, dλ/dt)
+    of the averaged flow at (n1, e) and λ.
 
     n1 = λ − R I3 ω3 (1 − α) and e = E' − m g R (1 − α) carry the state near the upright spin
     without cancellation (both vanish there like θ²). Where the band is empty (e at or below the
@@ -305,37 +319,50 @@ def rates(top: TippeTop, law, lam: float, n1: float, e: float, rotation: bool = 
     de/dt = max(−⟨c g_n ν·w⟩ − I3 ω3 ω̇3, ∂W'/∂ω3 ω̇3), the envelope theorem giving
     d min W'/dω3 = ∂W'/∂ω3 at the bottom; the band opens where the dissipation falls behind the
     well.
+
+    Coulomb–Contensou: the drilling torque M ẑ, M = −c r*² ω_n, changes λ = −L·a at the rate
+    M R (1 − α cos θ) (a couple about ẑ), ω3 by M cos θ/I3 and E_g by M ω_n; the bottom of the
+    well then moves by ∂W'/∂ω3 ω̇3 + ∂W'/∂λ λ̇ (∂W'/∂λ = N/(R² I1 sin²θ)). dλ/dt is 0 for the
+    other laws.
     """
     m, R, a, I1, I3 = top.m, top.R, top.alpha, top.I1, top.I3
-    mu, eps = _law(top, law)
+    mu, eps, rstar = _law(top, law)
     w3 = omega3_of(top, lam, n1)
     nodes = _Nodes(top, lam, n1, e)
     wt = nodes.wt
+    eps = _node_eps(nodes, eps, rstar)
     U = _slaved_slip(nodes, m, mu, eps, rotation)
     forces = _forces(nodes, mu, eps, U)
     # the centre of mass's share of the answer, i Ω m U_cm = ⟨e^{iδφ} F⟩; the rest, U − U_cm, is
     # the rotation's, and ω × a = w + e^{−iδφ} (U − U_cm) is what the force does work on
     U_cm = sum(-0.5 * (wt @ (ph * cg * nu)) for cg, nu, ph, _ in forces) / (1j * nodes.Omega * m)
     torque, power, slip = 0.0, 0.0, 0.0
+    drill_3, drill_power, dlam = 0.0, 0.0, 0.0
     for cg, nu, ph, sign in forces:
         slip = max(slip, float(np.max(np.abs(nu))))
         oxa = (sign * nodes.wx + 1j * nodes.wy) + (U - U_cm) / ph
         torque += 0.5 * float(wt @ (cg * R * nodes.s * nu.imag))
         power += 0.5 * float(wt @ (cg * (nu.real * oxa.real + nu.imag * oxa.imag)))
-    dw3 = -torque / I3
-    de = de_power = -power - I3 * w3 * dw3
+        if rstar > 0.0:
+            M = -cg * rstar * rstar * nodes.wn  # −c r*² ω_n, cg = c (g_n included)
+            drill_3 += 0.5 * float(wt @ (M * nodes.z))
+            drill_power += 0.5 * float(wt @ (M * nodes.wn))
+            dlam += 0.5 * float(wt @ (M * R * (1.0 - a * nodes.z)))
+    dw3 = (drill_3 - torque) / I3
+    de = de_power = drill_power - power - I3 * w3 * dw3
     e_floor = e
     if nodes.empty:
         d = nodes.dm
         N = n1 + R * I3 * w3 * d
         dW = N * R * I3 * (a - 1.0 + d) / (R * R * I1 * d * (2.0 - d))
-        de = max(de, dW * dw3)
+        dW_lam = N / (R * R * I1 * d * (2.0 - d))
+        de = max(de, dW * dw3 + dW_lam * dlam)
         e_floor = N * N / (2.0 * R * R * I1 * d * (2.0 - d)) + top.m * top.g * R * a * d
     theta = float(wt @ nodes.theta)
     D = float(wt @ (I3 * w3 * np.sqrt(fm.d(top, nodes.z))))
     Et = e_floor + m * top.g * R * (1.0 - a) + 0.5 * I3 * w3 * w3 + float(wt @ nodes.half_w2)
-    dn1 = -R * I3 * (1.0 - a) * dw3
-    return dn1, de, theta, D, Et, nodes.T, U, float(nodes.gn.min()), de_power, slip
+    dn1 = dlam - R * I3 * (1.0 - a) * dw3
+    return dn1, de, theta, D, Et, nodes.T, U, float(nodes.gn.min()), de_power, slip, dlam
 
 
 def time_cap(top: TippeTop, law, omega3: float, phidot: float) -> float:
@@ -346,12 +373,16 @@ def time_cap(top: TippeTop, law, omega3: float, phidot: float) -> float:
     the viscous coefficient at small slip (μ, or μ/ε for the regularised law) with the largest
     inverse mass K(π) = 1 + m R² (1 + α)²/I1 and the start's precession ``phidot`` (rad/s). A
     regularised law far above ε acts as Coulomb's, whose time scale is the slip R |ω3| over μ g.
+    Coulomb–Contensou is the regularised law with ε = r* |ω3| at the start.
     """
-    mu, eps = _law(top, law)
+    mu, eps, rstar = _law(top, law)
     g = top.g
+    if rstar > 0.0:
+        eps = rstar * abs(omega3)
     c = mu if eps is None else mu / eps
     K = 1.0 + top.m * top.R**2 * (1.0 + top.alpha) ** 2 / top.I1
-    t = (1.0 + (c * g * K / abs(phidot)) ** 2) / (c * g)
+    ph = abs(phidot) or math.inf  # a start without precession: the response does not slow it
+    t = (1.0 + (c * g * K / ph) ** 2) / (c * g)
     if eps is not None:
         t = max(t, top.R * abs(omega3) / (mu * g))
     return 300.0 * t
@@ -361,7 +392,7 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
               rtol: float = 1e-6, rotation: bool = True):  # fmt: skip
     """Integrate the averaged flow from (n1, e) (see :func:`rates`) until ⟨θ⟩ = ``theta_to``.
 
-    Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift, max |ν|): arrays at the solver's steps,
+    Returns (t, ⟨θ⟩, ⟨D⟩, ⟨Ẽ⟩, t_half, t_end, t_lift, max |ν|, λ): arrays at the solver's steps,
     the times ⟨θ⟩ passes π/2 and ``theta_to`` (inf if not by ``t_max``), the time the band's
     normal force first vanishes (the nutation lifts the top off; the path stops there, inf if
     never) and the largest slip in the band at each step (m/s). LSODA (scipy's, Adams or BDF as
@@ -370,22 +401,25 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
     along the well's bottom is smooth, at rates O(μ g); the band's width is stiff under strong
     friction (the nutation damps at ~ μ g K, 1000/s at μ/ε = 100 s/m, where the explicit RK45
     took 10× the steps), hence the switching method. Raises AveragingFails where the band cannot
-    be followed before π/2; past π/2 a failure keeps the path (t_end inf).
+    be followed before π/2; past π/2 a failure keeps the path (t_end inf). Under
+    Coulomb–Contensou λ is a third slow variable (the drilling torque, :func:`rates`); it is
+    constant otherwise.
     """
     from scipy.integrate import solve_ivp
 
-    cache: dict[tuple[float, float], tuple] = {}
-    failed = (math.nan,) * 10
+    cache: dict[tuple[float, ...], tuple] = {}
+    failed = (math.nan,) * 11
+    drilling = _law(top, law)[2] > 0.0
 
     def evaluate(y):
-        key = (float(y[0]), float(y[1]))
+        key = tuple(float(v) for v in y)
         if key not in cache:
             # A trial step may leave the bands (past a separatrix, onto a pole: near the inverted
             # pole θ moves far for a small change of (n1, e)). Its rates are NaN, so the step's
             # error norm is NaN and the solver rejects it and shrinks the step; the band that
             # cannot be followed at an accepted step ends the path (below).
             try:
-                out = rates(top, law, lam, key[0], key[1], rotation)
+                out = rates(top, law, key[2] if drilling else lam, key[0], key[1], rotation)
             except AveragingFails:
                 out = failed
             if not math.isfinite(out[5]) or not all(math.isfinite(v) for v in out[:5]):
@@ -395,7 +429,7 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
 
     def rhs(t, y):
         r = evaluate(y)
-        return [r[0], r[1]]
+        return [r[0], r[1], r[10]] if drilling else [r[0], r[1]]
 
     def half(t, y):
         return evaluate(y)[2] - 0.5 * math.pi
@@ -406,19 +440,34 @@ def slow_path(top: TippeTop, law, lam: float, n1: float, e: float, theta_to: flo
     def lift(t, y):
         return evaluate(y)[7]
 
+    peak = [-math.inf]
+
+    def turns(t, y):
+        # Coulomb–Contensou only: the drilling torque lowers λ, and the top may fall back; the
+        # path stops once ⟨θ⟩ has fallen 0.02 rad below its highest value so far (where the
+        # drilling torque's sign flips with ω_n the flow would chatter)
+        th = evaluate(y)[2]
+        if math.isfinite(th):
+            peak[0] = max(peak[0], th)
+        return th - (peak[0] - 0.02) if drilling else 1.0
+
     end.terminal = True  # type: ignore[attr-defined]
     lift.terminal = True  # type: ignore[attr-defined]
-    atol = [1e-3 * rtol * abs(n1), 1e-3 * rtol * abs(e)]
+    turns.terminal = True  # type: ignore[attr-defined]
+    turns.direction = -1.0  # type: ignore[attr-defined]
+    y0 = [n1, e, lam] if drilling else [n1, e]
+    atol = [1e-3 * rtol * abs(v) for v in y0]
     # The state spans many decades (n1, e grow like θ² from θ ~ 1e-5): a trial step may
     # overflow the error norm or reach a pole; such values are rejected (the step shrinks) or
     # caught by evaluate(), so numpy's warnings are silenced here, not passed on to the caller.
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        sol = solve_ivp(rhs, (0.0, t_max), [n1, e], method=_METHOD, rtol=rtol, atol=atol,
-                        events=(half, end, lift))  # fmt: skip
+        sol = solve_ivp(rhs, (0.0, t_max), y0, method=_METHOD, rtol=rtol, atol=atol,
+                        events=(half, end, lift, turns))  # fmt: skip
     out = np.array([[*evaluate(y)[2:5], evaluate(y)[9]] for y in sol.y.T])
-    t_half, t_end, t_lift = (float(te[0]) if len(te) else math.inf for te in sol.t_events)
+    t_half, t_end, t_lift, _ = (float(te[0]) if len(te) else math.inf for te in sol.t_events)
     if sol.status < 0 and not math.isfinite(t_half):
         raise AveragingFails(sol.message)
     # past π/2 a failure (the step shrinking to nothing near the inverted pole) keeps the path
     # and t_half; t_end stays inf (not reached)
-    return sol.t, out[:, 0], out[:, 1], out[:, 2], t_half, t_end, t_lift, out[:, 3]
+    lams = sol.y[2] if drilling else np.full(len(sol.t), lam)
+    return sol.t, out[:, 0], out[:, 1], out[:, 2], t_half, t_end, t_lift, out[:, 3], lams
