@@ -15,8 +15,9 @@
   spins, the balance flow in (θ, λ): the drilling torque lowers Jellett's λ on the way, and may
   make the top fall back before it inverts;
 * with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
-  (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
-  precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
+  (ω3, E', and λ under Coulomb–Contensou) averaged over its exact nutation band, the contact
+  point's answer to the friction force (centre of mass and rotation) slaved to the precession
+  (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
 
 The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
 """
@@ -172,10 +173,11 @@ def predict_inversion(
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the same initiation, then the flow of the
-        gliding top's integrals (ω3, E') averaged over its exact nutation band, with the
-        centre of mass's answer to the friction force as the slow slip (viscous and regularised
-        Coulomb laws; verified range: the gyroscopic box for the viscous law; ``inverts=None``
-        with ``t_lift`` where the band's normal force vanishes before π/2).
+        gliding top's integrals (ω3, E', and λ under Coulomb–Contensou) averaged over its exact
+        nutation band, with the contact point's answer to the friction force (centre of mass
+        and rotation) as the slow slip (viscous, regularised Coulomb and Coulomb–Contensou
+        laws; verified range: the gyroscopic box for the viscous law; ``inverts=None`` with
+        ``t_lift`` where the band's normal force vanishes before π/2).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
 

@@ -36,6 +36,10 @@ rotation, on which the force does its work. The fast precession (Ω ≈ λ/(R I1
 faster than the integrals change, so U is slaved: dU/dt = 0 is solved at every step (the lag is
 O(slow rate/Ω)). Where the band stays at the bottom of its well the flow is the gyroscopic
 method's balance flow, reached by another route.
+
+Coulomb–Contensou (Leine & Glocker 2003): c = μ/√(|ν|² + (r* ω_n)²) at each node, and the
+drilling torque M = −c g_n r*² ω_n makes λ a third slow variable, dλ/dt = ⟨M R (1 − α cos θ)⟩
+(:func:`rates`).
 """
 
 from __future__ import annotations
