@@ -296,6 +296,9 @@ def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, rotation
 
     r, J, size = residual(U)
     for _ in range(100):
+        if not math.isfinite(abs(r)) or not np.all(np.isfinite(J)):
+            # a node at zero slip with ε = 0 (Contensou's ω_n = 0 there): no drag direction
+            raise AveragingFails("the slip's equation is singular here")
         if abs(r) <= 1e-13 * size:
             return U
         dx = np.linalg.solve(J, [-r.real, -r.imag])
@@ -307,8 +310,11 @@ def _slaved_slip(nodes: _Nodes, m: float, mu: float, eps: float | None, rotation
                 break
             t *= 0.5
             if t < 1e-12:
-                # no decrease is left to find in the rounding: the root to working precision
-                return U
+                # no decrease is left to find: the root to working precision, if the residual
+                # is down to the rounding of its terms' sums
+                if abs(r) <= 1e-9 * size:
+                    return U
+                raise AveragingFails("the slip's steady answer does not converge")
         U, r, J, size = U + t * step, r_new, J_new, size_new
     raise AveragingFails("the slip's steady answer does not converge")
 
