@@ -804,7 +804,7 @@ def test_predict_method_selects_the_reduction(capsys):
     """`--method` is passed to mett.predict_inversion: gyroscopic (the default) gives the
     library's numbers bit for bit; averaged gives the averaged flow's own (a different
     reduction: its path has its own nodes), within 5 % of the balance flow's t_half on this start
-    (docs/theory/inversion.md: 5.065 s against 5.074 s, simulated 5.067 s)."""
+    (docs/theory/inversion.md: both 5.074 s, simulated 5.067 s)."""
     import mett
 
     top = mett.presets.get("rutstam2013")

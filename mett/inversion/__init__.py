@@ -20,8 +20,9 @@
   after it: the balance flow slowed by the ratio of the gliding power to the hop cycle's,
   measured on short runs of that cycle with flight and landing (:mod:`mett.inversion._hops`);
 * with ``method="averaged"``, instead of the balance flow: the flow of the gliding top's integrals
-  (ω3, E') averaged over its exact nutation band, the centre of mass's slip slaved to the
-  precession (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
+  (ω3, E', and λ under Coulomb–Contensou) averaged over its exact nutation band, the contact
+  point's answer to the friction force (centre of mass and rotation) slaved to the precession
+  (:mod:`mett.inversion._averaged`); it stops where the band lifts the top off.
 
 The derivation, its assumptions and its verification table are on docs/theory/inversion.md.
 """
@@ -191,10 +192,11 @@ def predict_inversion(
     method : {"gyroscopic", "averaged"}
         The reduction (docs/theory/inversion.md). ``"gyroscopic"``: linear initiation +
         gyroscopic-balance slow flow. ``"averaged"``: the same initiation, then the flow of the
-        gliding top's integrals (ω3, E') averaged over its exact nutation band, with the
-        centre of mass's answer to the friction force as the slow slip (viscous and regularised
-        Coulomb laws; verified range: the gyroscopic box for the viscous law; ``inverts=None``
-        with ``t_lift`` where the band's normal force vanishes before π/2).
+        gliding top's integrals (ω3, E', and λ under Coulomb–Contensou) averaged over its exact
+        nutation band, with the contact point's answer to the friction force (centre of mass
+        and rotation) as the slow slip (viscous, regularised Coulomb and Coulomb–Contensou
+        laws; verified range: the gyroscopic box for the viscous law; ``inverts=None`` with
+        ``t_lift`` where the band's normal force vanishes before π/2).
     tol : float, default 0.05
         Tolerance (rad) of ``t_inv``: θ̄ within ``tol`` of its end state; in (0, 0.5).
     hops : bool, default True
@@ -318,16 +320,6 @@ def predict_inversion(
             lam=lam,
         )
     contensou = isinstance(law, Coulomb) and law.contensou_radius > 0.0
-    if contensou and method == "averaged":
-        return empty(
-            None,
-            "the averaged flow covers the viscous and regularised Coulomb laws only (the "
-            "Coulomb-Contensou law has the gyroscopic method)",
-            method,
-            validity(math.nan),
-            theta0=theta0,
-            lam=lam,
-        )
     if contensou and isinstance(law, Coulomb) and not law.mu > 0.0:
         return empty(
             False,
@@ -411,11 +403,11 @@ def predict_inversion(
         resolved = _nutation.resolved_start(top_lin, state, modes)
         if resolved is not None:
             amp = resolved.amplitude
-    if contensou:
+    if contensou and method != "averaged":
         return _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty)
     if method == "averaged":
         return _predict_averaged(
-            top, state, law, lam, theta_end, end.kind, tol, esc, validity, empty
+            top, state, law, lam, theta_end, end.kind, tol, esc, modes, validity, empty
         )
     target = theta_end - tol if theta_end > amp else theta_end + tol
     try:
@@ -674,13 +666,31 @@ def _end_reason(top: TippeTop, theta_end: float) -> str:
     return f"hangs at theta_t = {theta_end:.4g} rad ({why})"
 
 
-def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity, empty):
+def _averaged_lift_off(top, law, lam, t, theta, modes) -> float:
+    """The first-order lift-off time (s) along the averaged flow's path (t, θ̄) up to π/2."""
+    up = theta <= 0.5 * math.pi
+    if np.count_nonzero(up) < 2 or np.any(np.diff(theta[up]) <= 0.0):
+        return math.nan  # no rising path to follow
+    s = np.log(np.tan(0.5 * theta[up]))
+    nodes = np.linspace(s[0], s[-1], max(2, math.ceil((s[-1] - s[0]) / 0.3) + 1))
+    t_nodes = np.interp(nodes, s, t[up])
+    th_nodes = 2.0 * np.arctan(np.exp(nodes))
+    try:
+        amp0, rate0 = _nutation.upright_nutation(modes)
+        return _nutation.lift_off_time(top, law, lam, t_nodes, th_nodes, amp0, rate0)
+    except np.linalg.LinAlgError:  # a defective upright spectrum: no mode split
+        return math.nan
+
+
+def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, modes, validity, empty):
     """method="averaged": the band-averaged flow of (ω3, E') from the growing mode's start."""
     theta0 = float(state.theta)
-    if not isinstance(law, (Viscous, RegularisedCoulomb)):
+    contensou = isinstance(law, Coulomb) and law.contensou_radius > 0.0
+    if not (isinstance(law, (Viscous, RegularisedCoulomb)) or contensou):
         return empty(
             None,
-            "the averaged flow covers the viscous and regularised Coulomb laws only",
+            "the averaged flow covers the viscous, regularised Coulomb and Coulomb-Contensou "
+            "laws only",
             "averaged",
             validity(math.nan),
             theta0=theta0,
@@ -694,13 +704,11 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         return empty(None, "no fast precession at the start's growing mode", "averaged",
                      validity(math.nan), theta0=theta0, lam=lam)  # fmt: skip
     target = theta_end - tol if theta_end > amp else theta_end + tol
-    # The slow time scale is 1/(μ g) (the rates are proportional to the friction coefficient):
-    # a few hundred of them bound any inversion the flow can describe.
     mu_lin = _linear_mu(top, law, state)
-    t_max = 300.0 / (mu_lin * top.g)
+    t_max = _averaged.time_cap(top, law, float(w3_0), float(phidot_0))
     try:
         n1, e = _averaged.start(top, float(phidot_0), float(w3_0), amp)
-        t, theta, D, E_mod, t_half, t_end, t_lift, slip = _averaged.slow_path(
+        t, theta, D, E_mod, t_half, t_end, t_lift, slip, lams = _averaged.slow_path(
             top, law, lam, n1, e, target, t_max
         )
     except _averaged.AveragingFails as exc:
@@ -718,11 +726,23 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         coef = mu_lin * float(np.max(slip[theta <= 0.5 * math.pi], initial=0.0))
         if coef > VISCOUS_ARTEFACT:
             extra.append(f"viscous mu |v_A| = {coef:.3g} > {VISCOUS_ARTEFACT:g} before pi/2")
-    if t_lift < t_half:
+    band_lifts = t_lift < t_half
+    if band_lifts:
         extra.append(f"the nutation band lifts the top off before pi/2 (t_lift = {t_lift:.3g} s)")
+    else:
+        # The contact point's response keeps the flow's band near its floor, where it has no
+        # nutation to lift off with; the nutation the initiation leaves grows at the rate of
+        # the fast pair linearised along the path (mett.inversion._nutation), as for the
+        # gyroscopic method: its first-order criterion on the flow's own path up to π/2, on
+        # nodes 0.3 apart in ln tan(θ/2) (the gyroscopic method's spacing).
+        # (not evaluated under Coulomb–Contensou, as for the gyroscopic method: λ moves)
+        t_nut = math.nan if contensou else _averaged_lift_off(top, law, lam, t, theta, modes)
+        if t_nut < t_half:
+            extra.append(f"predicted to hop before pi/2 (t_lift = {t_nut:.3g} s)")
+        t_lift = min(t_lift, t_nut)
     T_n = nutation_period(top, float(state.omega3))
     eps = T_n / t_half if math.isfinite(t_half) else math.nan
-    if t_lift < t_half:
+    if band_lifts:
         # the band's own normal force vanishes: the nutation lifts the top off and the flow,
         # which assumes contact, stops there
         inverts, reason = (
@@ -732,6 +752,33 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
                 f"{theta[-1]:.3g}), before pi/2: the averaged flow assumes contact"
             ),
         )
+    elif contensou:
+        # λ is slow: the drilling torque decides, as for the gyroscopic method's flow in (θ, λ)
+        drop = 1.0 - float(lams[-1]) / lam
+        margin = float(lams[-1]) / top.lambda_thres
+        if math.isfinite(t_end) and margin >= CONTENSOU_MARGIN:
+            inverts, reason = True, (f"inverts (the drilling torque lowers lam by {drop:.1%} on "
+                                     "the way; the inverted spin then decays too)")  # fmt: skip
+        elif math.isfinite(t_end):
+            inverts, reason = (
+                None,
+                (
+                    f"undecided: the mean inclination reaches pi - tol, but the drilling torque has "
+                    f"lowered lam to {margin:.3g} lam_thres (below {CONTENSOU_MARGIN} lam_thres the "
+                    "inverted spin is unstable: the top may leave it again)"
+                ),
+            )
+        elif len(theta) and theta[-1] < float(np.max(theta)) - 0.01:
+            inverts, reason = (
+                False,
+                (
+                    f"falls back from theta = {float(np.max(theta)):.3g} rad: the drilling torque "
+                    f"has lowered lam by {drop:.1%}, to {margin:.3g} lam_thres, and the top no "
+                    "longer climbs"
+                ),
+            )
+        else:
+            inverts, reason = None, f"the averaged flow has not ended by t = {t[-1]:.3g} s"
     elif kind == "inverted":
         inverts, reason = (True, "inverts") if math.isfinite(t_half) else (None, "")
         if inverts is None:
@@ -751,7 +798,7 @@ def _predict_averaged(top, state, law, lam, theta_end, kind, tol, esc, validity,
         theta=np.asarray(theta),
         D=np.asarray(D),
         E_mod=np.asarray(E_mod),
-        lam=np.full(len(t), lam),
+        lam=np.asarray(lams),
         theta_end=theta_end,
         validity=validity(eps, extra),
         t_lift=t_lift,
