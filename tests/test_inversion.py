@@ -151,8 +151,8 @@ def test_bad_input_is_refused(thesis):
         predict_inversion(thesis.with_stem(0.004, 0.02), state)
     with pytest.raises(TypeError):
         predict_inversion(thesis, state, friction="viscous")
-    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3), method="averaged")
-    assert p.inverts is None and "Contensou" in p.reason
+    with pytest.raises(TypeError, match="hops"):
+        predict_inversion(thesis, state, hops=1)
 
 
 def test_a_subnormal_spin_is_an_answer_not_a_division_by_zero():
