@@ -1003,7 +1003,7 @@ def _build_parser() -> argparse.ArgumentParser:
                         "model (accurate; 3-25 ms more, growing with omega3); linear: the linear "
                         "mode split always (~1 ms, bounded cost)")  # fmt: skip
     p.add_argument("--hops", action=argparse.BooleanOptionalAction, default=True,
-                   help="follow the hopping top after a predicted lift-off (0.1-0.7 s more where "
+                   help="follow the hopping top after a predicted lift-off (0.1-1 s more where "
                         "it hops); --no-hops: the gliding flow throughout")  # fmt: skip
     p.add_argument("--json", action="store_true", help=json_help)
     return parser

@@ -212,7 +212,7 @@ def predict_inversion(
         to lift the top off before π/2 (``t_lift < t_half``), follow the hopping top after
         ``t_lift``: its flow runs at the power friction takes over the hop cycle, measured on
         short runs of that cycle with flight and landing (docs/theory/inversion.md#the-hopping-top;
-        0.1–0.7 s per such prediction, against ~1 ms). ``False``: the gliding flow throughout
+        0.1–1 s per such prediction, against ~1 ms). ``False``: the gliding flow throughout
         (bounded cost).
     start : {"auto", "linear"}, default "auto"
         How the start is split into the upright spin's modes (the growing mode's amplitude θ_u(0)
@@ -221,10 +221,11 @@ def predict_inversion(
         split leaving less than 0.3 θ0 in the growing mode; viscous law, method "gyroscopic"),
         which is split after the decaying modes' transient on a short resolved run of the full
         model (six e-foldings of the slip): accurate there (docs/theory/inversion.md#the-initial-tilt),
-        but it costs 3–25 ms more and grows with ω3. ``"linear"``: the linear split always; the
-        prediction's cost stays ~1 ms, bounded in ω3 and in the number of nutations (with
-        ``hops=False``), at the linear split's error on such starts (−21 % to +7 % of ``t_half``
-        on the thesis top at θ0 = 0.1–0.3, more at high spin).
+        but it costs 3–25 ms more, growing with ω3 and the number of nutations. ``"linear"``:
+        the linear split always; with ``hops=False`` the prediction runs no simulation and costs
+        ~1 ms, bounded in ω3 and in the number of nutations, at the linear split's error on such
+        starts (−21 % to +7 % of ``t_half`` on the thesis top at θ0 = 0.1–0.3, ω3 = 155 rad/s;
+        −23 % at 620 rad/s, μ = 0.05 s/m; docs/theory/inversion.md#speed).
 
     Returns
     -------
@@ -804,7 +805,7 @@ def atlas(
         Contact-disc radius r (m) of "coulomb-contensou", > 0.
     hops : bool, default True
         Passed to :func:`predict_inversion`: follow the hopping top after a predicted lift-off
-        (0.1–0.7 s per such point).
+        (0.1–1 s per such point).
     start : {"auto", "linear"}, default "auto"
         Passed to :func:`predict_inversion`: the resolved start of a large tilt (viscous law,
         3–25 ms more per point, growing with ω3) or the linear split always. With
@@ -823,7 +824,7 @@ def atlas(
     -----
     Each point is one :func:`predict_inversion` (about 1 ms for the viscous law, a few to 25 ms
     more where ``start="auto"`` resolves a large tilt's start, 20–100 ms for Coulomb–Contensou,
-    whose slow flow is an ODE in (θ, λ), 0.1–0.7 s where the top is predicted to hop before π/2
+    whose slow flow is an ODE in (θ, λ), 0.1–1 s where the top is predicted to hop before π/2
     and ``hops`` is True). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
     reads the atlas of the thesis top.
     """
