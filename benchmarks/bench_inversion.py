@@ -1,6 +1,6 @@
 """Speed of mett.predict_inversion against the compiled simulation it replaces.
 
-    python benchmarks/bench_inversion.py speed   # prediction vs simulation cost, growth with ω3
+    python benchmarks/bench_inversion.py speed [repeat]   # default and fast options vs simulation, growth with ω3
     python benchmarks/bench_inversion.py speed-averaged   # the same for method="averaged"
     python benchmarks/bench_inversion.py first-call   # the first prediction of a process: cold, warm
     python benchmarks/bench_inversion.py atlas   # the atlas figure
@@ -12,6 +12,7 @@ The 72-case verification table is made by ``python tools/inversion_table.py``.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 import time
@@ -29,31 +30,57 @@ def _best(fn, repeat: int = 3) -> float:
     return best
 
 
-def speed() -> None:
-    """Prediction vs the compiled simulation to t_half, in one run (best of 30 and of 5: the
-    best of many is the cost without the other processes of a shared machine), as ω3 (155 to
-    2480 rad/s, doubling) and as the number of nutations (μ smaller: a slower inversion) grow."""
+# The options whose costs speed() compares: the defaults (the resolved start of a large tilt,
+# the hop cycle after a predicted lift-off) and the fast ones (the linear split, the gliding
+# flow throughout: bounded cost).
+OPTIONS = {"default": {}, "fast": {"start": "linear", "hops": False}}
+
+
+def speed(repeat: str = "30") -> None:
+    """Prediction vs the compiled simulation to t_half, in one run, with the default and the fast
+    options (``start="linear", hops=False``), as ω3 (155 to 2480 rad/s, doubling) and as the
+    number of nutations (μ smaller: a slower inversion) grow.
+
+    Best of ``repeat`` for a fast prediction, of 5 for a default one (a hopping prediction takes
+    a tenth of a second or more) and of 3 for the simulation: the best of several is the cost
+    without the other processes of a shared machine. The simulation (rtol 1e-9, flights and
+    landings resolved where it hops) runs to the default prediction's t_half, the more accurate
+    one; both t_half are printed.
+    """
+    import os
+
+    n_fast = int(repeat)
+    print(f"load average {os.getloadavg()[0]:.1f} at the start")
     print(
-        "| μ (s/m) | ω3 (rad/s) | nutations to π/2 | prediction (ms) | compiled simulation (ms) | ratio |"
+        "| μ (s/m) | ω3 (rad/s) | nutations to π/2 | t_half default / fast (s) "
+        "| default (ms) | fast (ms) | compiled simulation (ms) | ratio default | ratio fast |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     cases = [(0.05, w) for w in (155.0, 310.0, 620.0, 1240.0, 2480.0)]
     for mu, omega3 in [*cases, (0.2, 155.0), (0.0125, 155.0)]:
         top = mett.presets.get("rutstam2013", mu=mu)
         state = mett.State.with_cm_at_rest(top, theta=0.1, omega3=omega3)
-        p = predict_inversion(top, state)
+        p = {k: predict_inversion(top, state, **kw) for k, kw in OPTIONS.items()}
         mett.simulate(top, state, 0.01, backend="compiled")  # compile outside the timing
-        tp = _best(lambda top=top, state=state: predict_inversion(top, state), 30)
+        tp = {}
+        for k, kw in OPTIONS.items():
+            call = functools.partial(predict_inversion, top, state, **kw)
+            tp[k] = _best(call, 5 if k == "default" else n_fast)
+        t_half = p["default"].t_half
         ts = _best(
-            lambda top=top, state=state, p=p: mett.simulate(
-                top, state, p.t_half, rtol=1e-9, backend="compiled"
+            lambda top=top, state=state, t=t_half: mett.simulate(
+                top, state, t, rtol=1e-9, backend="compiled"
             ),
-            5,
+            3,
         )
-        n = p.t_half / (2 * math.pi * top.I1 / (top.I3 * omega3))
+        n = t_half / (2 * math.pi * top.I1 / (top.I3 * omega3))
         print(
-            f"| {mu:g} | {omega3:.0f} | {n:.0f} | {1e3 * tp:.1f} | {1e3 * ts:.1f} | {tp / ts:.3f} |"
+            f"| {mu:g} | {omega3:.0f} | {n:.0f} | {t_half:.2f} / {p['fast'].t_half:.2f} "
+            f"| {1e3 * tp['default']:.1f} | {1e3 * tp['fast']:.1f} | {1e3 * ts:.1f} "
+            f"| {tp['default'] / ts:.2g} | {tp['fast'] / ts:.2g} |",
+            flush=True,
         )
+    print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 
 _FIRST_CALL = """

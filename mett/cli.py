@@ -758,7 +758,8 @@ def _cmd_predict(args: argparse.Namespace) -> int:
     state = _state_from_args(args, top)
     from .inversion import predict_inversion
 
-    p = predict_inversion(top, state, args.friction, method=args.method, tol=args.tol)
+    p = predict_inversion(top, state, args.friction, method=args.method, tol=args.tol,
+                          hops=args.hops, start=args.start)  # fmt: skip
     v = p.validity
     notes = list(v.notes)
     stem = _preset_stem(args)
@@ -992,11 +993,18 @@ def _build_parser() -> argparse.ArgumentParser:
                    help=friction_help)  # fmt: skip
     p.add_argument("--tol", type=_positive, default=0.05,
                    help="t_inv: mean theta within this of its end state [rad], in (0, 0.5)")  # fmt: skip
-    from .inversion import METHODS
+    from .inversion import METHODS, STARTS
 
     p.add_argument("--method", default="gyroscopic", choices=METHODS,
                    help="the reduction: gyroscopic balance (default, verified) or the averaged "
                         "METT flow (seconds, flagged unverified); docs: theory/inversion")  # fmt: skip
+    p.add_argument("--start", default="auto", choices=STARTS,
+                   help="auto (default): a large tilt's start resolved by a short run of the full "
+                        "model (accurate; 3-25 ms more, growing with omega3); linear: the linear "
+                        "mode split always (~1 ms, bounded cost)")  # fmt: skip
+    p.add_argument("--hops", action=argparse.BooleanOptionalAction, default=True,
+                   help="follow the hopping top after a predicted lift-off (0.1-1 s more where "
+                        "it hops); --no-hops: the gliding flow throughout")  # fmt: skip
     p.add_argument("--json", action="store_true", help=json_help)
     return parser
 

@@ -419,7 +419,15 @@ API: dict[str, tuple[Callable, st.SearchStrategy]] = {
         mett.load,
         _call(mixed(st.sampled_from(["missing.nc", "missing.npz", "x.txt", "", ".", "a.NC"]))),
     ),
-    "predict_inversion": (mett.predict_inversion, _call(tops(), states())),
+    "predict_inversion": (
+        mett.predict_inversion,
+        _call(
+            tops(),
+            states(),
+            start=mixed(st.sampled_from(["auto", "linear"])),
+            hops=mixed(st.booleans()),
+        ),
+    ),
     # presets
     "presets.get": (
         lambda name, kw: presets.get(name, **kw),

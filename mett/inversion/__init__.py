@@ -62,6 +62,10 @@ __all__ = ["InversionPrediction", "Validity", "atlas", "predict_inversion"]
 
 METHODS = ("gyroscopic", "averaged")
 
+STARTS = ("auto", "linear")
+"""Values of :func:`predict_inversion`'s ``start``: the resolved start where the linear split is
+unreliable (``"auto"``), or the linear split always (``"linear"``)."""
+
 
 # The box of the verification table (docs/theory/inversion.md#verification): outside it the
 # prediction is flagged. Set from the table, not the reverse.
@@ -101,6 +105,16 @@ SMALL_TILT = 0.03
 # friction force (mett.inversion._gyroscopic.cm_slip2); with it, the flow's own end decides
 # (docs/theory/inversion.md#coulombcontensou: right in 77 of the 78 simulated cases).
 CONTENSOU_MARGIN = 1.0
+
+
+def _check_options(hops: object, start: object) -> None:
+    """``hops`` and ``start`` of :func:`predict_inversion` and :func:`atlas`, before any work."""
+    if not isinstance(hops, bool):
+        raise TypeError(f"hops must be a bool; got {type(hops).__name__}")
+    if not isinstance(start, str):
+        raise TypeError(f"start must be a str, one of {STARTS}; got {type(start).__name__}")
+    if start not in STARTS:
+        raise ValueError(f"start must be one of {STARTS}; got {start!r}")
 
 
 def _law_name(law: Viscous | Coulomb | RegularisedCoulomb) -> str:
@@ -171,6 +185,7 @@ def predict_inversion(
     method: str = "gyroscopic",
     tol: float = 0.05,
     hops: bool = True,
+    start: str = "auto",
 ) -> InversionPrediction:
     """Predict whether, when and how a gliding tippe top inverts, without resolving the nutation.
 
@@ -204,7 +219,20 @@ def predict_inversion(
         to lift the top off before π/2 (``t_lift < t_half``), follow the hopping top after
         ``t_lift``: its flow runs at the power friction takes over the hop cycle, measured on
         short runs of that cycle with flight and landing (docs/theory/inversion.md#the-hopping-top;
-        0.05–1 s per such prediction, against ~1 ms). ``False``: the gliding flow throughout.
+        0.1–1 s per such prediction, against ~1 ms). ``False``: the gliding flow throughout
+        (bounded cost).
+    start : {"auto", "linear"}, default "auto"
+        How the start is split into the upright spin's modes (the growing mode's amplitude θ_u(0)
+        the slow flow starts from). ``"auto"``: the linear split (:func:`mett.escape_time`),
+        except for a large tilt mostly in the decaying modes (θ0 > 0.03, the linear
+        split leaving less than 0.3 θ0 in the growing mode; viscous law, method "gyroscopic"),
+        which is split after the decaying modes' transient on a short resolved run of the full
+        model (six e-foldings of the slip): accurate there (docs/theory/inversion.md#the-initial-tilt),
+        but it costs 3–25 ms more, growing with ω3 and the number of nutations. ``"linear"``:
+        the linear split always; with ``hops=False`` the prediction runs no simulation and costs
+        ~1 ms, bounded in ω3 and in the number of nutations, at the linear split's error on such
+        starts (−21 % to +7 % of ``t_half`` on the thesis top at θ0 = 0.1–0.3, ω3 = 155 rad/s;
+        −23 % at 620 rad/s, μ = 0.05 s/m; docs/theory/inversion.md#speed).
 
     Returns
     -------
@@ -216,10 +244,11 @@ def predict_inversion(
     Raises
     ------
     ValueError
-        If ``top`` is stemmed, ``method`` or ``tol`` is unknown/out of range, or the state is not
-        near the upright spin (θ0 >= π/2, λ <= 0).
+        If ``top`` is stemmed, ``method``, ``start`` or ``tol`` is unknown/out of range, or the
+        state is not near the upright spin (θ0 >= π/2, λ <= 0).
     TypeError
-        If ``top``, ``state`` or ``friction`` has the wrong type.
+        If ``top``, ``state`` or ``friction`` has the wrong type, ``hops`` is not a bool or
+        ``start`` not a str.
 
     Notes
     -----
@@ -228,7 +257,9 @@ def predict_inversion(
     θ(t) seen before an inversion, Rutstam 2013). For a large tilt (θ0 > 0.03, the linear split
     leaving less than 0.3 θ0 in that mode; viscous law, gyroscopic method) θ_u(0) is taken after
     the decaying modes' transient, from a short resolved run of the full model (a few
-    milliseconds more, growing with ω3; docs/theory/inversion.md, "The initial tilt"). Sources: Moffatt & Shimomura (2002); Ueda,
+    milliseconds more, growing with ω3; docs/theory/inversion.md, "The initial tilt"), unless
+    ``start="linear"``. Cost (docs/theory/inversion.md#speed): ~1 ms with ``start="linear",
+    hops=False``, whatever ω3 and the number of nutations. Sources: Moffatt & Shimomura (2002); Ueda,
     Sasaki & Watanabe (2005); Rauch-Wojciechowski & Rutstam (2014) for λ_thres.
     """
     if type(top).__name__ == "StemmedTop":
@@ -243,8 +274,7 @@ def predict_inversion(
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}; got {method!r}")
     tol = _validate.finite_scalar("tol", tol)
-    if not isinstance(hops, bool):
-        raise TypeError(f"hops must be a bool; got {type(hops).__name__}")
+    _check_options(hops, start)
     if not 0.0 < tol < 0.5:
         raise ValueError(f"tol must lie in (0, 0.5) rad; got {tol!r}")
     empty = functools.partial(_empty, tol=tol)
@@ -393,7 +423,8 @@ def predict_inversion(
         )
     amp = esc.amplitude
     if (
-        method == "gyroscopic"
+        start == "auto"
+        and method == "gyroscopic"
         and isinstance(law, Viscous)
         and theta0 > SMALL_TILT
         and amp < _nutation.SPLIT_FRACTION * theta0
@@ -816,6 +847,7 @@ def atlas(
     eps: float = 0.01,
     contensou_radius: float = 5e-4,
     hops: bool = True,
+    start: str = "auto",
 ) -> dict[str, dict[str, np.ndarray]]:
     """Predicted inversion times over a grid of friction coefficients and spins, per law.
 
@@ -839,7 +871,11 @@ def atlas(
         Contact-disc radius r (m) of "coulomb-contensou", > 0.
     hops : bool, default True
         Passed to :func:`predict_inversion`: follow the hopping top after a predicted lift-off
-        (0.1–1 s per such point); ``False`` keeps every point at ~1 ms.
+        (0.1–1 s per such point).
+    start : {"auto", "linear"}, default "auto"
+        Passed to :func:`predict_inversion`: the resolved start of a large tilt (viscous law,
+        3–25 ms more per point, growing with ω3) or the linear split always. With
+        ``start="linear", hops=False`` every point costs ~1 ms (Coulomb–Contensou: 20–100 ms).
 
     Returns
     -------
@@ -852,9 +888,10 @@ def atlas(
 
     Notes
     -----
-    Each point is one :func:`predict_inversion` (about 1 ms for the viscous law, 20–100 ms for
-    Coulomb–Contensou, whose slow flow is an ODE in (θ, λ), 0.1–1 s where the top is predicted
-    to hop before π/2 and ``hops`` is True). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
+    Each point is one :func:`predict_inversion` (about 1 ms for the viscous law, a few to 25 ms
+    more where ``start="auto"`` resolves a large tilt's start, 20–100 ms for Coulomb–Contensou,
+    whose slow flow is an ODE in (θ, λ), 0.1–1 s where the top is predicted to hop before π/2
+    and ``hops`` is True). docs/theory/inversion.md#the-friction-law-atlas-which-law-inverts-which-top-and-when
     reads the atlas of the thesis top.
     """
     mus = np.atleast_1d(np.asarray(mu, dtype=float))
@@ -865,6 +902,7 @@ def atlas(
     for name in laws:
         if name not in known:
             raise ValueError(f"laws must be among {known}; got {name!r}")
+    _check_options(hops, start)
     if "regularised-coulomb" in laws:
         eps = _validate.positive_scalar("eps", eps)
     if "coulomb-contensou" in laws:
@@ -891,7 +929,7 @@ def atlas(
                     st = State.with_cm_at_rest(top, theta=theta0, omega3=w)
                 else:
                     st = State(theta=theta0, omega3=w)
-                p = predict_inversion(top, st, law, hops=hops)
+                p = predict_inversion(top, st, law, hops=hops, start=start)
                 res["t_half"][i, j] = p.t_half
                 res["t_inv"][i, j] = p.t_inv if p.inverts else math.inf
                 res["inverts"][i, j] = -1 if p.inverts is None else float(p.inverts)
