@@ -87,7 +87,7 @@ def test_a_collapsed_band_follows_the_balance_flow(mu, omega3):
     # opens a little and the two differ at second order in its width.)
     top, state = _thesis_start(mu, omega3)
     avg = predict_inversion(top, state, Viscous(), method="averaged")
-    gyr = predict_inversion(top, state, Viscous())
+    gyr = predict_inversion(top, state, Viscous(), start="linear")  # the same start
     assert avg.inverts is True and gyr.inverts is True
     assert avg.t_half == pytest.approx(gyr.t_half, rel=1e-4)
 
@@ -162,7 +162,7 @@ def test_hopping_tops_are_flagged_by_the_nutation_criterion_on_the_averaged_path
     # the two paths agree to the band's floor kink, t_lift to 2 %.
     case = cases()[30]
     avg = predict_inversion(case.top, case.state, case.friction, method="averaged")
-    gyr = predict_inversion(case.top, case.state, case.friction)
+    gyr = predict_inversion(case.top, case.state, case.friction, start="linear")
     assert avg.inverts is True and avg.validity.outside_verified_range
     assert avg.t_lift < avg.t_half
     assert avg.t_lift == pytest.approx(gyr.t_lift, rel=0.02)
@@ -220,7 +220,7 @@ def test_contensou_averaged_flow_follows_the_balance_flow_in_theta_and_lambda(
              else mett.State(theta=theta0, omega3=omega3))  # fmt: skip
     law = Coulomb(mu, contensou_radius=r)
     avg = predict_inversion(top, state, law, method="averaged")
-    gyr = predict_inversion(top, state, law)
+    gyr = predict_inversion(top, state, law, start="linear")
     assert avg.inverts is gyr.inverts and avg.inverts is not None
     assert avg.t_half == pytest.approx(gyr.t_half, rel=1e-4)
     assert avg.validity.outside_verified_range

@@ -228,8 +228,10 @@ def predict_inversion(
         split leaving less than 0.3 θ0 in the growing mode; viscous law, method "gyroscopic"),
         which is split after the decaying modes' transient on a short resolved run of the full
         model (six e-foldings of the slip): accurate there (docs/theory/inversion.md#the-initial-tilt),
-        but it costs 3–25 ms more, growing with ω3 and the number of nutations. ``"linear"``:
-        the linear split always; with ``hops=False`` the prediction runs no simulation and costs
+        but it costs 3–25 ms more, growing with ω3 and the number of nutations; and for
+        Coulomb–Contensou a start whose slip is beyond the law's linear range is followed until
+        it is linear (docs/theory/inversion.md#a-start-beyond-the-laws-linear-range, 50–90 ms).
+        ``"linear"``: the linear split always; with ``hops=False`` the prediction runs no simulation and costs
         ~1 ms, bounded in ω3 and in the number of nutations, at the linear split's error on such
         starts (−21 % to +7 % of ``t_half`` on the thesis top at θ0 = 0.1–0.3, ω3 = 155 rad/s;
         −23 % at 620 rad/s, μ = 0.05 s/m; docs/theory/inversion.md#speed).
@@ -435,7 +437,7 @@ def predict_inversion(
         if resolved is not None:
             amp = resolved.amplitude
     if contensou and method != "averaged":
-        return _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty)
+        return _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty, start)
     if method == "averaged":
         return _predict_averaged(
             top, state, law, lam, theta_end, end.kind, tol, esc, modes, validity, empty
@@ -538,7 +540,7 @@ def predict_inversion(
     )
 
 
-def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty):
+def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty, start="auto"):
     """Coulomb–Contensou: the balance flow in (θ, λ), the drilling torque lowering λ
     (docs/theory/inversion.md#coulombcontensou)."""
     theta0 = float(state.theta)
@@ -550,7 +552,8 @@ def _predict_contensou(top, state, law, lam, tol, esc, modes, validity, empty):
     # A start whose slip is beyond the law's linear range: its saturated phase sets the inversion
     # mode's amplitude and λ where the slip becomes linear (docs/theory/inversion.md#a-start-beyond-the-laws-linear-range)
     t_sat, lam_flow = 0.0, lam
-    sat = saturated_start(top, law, state, t_max=10.0 * t_spin)
+    # (start="linear": the linear split of the start always, as for the other laws)
+    sat = saturated_start(top, law, state, t_max=10.0 * t_spin) if start == "auto" else None
     if sat is not None:
         t_sat, amp, lam_flow = float(sat.t[-1]), sat.amplitude, float(sat.lam[-1])
         # The mode may outgrow the linear regime before the slip is linear (a slow law, μ small):
