@@ -182,7 +182,7 @@ def test_impact_obeys_complementarity_the_balances_and_never_gains_energy(law):
                 np.testing.assert_allclose(P[i, :2], want, rtol=0.0, atol=1e-10 * Pscale)
         assert _kinetic(I, w1, V1) <= T0 * (1.0 + ROUND)
     assert (True, True) in seen and len(seen) >= 2, seen
-    assert failed <= 5
+    assert failed <= (0 if dry else 5)  # dry: Moreau's law where no active set fits
 
 
 RUN_LAWS = {

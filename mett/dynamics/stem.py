@@ -669,9 +669,10 @@ def two_contact_impact(
       normal velocity after it is ≥ 0 (it then opens) and the impulse equations end (no
       :class:`JumpFailed`);
     * the other contact closed before (normal velocity 0) and ``path`` given (the viscous law:
-      :func:`viscous_path`): ``path(frames, first)`` → (P (2, 3), closed), the two-contact
-      Darboux–Keller impact driven by the arriving contact, the other in the active set while
-      it is pushed; consistent by construction;
+      :func:`viscous_path`; the dry laws: :func:`contact_path`): ``path(frames, first)`` →
+      (P (2, 3), closed[, Q (2,)]) or None, the two-contact Darboux–Keller impact driven by the
+      arriving contact, the other in the active set while it is pushed; consistent by
+      construction;
     * both: ``both(frames)`` → (state, P (2, 3), Q (2,)) or None: the run's law with both normal
       velocities brought to 0 (:func:`viscous_closure`,
       :func:`mett.dynamics.stemslip.close_both`); consistent if both normal impulses are ≥ 0.
