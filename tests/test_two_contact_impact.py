@@ -182,7 +182,7 @@ def test_impact_obeys_complementarity_the_balances_and_never_gains_energy(law):
                 np.testing.assert_allclose(P[i, :2], want, rtol=0.0, atol=1e-10 * Pscale)
         assert _kinetic(I, w1, V1) <= T0 * (1.0 + ROUND)
     assert (True, True) in seen and len(seen) >= 2, seen
-    assert failed <= 5
+    assert failed <= (0 if dry else 5)  # dry: Moreau's law where no active set fits
 
 
 RUN_LAWS = {
@@ -336,3 +336,335 @@ def test_a_dry_impact_arriving_without_slip_slides_in_its_invariant_direction():
     assert not stuck and Q == 0.0
     # the nm/s slip before and the 2δ restart change P by ~1e-9 of itself
     np.testing.assert_allclose(P, want, rtol=0.0, atol=1e-7 * np.abs(want).max())
+
+
+# --- dry friction: the impact at both contacts always has a solution (issue 23) ----------------
+#
+# References written here from the definitions: the generalised Delassus matrix of the two
+# contacts (Π_i = (P_x, P_y, P_z[, Q_i/r*]) at a_i, g_i = (v_x, v_y, v_z[, r* ω_z])) assembled
+# column by column from Newton–Euler, Δ(mV) = Σ P_i, ΔL = Σ a_i × P_i + Σ Q_i ẑ; the law
+# checked component by component; and, as an independent solver of the same velocity-level
+# law, its modes enumerated (each contact open, sticking, or sliding along a unit direction u
+# with g⁺_t = s u, s > 0, Π_t = −μ Π_n u) and each mode's square system solved by
+# scipy.optimize.least_squares from a grid of directions.
+
+DRY_MU3 = {
+    "coulomb-mu3": Coulomb(3.0),
+    "contensou-mu3": Coulomb(3.0, contensou_radius=5e-4),
+}
+
+
+def _generalised(g, vz, rs):
+    """(W, g⁻, k) of a gliding-layout state with the vertical CM velocity ``vz``: the
+    generalised Delassus matrix from Newton–Euler applied to unit impulses, and the
+    generalised contact-point velocities before."""
+    e, I, w, V, arms = _body(g, vz)
+    k = 4 if rs > 0.0 else 3
+    Iinv = np.linalg.inv(I)
+    W = np.zeros((2 * k, 2 * k))
+    for j in range(2 * k):
+        Pi = np.zeros(2 * k)
+        Pi[j] = 1.0
+        P = [Pi[0:3], Pi[k : k + 3]]
+        dL = np.cross(arms[0], P[0]) + np.cross(arms[1], P[1])
+        if k == 4:
+            dL = dL + rs * (Pi[3] + Pi[7]) * Z
+        dw = Iinv @ dL
+        dV = (P[0] + P[1]) / B.m
+        for i in range(2):
+            dv = dV + np.cross(dw, arms[i])
+            W[i * k : i * k + 3, j] = dv
+            if k == 4:
+                W[i * k + 3, j] = rs * dw[2]
+    g0 = []
+    for a in arms:
+        v = V + np.cross(w, a)
+        g0 += [*v] + ([rs * w[2]] if k == 4 else [])
+    return W, np.array(g0), k
+
+
+def _tangential(k, i):
+    return [i * k + j for j in ((0, 1, 3) if k == 4 else (0, 1))]
+
+
+def _law_violation(W, g0, mu, k, x):
+    """The largest violation of the velocity-level impact law by the impulse ``x``, relative to
+    the impulse scale (impulses) and the largest speed before (velocities): P_n ≥ 0, g⁺_n ≥ 0,
+    P_n g⁺_n = 0, |Π_t| ≤ μ P_n, Π_t = −μ P_n ĝ⁺_t where g⁺_t ≠ 0; and the energy change
+    ΔT = Π·g⁺ − ½ΠᵀWΠ (≤ 0 wanted), relative to the kinetic scale."""
+    g = g0 + W @ x
+    vs = np.abs(g0).max()
+    ps = vs / min(W[2, 2], W[k + 2, k + 2])
+    worst = 0.0
+    for i in range(2):
+        r, t = i * k + 2, _tangential(k, i)
+        Pn, gn = x[r], g[r]
+        worst = max(worst, -Pn / ps, -gn / vs, min(Pn / ps, gn / vs))
+        worst = max(worst, (np.linalg.norm(x[t]) - mu * Pn) / ps)
+        slip = np.linalg.norm(g[t])
+        if slip > 1e-9 * vs:
+            worst = max(worst, np.abs(x[t] + mu * Pn * g[t] / slip).max() / ps)
+    dT = x @ g - 0.5 * x @ W @ x
+    return worst, dT / (ps * vs)
+
+
+def _failing_states():
+    """Random landings on both spheres at the touchdown angle with a contact approaching: all 29
+    of seed 17's 40 states, and the 3 states of seeds 1 and 2 (its 17th; its 6th and 29th) whose
+    landing ended with JumpFailed before at μ = 3."""
+    for seed, keep in ((17, None), (1, (17,)), (2, (6, 29))):
+        rng = np.random.default_rng(seed)
+        for n in range(40):
+            g, vz = _state(rng, vz=(-0.1, 0.05))
+            e, I, w, V, arms = _body(g, vz)
+            if (keep is None or n in keep) and min(V[2] + np.cross(w, a)[2] for a in arms) < 0.0:
+                yield n % 2, g, vz
+
+
+@pytest.mark.parametrize("law", list(DRY_MU3))
+def test_dry_impact_at_both_contacts_always_finds_its_solution(law):
+    """μ = 3, Coulomb and Coulomb–Contensou: every one of 32 random landings on both spheres
+    gets an impact (before, 3 of them under Coulomb and 5 under Contensou had no consistent
+    active set, JumpFailed "Painlevé-type inconsistency"): P_n ≥ 0, normal velocities after ≥ 0 and complementary, each
+    closed contact's generalised impulse in its cone, Δ(mV) and ΔL (with Q ẑ) the impulses'
+    sums, the kinetic energy not raised (all from the definitions here). And the solver of the
+    velocity-level law alone (stemslip.moreau_impulse) on the same states, from the Delassus
+    matrix assembled here: the whole law at both contacts (sliding opposite the slip after with
+    |Π_t| = μ P_n, sticking inside the cone), to 1e-9 of the impulse."""
+    fr = DRY_MU3[law]
+    p = _dry(fr)
+    rs = p[7]
+    count, kinds = 0, set()
+    for first, g, vz in _failing_states():
+        count += 1
+        e, I, w, V, arms = _body(g, vz)
+        T0 = _kinetic(I, w, V)
+        imp = stemslip.impact_both(g, vz, p, first)  # never raises
+        P, Q = imp.P, imp.Q
+        Pscale = np.abs(P).max()
+        V1 = V + P.sum(axis=0) / B.m
+        L1 = I @ w + np.cross(arms[0], P[0]) + np.cross(arms[1], P[1]) + Q.sum() * Z
+        np.testing.assert_allclose(imp.state[4:7], L1, rtol=0.0, atol=ROUND * np.abs(L1).max())
+        np.testing.assert_allclose(imp.state[2:4], V1[:2], rtol=0.0, atol=ROUND * 0.3)
+        w1 = np.linalg.solve(I, L1)
+        vscale = max(np.abs(V + np.cross(w, a)).max() for a in arms)
+        for i in range(2):
+            vn = (V1 + np.cross(w1, arms[i]))[2]
+            assert P[i, 2] >= -1e-9 * Pscale
+            assert vn >= -1e-9 * vscale
+            assert min(P[i, 2] / Pscale, vn / vscale) <= 1e-9  # complementary
+            Pt = math.hypot(P[i, 0], P[i, 1], Q[i] / rs) if rs > 0.0 else math.hypot(*P[i, :2])
+            assert Pt <= fr.mu * P[i, 2] + 1e-9 * Pscale
+        assert _kinetic(I, w1, V1) <= T0 * (1.0 + ROUND)
+        kinds.add(imp.closed)
+        # the velocity-level law by itself
+        W, g0, k = _generalised(g, vz, rs)
+        x = stemslip.moreau_impulse(W, g0, fr.mu, k)
+        assert x is not None
+        worst, dT = _law_violation(W, g0, fr.mu, k, x)
+        assert worst <= 1e-9 and dT <= 1e-12
+    assert count == 32
+    assert {(True, False), (False, True), (True, True)} <= kinds, kinds
+
+
+def _directions(n_t, phi):
+    if n_t == 2:
+        return np.array([math.cos(phi[0]), math.sin(phi[0])])
+    return np.array([math.cos(phi[0]) * math.cos(phi[1]), math.sin(phi[0]) * math.cos(phi[1]),
+                     math.sin(phi[1])])  # fmt: skip
+
+
+def _enumerated_solutions(W, g0, mu, k):
+    """All solutions of the velocity-level law found by enumerating the modes of both contacts
+    (open, stick, slide) and solving each mode's square system with scipy's least_squares from
+    a grid of sliding directions: the velocities after of those that satisfy the law."""
+    from scipy.optimize import least_squares
+
+    n_t = k - 1
+    out = []
+    vs = np.abs(g0).max()
+    ps = vs / min(W[2, 2], W[k + 2, k + 2])
+    grid = [np.array(v) for v in itertools.product(np.linspace(-3.0, 3.0, 5), repeat=n_t - 1)]
+    for modes in itertools.product(("open", "stick", "slide"), repeat=2):
+
+        def unpack(z, modes=modes):
+            x, j, dirs = np.zeros(2 * k), 0, {}
+            for i in range(2):
+                r, t = i * k + 2, _tangential(k, i)
+                if modes[i] == "stick":
+                    x[r], x[t] = z[j], z[j + 1 : j + 1 + n_t]
+                    j += 1 + n_t
+                elif modes[i] == "slide":
+                    u = _directions(n_t, z[j + 1 : j + n_t])
+                    x[r] = z[j]
+                    x[t] = -mu * z[j] * u
+                    dirs[i] = (u, z[j + n_t])
+                    j += 1 + n_t
+            return x, dirs
+
+        def resid(z, modes=modes):
+            x, dirs = unpack(z)
+            g = g0 + W @ x
+            res = []
+            for i in range(2):
+                r, t = i * k + 2, _tangential(k, i)
+                if modes[i] == "stick":
+                    res += [g[r] / vs, *(g[t] / vs)]
+                elif modes[i] == "slide":
+                    u, s = dirs[i]
+                    res += [g[r] / vs, *((g[t] - s * vs * u) / vs)]
+            return np.array(res)
+
+        size = sum(1 + n_t for m_ in modes if m_ != "open")
+        starts = [None] if size == 0 else []
+        if size:
+            for ang in itertools.product(np.linspace(-3.0, 3.0, 5), *([grid] if n_t == 3 else [])):
+                z = []
+                for i in range(2):
+                    if modes[i] == "stick":
+                        z += [ps, *np.zeros(n_t)]
+                    elif modes[i] == "slide":
+                        z += [ps, *np.atleast_1d(ang[0] if n_t == 2 else
+                                                 (ang[0], float(ang[1][0]))), 1.0]  # fmt: skip
+                starts.append(np.array(z, dtype=float))
+        for z0 in starts:
+            if z0 is None:
+                x = np.zeros(2 * k)
+            else:
+                sol = least_squares(resid, z0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+                if np.abs(sol.fun).max() > 1e-11:
+                    continue
+                x, dirs = unpack(sol.x)
+                if any(s <= 0.0 for _, s in dirs.values()):
+                    continue
+            worst, dT = _law_violation(W, g0, mu, k, x)
+            if worst <= 1e-9:
+                out.append(g0 + W @ x)
+    return out
+
+
+@pytest.mark.parametrize(
+    "law",
+    [Coulomb(0.3), pytest.param(Coulomb(0.3, contensou_radius=5e-4), marks=pytest.mark.slow)],
+    ids=["coulomb", "contensou"],
+)
+def test_velocity_level_solver_against_an_enumeration_of_its_modes(law):
+    """μ = 0.3: the velocities after the impact of stemslip.moreau_impulse equal those of the
+    independent solver (the modes enumerated, scipy's least_squares on each), which finds one
+    solution in velocity (the impulse along the line between the contacts is not determined: W
+    is singular there) for each of 8 random landings on both spheres, to 1e-8 of the speeds."""
+    p = _dry(law)
+    rs = p[7]
+    rng = np.random.default_rng(41)
+    done = 0
+    while done < 8:
+        g, vz = _state(rng, vz=(-0.1, 0.05))
+        W, g0, k = _generalised(g, vz, rs)
+        if min(g0[2], g0[k + 2]) >= 0.0:
+            continue
+        done += 1
+        x = stemslip.moreau_impulse(W, g0, law.mu, k)
+        assert x is not None
+        ref = _enumerated_solutions(W, g0, law.mu, k)
+        assert ref
+        vs = np.abs(g0).max()
+        distinct = [v for j, v in enumerate(ref)
+                    if all(np.abs(v - u).max() > 1e-8 * vs for u in ref[:j])]  # fmt: skip
+        assert len(distinct) == 1
+        np.testing.assert_allclose(g0 + W @ x, distinct[0], rtol=0.0, atol=1e-8 * vs)
+
+
+def test_velocity_level_solver_without_friction_is_the_lcp():
+    """μ = 0: the impulse of stemslip.moreau_impulse is normal and is the unique solution of
+    the normal LCP (its four active sets enumerated here), to 1e-10 of the impulse."""
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        g, vz = _state(rng)
+        W, g0, k = _generalised(g, vz, 0.0)
+        if min(g0[2], g0[5]) >= 0.0:
+            continue
+        x = stemslip.moreau_impulse(W, g0, 0.0, k)
+        ((_, P_ref),) = _lcp_enumeration(W[np.ix_([2, 5], [2, 5])], g0[[2, 5]])
+        scale = np.abs(P_ref).max()
+        np.testing.assert_allclose(x[[2, 5]], P_ref, rtol=0.0, atol=1e-10 * scale)
+        assert np.abs(x[[0, 1, 3, 4]]).max() <= 1e-12 * scale
+
+
+def _change_of_contact(rng, rs):
+    """A state on the stem (flag 1, L_z form) whose ball arrives (θ̇ < 0), slips up to 3 m/s."""
+    g, _ = _state(rng, rock=0.0)
+    g[2:4] *= 10.0
+    e, I, w, _, arms = _body(g, 0.0)
+    nodal = np.cross(Z, e) / np.linalg.norm(np.cross(Z, e))
+    w = w - rng.uniform(0.5, 20.0) * nodal
+    return np.concatenate((g[:4], I @ w, g[7:10])), I, w, arms
+
+
+@pytest.mark.parametrize(
+    "law",
+    [Coulomb(0.0), Coulomb(1.0), Coulomb(1.0, contensou_radius=5e-4)],
+    ids=["mu0", "coulomb-mu1", "contensou-mu1"],
+)
+def test_dry_landing_on_the_ball_while_the_stem_is_closed(law):
+    """The ball landing while the stem's contact is closed, dry law: the single impact if the
+    stem then opens, else the dry two-contact Darboux–Keller path (stem.contact_path: the stem
+    in the active set while pushed, stick–slip at both contacts), else the velocity-level law.
+    At μ = 1 (slips up to 3 m/s) 8 of the 30 take the path and end with both closed. Always
+    an impact: P_n ≥ 0 at both, the stem's normal velocity after ≥ 0 and complementary,
+    both impulses in their cones, the balances, the energy not raised; μ = 0: the normal LCP's
+    solution (enumerated here), to 1e-9 of the impulse."""
+    p = _dry(law)
+    rs = p[7]
+    rng = np.random.default_rng(29)
+    closed = set()
+    for _ in range(30):
+        g, I, w, arms = _change_of_contact(rng, rs)
+        V = np.array([g[2], g[3], -np.cross(w, arms[1])[2]])  # the stem's constraint
+        T0 = _kinetic(I, w, V)
+        imp = stemslip.impact_both(g, None, p, 0)
+        closed.add(imp.closed)
+        P, Q = imp.P, imp.Q
+        Pscale = np.abs(P).max()
+        V1 = V + P.sum(axis=0) / B.m
+        L1 = I @ w + np.cross(arms[0], P[0]) + np.cross(arms[1], P[1]) + Q.sum() * Z
+        np.testing.assert_allclose(imp.state[4:7], L1, rtol=0.0, atol=ROUND * np.abs(L1).max())
+        w1 = np.linalg.solve(I, L1)
+        vscale = max(np.abs(V + np.cross(w, a)).max() for a in arms)
+        for i in range(2):
+            vn = (V1 + np.cross(w1, arms[i]))[2]
+            assert P[i, 2] >= -1e-9 * Pscale and vn >= -1e-9 * vscale
+            assert min(P[i, 2] / Pscale, vn / vscale) <= 1e-9
+            Pt = math.hypot(P[i, 0], P[i, 1], Q[i] / rs) if rs > 0.0 else math.hypot(*P[i, :2])
+            assert Pt <= law.mu * P[i, 2] + 1e-9 * Pscale
+        assert _kinetic(I, w1, V1) <= T0 * (1.0 + ROUND)
+        if law.mu == 0.0:
+            W, g0, k = _generalised(g, V[2], rs)
+            ((_, P_ref),) = _lcp_enumeration(W[np.ix_([2, 5], [2, 5])], g0[[2, 5]])
+            np.testing.assert_allclose(P[:, 2], P_ref, rtol=0.0, atol=1e-9 * Pscale)
+    assert (True, True) in closed or law.mu == 0.0, closed
+
+
+def test_dry_path_of_a_contact_arriving_without_slip_is_the_plastic_impact():
+    """The dry path (stem.contact_path) when the ball arrives straight down without slip while
+    the stem's contact is closed and at rest, μ = 1 and 10: the ball sticks throughout (its
+    plastic impulse is well inside the cone, |P_t|/P_n ≈ 0.08 here) and the stem opens, so the
+    impulse is the closed form P_1 = −W_11⁻¹ v_1⁻ (the 3×3 block of the Delassus matrix
+    assembled here), P_2 = 0, the stem's normal velocity after > 0, to 1e-9 of the impulse."""
+    rng = np.random.default_rng(3)
+    for mu in (1.0, 10.0):
+        for _ in range(4):
+            g, _ = _state(rng, rock=0.0)
+            e, I, w, V, arms = _body(g, 0.0)
+            # V + ω × a_i = (0, 0, v_i): the ball's contact down at v_1 < 0, the stem's at rest
+            rows = [np.hstack([np.eye(3), -_skew(a)]) for a in arms]
+            v1 = -rng.uniform(0.01, 0.2)
+            x = np.linalg.lstsq(np.vstack(rows), [0, 0, v1, 0, 0, 0], rcond=None)[0]
+            g = np.concatenate(([0.0, 0.0], x[:2], I @ x[3:], g[7:10]))
+            W, g0, k = _generalised(g, x[2], 0.0)
+            Pi, closed = stem.contact_path(W, g0, 0, stemslip._dry_law(mu), k, mu)
+            want = np.linalg.solve(W[:3, :3], -g0[:3])
+            assert math.hypot(*want[:2]) < 0.1 * want[2]
+            assert not closed
+            np.testing.assert_allclose(Pi[:3], want, rtol=0.0, atol=1e-9 * np.abs(want).max())
+            np.testing.assert_allclose(Pi[3:], 0.0, rtol=0.0, atol=1e-9 * np.abs(want).max())
+            assert (g0 + W @ Pi)[5] > 0.0

@@ -669,9 +669,10 @@ def two_contact_impact(
       normal velocity after it is ≥ 0 (it then opens) and the impulse equations end (no
       :class:`JumpFailed`);
     * the other contact closed before (normal velocity 0) and ``path`` given (the viscous law:
-      :func:`viscous_path`): ``path(frames, first)`` → (P (2, 3), closed), the two-contact
-      Darboux–Keller impact driven by the arriving contact, the other in the active set while
-      it is pushed; consistent by construction;
+      :func:`viscous_path`; the dry laws: :func:`contact_path`): ``path(frames, first)`` →
+      (P (2, 3), closed[, Q (2,)]) or None, the two-contact Darboux–Keller impact driven by the
+      arriving contact, the other in the active set while it is pushed; consistent by
+      construction;
     * both: ``both(frames)`` → (state, P (2, 3), Q (2,)) or None: the run's law with both normal
       velocities brought to 0 (:func:`viscous_closure`,
       :func:`mett.dynamics.stemslip.close_both`); consistent if both normal impulses are ≥ 0.
@@ -704,11 +705,15 @@ def two_contact_impact(
             if res is None:
                 continue
             Ps, closed_b = np.asarray(res[0], dtype=float), res[1]
-            v = _after_velocities(frames[first], m, I1, I3, arms, list(Ps), 0.0)
+            Qs = np.asarray(res[2], dtype=float) if len(res) > 2 else np.zeros(2)
+            v = _after_velocities(frames[first], m, I1, I3, arms, list(Ps), Qs)
             closed = (True, True) if closed_b else (first == 0, first == 1)
-            state = (closed_on_both(y, frames, m, Ps, p) if closed_b
-                     else _impulses_applied(y, frames, m, Ps, float(first)))  # fmt: skip
-            return TwoContactImpact(closed, Ps, np.zeros(2), v, state)
+            state = _impulses_applied(y, frames, m, Ps, 2.0 if closed_b else float(first))
+            if np.any(Qs):  # Contensou's drilling impulses
+                state[6] += float(np.sum(Qs))
+            if closed_b:
+                state = on_both(state, p)
+            return TwoContactImpact(closed, Ps, Qs, v, state)
         if v0[i] >= -tol:  # no impulse at i: the other contact still approaches
             continue
         try:
@@ -794,7 +799,8 @@ def viscous_path(
 ) -> tuple[np.ndarray, bool] | None:
     """The two-contact Darboux–Keller impact of the viscous law when the contact ``first``
     arrives and the other is closed (normal velocity 0): the impulses (2, 3) (N s) and whether
-    the other contact is closed at the end (:func:`two_contact_impact`).
+    the other contact is closed at the end (:func:`two_contact_impact`; the path of
+    :func:`contact_path` with the law dP_t = −μ v_t dp).
 
     The arriving contact a compresses with its normal impulse p as the time-like variable,
     dP_a = (−μ v_a,t, 1) dp, as in :func:`darboux_keller`. The other contact b is in the active
@@ -808,59 +814,240 @@ def viscous_path(
     unit normal impulse in place of the viscous (−μ v_x, −μ v_y) (as
     :func:`compression_impulse` takes it; ``mu`` then only sets the stiffness test).
     """
-    from scipy.integrate import solve_ivp
-
-    a, b = first, 1 - first
     W = two_contact_delassus(frames, m)
-    Wba, Wbb = W[3 * b : 3 * b + 3, 3 * a : 3 * a + 3], W[3 * b : 3 * b + 3, 3 * b : 3 * b + 3]
     v0 = np.concatenate([f.v for f in frames])
-    sa, sb = slice(3 * a, 3 * a + 3), slice(3 * b, 3 * b + 3)
-
-    law = (lambda vx, vy: (-mu * vx, -mu * vy)) if tangential is None else tangential
-
-    def rates(z: np.ndarray, active: bool) -> tuple[np.ndarray, float]:
-        va, vb = z[sa], z[sb]
-        dP = np.zeros(6)
-        dP[sa] = (*law(va[0], va[1]), 1.0)
-        q = 0.0
-        if active:
-            ub = np.array([*law(vb[0], vb[1]), 1.0])
-            q = -float((Wba @ dP[sa])[2]) / float((Wbb @ ub)[2])
-            dP[sb] = q * ub
-        return np.concatenate((W @ dP, dP)), q
-
-    def end(_: float, z: np.ndarray) -> float:
-        return z[3 * a + 2]
-
-    end.terminal, end.direction = True, 1.0  # type: ignore[attr-defined]
-    z = np.concatenate((v0, np.zeros(6)))
-    z[3 * b + 2] = 0.0  # closed: its constraint's velocity (rounding removed)
-    active = bool(rates(z, False)[0][3 * b + 2] < 0.0)  # pushed down from the start: joins
-    p0, p1 = 0.0, 10.0 * -v0[3 * a + 2] / W[3 * a + 2, 3 * a + 2]
-    atol = 1e-15 * (1.0 + float(np.max(np.abs(v0))))
+    p1 = 10.0 * -v0[3 * first + 2] / W[3 * first + 2, 3 * first + 2]
     if mu * np.linalg.norm(W, 2) * p1 > 1e3:
         # the slips relax over an impulse ~ 1/(μ|W|) far below the impact's (darboux_keller's
         # stiff case): an explicit method would need ~ μ|W| p1 steps; not this path
         return None
-    for _ in range(200):
+    law = (lambda vx, vy: (-mu * vx, -mu * vy)) if tangential is None else tangential
+    res = contact_path(W, v0, first, law)
+    return None if res is None else (res[0].reshape(2, 3), res[1])
 
-        def switch(_: float, z: np.ndarray, active: bool = active) -> float:
-            return rates(z, True)[1] if active else z[3 * b + 2]
+
+PATH_SLIP = 1e-9
+"""The slip (relative to the largest contact-point speed before the impact) below which a
+contact of the dry :func:`contact_path` counts as stopped: it sticks if its cone holds, else
+its slip restarts at twice this (as :func:`mett.dynamics.stemslip.dry_impulse`)."""
+
+
+def contact_path(
+    W: np.ndarray, v0: np.ndarray, first: int, law: Any, k: int = 3, mu: float | None = None
+) -> tuple[np.ndarray, bool] | None:
+    """The two-contact Darboux–Keller impact when the contact ``first`` arrives and the other is
+    closed: the generalised impulses Π (2k,) (N s per component) and whether the other contact
+    is closed at the end. One algorithm for every friction law (:func:`viscous_path`, the dry
+    laws' path of :mod:`.stemslip`; docs/theory/stem.md#two-contact-impact).
+
+    ``W`` (kg⁻¹): the generalised Delassus matrix of the two contacts, Δg = W Π, ``v0`` the
+    generalised velocities g = (v_x, v_y, v_z[, r* ω_z]) of both contact points before (k = 3,
+    or 4 with a drilling component). ``law(*g_t)``: the tangential impulse per unit normal
+    impulse of a sliding contact, a function of its tangential velocity g_t (viscous −μ g_t,
+    dry −μ ĝ_t). The arriving contact a compresses with its normal impulse p as the time-like
+    variable, dΠ_a = (law(g_a,t), 1) dp; the other, b, is in the active set while it is pushed,
+    dΠ_b = q (law(g_b,t), 1) dp with q ≥ 0 from dg_b,z = 0; it joins when g_b,z falls to 0 and
+    leaves when q falls to 0; the impact ends when g_a,z reaches 0.
+
+    ``mu``: the dry law's coefficient (None: a law without stick). A sliding contact whose slip
+    falls to :data:`PATH_SLIP` sticks for as long as the tangential impulse that keeps its slip
+    at 0 lies in its cone (|dΠ_a,t| ≤ μ dp, |dΠ_b,t| ≤ μ q dp; with b sticking q comes from the
+    same linear system); else, or when that impulse reaches the cone's edge, its slip restarts
+    opposite to that impulse (the friction then pushes as far as it can the way sticking
+    needs). None where the dry law cannot hold the closed contact with a compressive impulse
+    (the determinant of the equations for the rates falls to 0: q → ∞, a Painlevé-type
+    inconsistency of the path; the caller tries the other sets). Raises :class:`JumpFailed` if
+    the impulse equations do not reach the end of compression.
+    """
+    from scipy.integrate import solve_ivp
+
+    a, b = first, 1 - first
+    n = 2 * k
+    tl = [0, 1, 3] if k == 4 else [0, 1]
+    sa, sb = slice(k * a, k * a + k), slice(k * b, k * b + k)
+    ta, tb = [k * a + j for j in tl], [k * b + j for j in tl]
+    na, nb = k * a + 2, k * b + 2
+    Wba, Wbb = W[sb, sa], W[sb, sb]
+    eye = np.eye(n)
+
+    def unit(v: np.ndarray) -> np.ndarray:
+        """(law(g_t), 1) in a contact's generalised slots."""
+        if k == 3:
+            return np.array([*law(v[0], v[1]), 1.0])
+        tx, ty, tw = law(v[0], v[1], v[3])
+        return np.array([tx, ty, 1.0, tw])
+
+    def rates(z: np.ndarray, active: bool, stick: tuple = (False, False)) -> tuple:
+        va, vb = z[sa], z[sb]
+        dP = np.zeros(n)
+        q = 0.0
+        if not any(stick):
+            dP[sa] = unit(va)
+            if active:
+                ub = unit(vb)
+                q = -float((Wba @ dP[sa])[2]) / float((Wbb @ ub)[2])
+                dP[sb] = q * ub
+            return np.concatenate((W @ dP, dP)), q, dP
+        return stuck(z, active, stick)
+
+    def stuck(z: np.ndarray, active: bool, stick: tuple) -> tuple:
+        va, vb = z[sa], z[sb]
+        # a sticking contact: its tangential rates (and q) keep its slip at 0 (dg_t = 0)
+        base, cols, rows = np.zeros(n), [], []
+        if stick[0]:
+            base[na] = 1.0
+            cols += [eye[j] for j in ta]
+            rows += ta
+        else:
+            base[sa] = unit(va)
+        if active:
+            if stick[1]:
+                cols += [eye[nb]] + [eye[j] for j in tb]
+                rows += [nb, *tb]
+            else:
+                ub = np.zeros(n)
+                ub[sb] = unit(vb)
+                cols.append(ub)
+                rows.append(nb)
+        U = np.column_stack(cols)
+        # least squares: with both sticking the impulse along the line between the contacts is
+        # not determined (W's null space); the minimum-norm split is taken
+        x = np.linalg.lstsq((W @ U)[rows], -(W @ base)[rows], rcond=None)[0]
+        dP = base + U @ x
+        q = float(dP[nb])
+        return np.concatenate((W @ dP, dP)), q, dP
+
+    def jam(z: np.ndarray, active: bool, stick: tuple) -> float:
+        """The determinant of the equations for the impulse rates of the active contacts,
+        relative to that of their frictionless part (1 at μ = 0): at 0 the closed contact b
+        cannot be held by a compressive impulse that obeys the dry law (q → ∞, Painlevé)."""
+        if not active or all(stick):  # both sticking: singular by the line's internal impulse
+            return 1.0
+        rows = ([*ta] if stick[0] else []) + [nb] + ([*tb] if stick[1] else [])
+        cols = [W[:, j] for j in ta] if stick[0] else []
+        if stick[1]:
+            cols += [W[:, j] for j in (nb, *tb)]
+        else:
+            ub = np.zeros(n)
+            ub[sb] = unit(z[sb])
+            cols.append(W @ ub)
+        M = np.column_stack(cols)[rows]
+        return float(np.linalg.det(M) / np.linalg.det(W[np.ix_(rows, rows)]))
+
+    def end(_: float, z: np.ndarray) -> float:
+        return z[na]
+
+    end.terminal, end.direction = True, 1.0  # type: ignore[attr-defined]
+    z = np.concatenate((v0, np.zeros(n)))
+    z[nb] = 0.0  # closed: its constraint's velocity (rounding removed)
+    active = bool(rates(z, False)[0][nb] < 0.0)  # pushed down from the start: joins
+    p0, p1 = 0.0, 10.0 * -v0[na] / W[na, na]
+    atol = 1e-15 * (1.0 + float(np.max(np.abs(v0))))
+    eta = PATH_SLIP * float(np.max(np.abs(v0)))
+    stick = [False, False]
+
+    def kick(z: np.ndarray, i: int, target: np.ndarray) -> np.ndarray:
+        """z after the impulse at contact i's tangential slots (and b's normal one while b is
+        active, keeping g_b,z) that sets i's slip to ``target``: rounding-level (~η)."""
+        rows = (ta if i == 0 else tb) + ([nb] if active else [])
+        want = np.concatenate((target, [z[nb]] if active else []))
+        x = np.linalg.solve(W[np.ix_(rows, rows)], want - z[rows])
+        out = np.array(z)
+        out[:n] += W[:, rows] @ x
+        out[n:][rows] += x
+        return out
+
+    def decide(z: np.ndarray, i: int, slide: bool = False) -> np.ndarray:
+        """Contact i (0: a, 1: b) stopped: it sticks if its cone holds (and not ``slide``: its
+        sticking impulse at the cone's edge), else its slip restarts (2η) opposite to the
+        tangential impulse that sticking needs."""
+        want = [stick[0], stick[1]]
+        want[i] = True
+        _, q, dP = rates(z, active, tuple(want))
+        t = dP[ta if i == 0 else tb]
+        normal = 1.0 if i == 0 else q
+        if not slide and normal >= 0.0 and float(np.linalg.norm(t)) <= mu * normal:
+            stick[i] = True
+            return kick(z, i, np.zeros(len(tl)))
+        stick[i] = False
+        return kick(z, i, -2.0 * eta * t / max(float(np.linalg.norm(t)), 1e-300))
+
+    def pushed(z: np.ndarray, active: bool) -> bool:
+        """Whether b is (still) in the active set in the current modes: pushed down if it is
+        not, its rate q ≥ 0 if it is (a mode change can turn either at once)."""
+        if active:
+            return rates(z, True, tuple(stick))[1] >= 0.0
+        return bool(z[nb] <= 0.0 and rates(z, False, tuple(stick))[0][nb] < 0.0)
+
+    if mu is not None:  # the dry law: the modes at the start
+        if float(np.linalg.norm(z[ta])) <= eta:
+            z = decide(z, 0)
+        active = pushed(z, False)
+        if active and float(np.linalg.norm(z[tb])) <= eta:
+            z = decide(z, 1)
+        active = active and pushed(z, True)
+        stick[1] = stick[1] and active
+        if jam(z, active, tuple(stick)) <= 0.0:
+            return None
+    for _ in range(200):
+        mode = (stick[0], stick[1])
+
+        def switch(_: float, z: np.ndarray, active: bool = active, mode: tuple = mode) -> float:
+            return rates(z, True, mode)[1] if active else z[nb]
 
         switch.terminal, switch.direction = True, -1.0  # type: ignore[attr-defined]
-        sol = solve_ivp(lambda _, z, act=active: rates(z, act)[0], (p0, p1), z, method="DOP853",
-                        events=(end, switch), rtol=1e-13, atol=atol)  # fmt: skip
+        events: list = [end, switch]
+        if mu is not None:
+
+            def slip_a(_: float, z: np.ndarray, act: bool = active, mode: tuple = mode) -> float:
+                if mode[0]:  # the cone's margin of the sticking impulse, per unit dp
+                    return mu - float(np.linalg.norm(rates(z, act, mode)[2][ta]))
+                return float(np.linalg.norm(z[ta])) - eta
+
+            def slip_b(_: float, z: np.ndarray, act: bool = active, mode: tuple = mode) -> float:
+                if not act:
+                    return 1.0
+                if mode[1]:
+                    _, q, dP = rates(z, act, mode)
+                    return mu * q - float(np.linalg.norm(dP[tb]))
+                return float(np.linalg.norm(z[tb])) - eta
+
+            def jammed(_: float, z: np.ndarray, act: bool = active, mode: tuple = mode) -> float:
+                return jam(z, act, mode)
+
+            slip_a.terminal = slip_b.terminal = jammed.terminal = True  # type: ignore[attr-defined]
+            slip_a.direction = slip_b.direction = jammed.direction = -1.0  # type: ignore[attr-defined]
+            events += [slip_a, slip_b, jammed]
+        sol = solve_ivp(lambda _, z, act=active, mode=mode: rates(z, act, mode)[0], (p0, p1), z,
+                        method="DOP853", events=events, rtol=1e-13, atol=atol)  # fmt: skip
         if sol.status == -1:
             raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
         if sol.t_events[0].size:
-            z = sol.y_events[0][0]
-            return z[6:].reshape(2, 3), active
-        if sol.t_events[1].size:  # b joins or leaves the active set
-            z, p0, active = sol.y_events[1][0], float(sol.t_events[1][0]), not active
-            if not active:
-                z[3 * b + 2] = max(z[3 * b + 2], 0.0)
-        else:  # the impact goes on (friction can drive the contact down first)
+            return sol.y_events[0][0][n:], active
+        hit = [j for j in range(1, len(events)) if sol.t_events[j].size]
+        if not hit:  # the impact goes on (friction can drive the contact down first)
             z, p0, p1 = sol.y[:, -1], p1, 10.0 * p1
+            continue
+        j = hit[0]
+        z, p0 = np.array(sol.y_events[j][0]), float(sol.t_events[j][0])
+        if j == 1:  # b joins or leaves the active set
+            active = not active
+            if not active:
+                z[nb] = max(z[nb], 0.0)
+                stick[1] = False
+            elif mu is not None and float(np.linalg.norm(z[tb])) <= eta:
+                z = decide(z, 1)
+            if mu is not None and jam(z, active, tuple(stick)) <= 0.0:
+                return None
+        elif j == 4:  # the closed contact can no longer be held (Painlevé): not this set
+            return None
+        else:  # a slip stopped (stick or restart) or a sticking impulse reached its cone
+            i = j - 2
+            z = decide(z, i, slide=mode[i])
+            if active and not pushed(z, True):  # b no longer pushed in the new mode: leaves
+                active, stick[1] = False, False
+            if jam(z, active, tuple(stick)) <= 0.0:
+                return None
     raise JumpFailed("impact: the impulse equations did not reach the end of compression")
 
 

@@ -102,7 +102,10 @@ __all__ = [
     "close_both",
     "dry_impulse",
     "impact",
+    "impact_both",
     "land_both",
+    "moreau_check",
+    "moreau_impulse",
     "transition",
 ]
 
@@ -1258,14 +1261,42 @@ def transition(
 def _two_contact(
     y: np.ndarray, p: tuple, first: int, vz: float | None = None
 ) -> tuple[np.ndarray, stem.TwoContactImpact]:
-    """The impact at both contacts (:func:`mett.dynamics.stem.two_contact_impact`) of the
-    λ-form state ``y`` with the dry law: one contact by :func:`dry_impulse`, both by
-    :func:`close_both`. Returns the state to continue from (this model's layout: a single
+    """The impact at both contacts of the λ-form state ``y`` with the dry law
+    (:func:`_impact_both`). Returns the state to continue from (this model's layout: a single
     contact's slip settled; both closed: the double contact if both normal forces are positive,
     :func:`_enter_both`) and the impact."""
+    imp = _impact_both(y, p, first, vz)
+    if all(imp.closed):
+        return _enter_both(imp.state, p), imp
+    q = _contact(p, imp.closed[1])
+    return dry.settle(_converted(imp.state, p, dry.from_gliding), q), imp
+
+
+def impact_both(g: np.ndarray, vz: float | None, p: tuple, first: int) -> stem.TwoContactImpact:
+    """The dry impact at both contacts (:func:`mett.dynamics.stem.two_contact_impact`) of the
+    gliding-layout state ``g`` (L_z in row 6) whose sphere ``first`` (0 ball, 1 stem) arrives
+    while the other's gap is 0: its vertical CM velocity ``vz`` (m/s; None: the other contact is
+    closed, its constraint's). The impact only, before the slip is settled or the double contact
+    entered (:func:`land_both` continues from it)."""
+    y = np.append(np.asarray(g, dtype=float)[:10], float(first))
+    if vz is None:  # the state is on the other contact
+        y[10] = float(1 - first)
+    return _impact_both(_converted(y, p, dry.from_gliding), p, first, vz)
+
+
+def _impact_both(
+    y: np.ndarray, p: tuple, first: int, vz: float | None = None
+) -> stem.TwoContactImpact:
+    """The impact at both contacts (:func:`mett.dynamics.stem.two_contact_impact`) of the
+    λ-form state ``y`` with the dry law: one contact by :func:`dry_impulse`; the other contact
+    closed before, the dry two-contact Darboux–Keller path (:func:`mett.dynamics.stem.
+    contact_path` with stick–slip); both by :func:`close_both` (else :func:`_moreau_closure`).
+    Where no active set is consistent, Moreau's velocity-level law (:func:`_moreau_two_contact`),
+    which always has a solution."""
     m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
     on = ("ball", "stem")[round(float(y[10]))]
     yl = _lz(y, p)
+    k = _gen(rs)
 
     def single(f: stem.ImpactFrame) -> tuple:
         P, Q, _ = dry_impulse(f, m, mu, rs)
@@ -1279,15 +1310,36 @@ def _two_contact(
                 after, Pi, _ = _moreau_closure(y, p, on, vz)
             except JumpFailed:
                 return None
-        k = _gen(rs)
         Q = rs * np.array([Pi[3], Pi[7]]) if k == 4 else np.zeros(2)
         return after, np.array([Pi[0:3], Pi[k : k + 3]]), Q
 
-    imp = stem.two_contact_impact(yl, _viscous(p), first, single, both, vz)
-    if all(imp.closed):
-        return _enter_both(imp.state, p), imp
-    q = _contact(p, imp.closed[1])
-    return dry.settle(_converted(imp.state, p, dry.from_gliding), q), imp
+    def path(frames: Any, first: int) -> tuple | None:
+        arms = [f.a for f in frames]
+        f = frames[0]
+        W = _delassus2(f.e, f.Iinv, m, arms, rs)
+        g0 = _gvel(f.V, f.w, arms, rs)
+        res = stem.contact_path(W, g0, first, _dry_law(mu), k, mu if mu > 0.0 else None)
+        if res is None:  # the closed contact jams: not this set
+            return None
+        Pi, closed = res
+        Q = rs * np.array([Pi[3], Pi[7]]) if k == 4 else np.zeros(2)
+        return np.array([Pi[0:3], Pi[k : k + 3]]), closed, Q
+
+    try:
+        return stem.two_contact_impact(yl, _viscous(p), first, single, both, vz, path)
+    except JumpFailed:  # no active set fits: the velocity-level law, which has a solution
+        return _moreau_two_contact(y, p, first, vz)
+
+
+def _dry_law(mu: float) -> Any:
+    """The dry law's tangential impulse per unit normal impulse of a sliding contact, −μ ĝ_t
+    (g_t its tangential generalised velocity; :func:`mett.dynamics.stem.contact_path`)."""
+
+    def law(*gt: float) -> tuple:
+        s = math.sqrt(sum(c * c for c in gt))
+        return tuple(-mu * c / s if s > 0.0 else 0.0 for c in gt)
+
+    return law
 
 
 def _moreau_closure(
@@ -1359,6 +1411,206 @@ def _moreau_closure(
         "both contacts close, but no impulse satisfies the dry law at both (a Painlevé-type "
         "inconsistency of the impulse law): the run ends there"
     )
+
+
+# --- the velocity-level impact law at both contacts (Moreau), solved where no active set fits -
+
+
+MOREAU_RTOL = 1e-12
+"""Residual of :func:`moreau_impulse`'s Alart–Curnier equations at which Newton's iteration
+stops, relative to the impulse scale max|g⁻| / min W_ii,nn (a few hundred ulps of the impulse:
+the equations are solved to rounding, quadratically convergent near the root)."""
+
+MOREAU_CHECK = 1e-9
+"""Allowance of :func:`moreau_check`, relative to the impulse scale (impulses) or to the largest
+generalised contact-point speed before the impact (velocities): the law is checked far above
+the solve's residual (:data:`MOREAU_RTOL`) and far below any physical effect."""
+
+
+MOREAU_RHO = (1.0, 0.1, 10.0, 0.3, 3.0, 0.01, 100.0)
+"""Factors of the Alart–Curnier parameters ρ_i = 1/W_ii,nn tried in turn by
+:func:`moreau_impulse`: every ρ > 0 has the same roots, but Newton's basin of convergence
+depends on it (at μ = 3 one start can stall on a local minimum of ½|Φ|² at one ρ and converge
+at another)."""
+
+
+def _tangent_rows(k: int, i: int) -> list[int]:
+    """Rows of contact ``i``'s tangential components (x, y[, r* ω_z]) in a generalised vector."""
+    return [i * k + j for j in ((0, 1, 3) if k == 4 else (0, 1))]
+
+
+def _alart_curnier(
+    x: np.ndarray, W: np.ndarray, g0: np.ndarray, mu: float, k: int, rho: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The Alart–Curnier function Φ(Π) of the velocity-level impact law and a member of its
+    generalised Jacobian (:func:`moreau_impulse`). Per contact i, with g = g⁻ + W Π, ρ_i > 0,
+    a_i = Π_n,i − ρ_i g_n,i and b_i = Π_t,i − ρ_i g_t,i:
+
+        Φ_n,i = Π_n,i − max(a_i, 0),   Φ_t,i = Π_t,i − proj(b_i; |·| ≤ μ max(a_i, 0)).
+
+    Φ = 0 exactly when Π_n,i ≥ 0, g_n,i ≥ 0, Π_n,i g_n,i = 0, |Π_t,i| ≤ μ Π_n,i and Π_t,i is
+    −μ Π_n,i ĝ_t,i wherever g_t,i ≠ 0 (Alart & Curnier 1991)."""
+    n = W.shape[0]
+    g = g0 + W @ x
+    eye = np.eye(n)
+    F = np.empty(n)
+    J = np.empty((n, n))
+    for i in range(n // k):
+        r, t, h = i * k + 2, _tangent_rows(k, i), rho[i]
+        a = x[r] - h * g[r]
+        if a > 0.0:
+            F[r], J[r] = h * g[r], h * W[r]
+        else:
+            F[r], J[r] = x[r], eye[r]
+        b = x[t] - h * g[t]
+        nb = float(np.linalg.norm(b))
+        rad = mu * max(a, 0.0)
+        if nb <= rad:  # inside the disc: sticking, g_t = 0
+            F[t], J[t] = h * g[t], h * W[t]
+        else:  # on its rim: Π_t = rad b̂
+            u = b / nb
+            db = eye[t] - h * W[t]
+            dr = mu * (eye[r] - h * W[r]) if a > 0.0 else np.zeros(n)
+            F[t] = x[t] - rad * u
+            J[t] = eye[t] - np.outer(u, dr) - (rad / nb) * (db - np.outer(u, u @ db))
+    return F, J
+
+
+def moreau_impulse(
+    W: np.ndarray, g0: np.ndarray, mu: float, k: int, starts: Any = ()
+) -> np.ndarray | None:
+    """The generalised impulse Π (N s per component) of the perfectly inelastic impact at
+    several contacts under Moreau's velocity-level law with Coulomb (k = 3) or Coulomb–Contensou
+    (k = 4) friction, or None if Newton's iteration finds none.
+
+    ``W`` (kg⁻¹): the generalised Delassus matrix, Δg = W Π (:func:`_delassus2`); ``g0``: the
+    generalised velocities g = (v_x, v_y, v_z[, r* ω_z]) of the contact points before (m/s).
+    The law at each contact i, with g⁺ = g⁻ + W Π:
+
+        Π_n,i ≥ 0,  g⁺_n,i ≥ 0,  Π_n,i g⁺_n,i = 0;
+        |Π_t,i| ≤ μ Π_n,i,  and Π_t,i = −μ Π_n,i ĝ⁺_t,i where g⁺_t,i ≠ 0
+
+    (Moreau 1988; Glocker 2001; Acary & Brogliato 2008, ch. 13): a contact opens or closes, and
+    a closed one sticks inside its cone or slides with the impulse opposite to its slip after
+    the impact. It is solved as Φ(Π) = 0 with the Alart–Curnier function
+    (:func:`_alart_curnier`, ρ_i = 1/W_ii,nn) by a semismooth Newton method (least-squares steps,
+    as W is only semidefinite for two contacts on a plane; Armijo backtracking on ½|Φ|²), from
+    each of ``starts`` and then from the frictionless solution (the normal LCP by its active
+    sets), the all-sticking impulse and 0. A solution exists for every μ ≥ 0 and every g⁻
+    (docs/theory/stem.md#two-contact-impact); Newton's iteration is not guaranteed to find it,
+    and the answer is checked (:func:`moreau_check`)."""
+    n = W.shape[0]
+    nc = n // k
+    nr = [i * k + 2 for i in range(nc)]
+    rho = np.array([1.0 / W[r, r] for r in nr])
+    scale = max(float(np.max(np.abs(g0))), 1e-300) * float(np.max(rho))
+    tol = MOREAU_RTOL * scale
+    guesses = [np.asarray(s, dtype=float) for s in starts]
+    Wnn = W[np.ix_(nr, nr)]
+    for active in range(1, 2**nc):  # the frictionless LCP: its consistent active set
+        idx = [nr[i] for i in range(nc) if active >> i & 1]
+        x = np.zeros(n)
+        x[idx] = np.linalg.solve(W[np.ix_(idx, idx)], -g0[idx])
+        gn = g0[nr] + Wnn @ x[nr]
+        if np.min(x[nr]) >= -tol and np.min(gn) >= -MOREAU_RTOL * scale / np.max(rho):
+            guesses.append(x)
+            break
+    guesses.append(np.linalg.lstsq(W, -g0, rcond=None)[0])
+    guesses.append(np.zeros(n))
+    # ρ sets the basin of Newton's convergence, not the root: the same starts with ρ scaled
+    tries = [(x, f) for f in MOREAU_RHO for x in guesses]
+    for x, f in tries:
+        x = np.array(x, dtype=float)
+        F, J = _alart_curnier(x, W, g0, mu, k, f * rho)
+        theta = 0.5 * float(F @ F)
+        for _ in range(200):
+            if theta <= 0.5 * tol * tol:
+                if moreau_check(W, g0, mu, k, x):
+                    return x
+                break
+            d = np.linalg.lstsq(J, -F, rcond=None)[0]
+            step = 1.0
+            while step > 1e-12:  # Armijo on ½|Φ|² along the Newton direction (slope −|Φ|²)
+                xn = x + step * d
+                Fn, Jn = _alart_curnier(xn, W, g0, mu, k, f * rho)
+                thn = 0.5 * float(Fn @ Fn)
+                if thn <= (1.0 - 2e-4 * step) * theta:
+                    break
+                step *= 0.5
+            else:
+                break  # no descent: a local minimum of the merit, not a root
+            x, F, J, theta = xn, Fn, Jn, thn
+    return None
+
+
+def moreau_check(W: np.ndarray, g0: np.ndarray, mu: float, k: int, x: np.ndarray) -> bool:
+    """Whether the generalised impulse ``x`` satisfies the velocity-level impact law of
+    :func:`moreau_impulse` to :data:`MOREAU_CHECK`: normal impulses ≥ 0, normal velocities after
+    ≥ 0 and complementary; each tangential impulse in its cone, opposite to the slip after
+    with magnitude μ Π_n where that slip is not 0; the kinetic energy not raised,
+    ΔT = Π·g⁺ − ½ ΠᵀWΠ ≤ 0 (generalised velocities and impulses are work-conjugate)."""
+    n = W.shape[0]
+    g = g0 + W @ x
+    vs = max(float(np.max(np.abs(g0))), 1e-300)
+    ps = vs * max(1.0 / W[i * k + 2, i * k + 2] for i in range(n // k))
+    if not np.all(np.isfinite(x)):
+        return False
+    for i in range(n // k):
+        r, t = i * k + 2, _tangent_rows(k, i)
+        Pn, gn = float(x[r]), float(g[r])
+        if Pn < -MOREAU_CHECK * ps or gn < -MOREAU_CHECK * vs:
+            return False
+        if min(Pn / ps, gn / vs) > MOREAU_CHECK:  # complementarity
+            return False
+        Pt, gt = x[t], g[t]
+        if np.linalg.norm(Pt) > mu * max(Pn, 0.0) + MOREAU_CHECK * ps:
+            return False
+        slip = float(np.linalg.norm(gt))
+        if slip > MOREAU_CHECK * vs:  # sliding: −μ Π_n ĝ_t
+            want = -mu * max(Pn, 0.0) * gt / slip
+            if np.max(np.abs(Pt - want)) > MOREAU_CHECK * ps:
+                return False
+    return float(x @ g - 0.5 * x @ W @ x) <= MOREAU_CHECK * ps * vs
+
+
+def _moreau_two_contact(
+    y: np.ndarray, p: tuple, first: int, vz: float | None = None
+) -> stem.TwoContactImpact:
+    """The impact at both contacts by Moreau's velocity-level law (:func:`moreau_impulse`) of
+    the λ-form state ``y``: where no active set of :func:`mett.dynamics.stem.two_contact_impact`
+    is consistent (a single Darboux–Keller impact that drives the other contact into the table,
+    and no dry closure). Its state is on both contacts (flag 2, :func:`_apply2`) if both close,
+    else on the one that closes (flag 0/1; the other's impulse is 0). Raises
+    :class:`JumpFailed` naming the state if Newton's iteration finds no solution."""
+    m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
+    on = ("ball", "stem")[round(float(y[10]))]
+    yl = _lz(y, p)
+    f = impact_frame(yl, _viscous(p), "stem" if on == "ball" else "ball", vz)
+    arms = _arms(f.e, p)
+    W = _delassus2(f.e, f.Iinv, m, arms, rs)
+    g0 = _gvel(f.V, f.w, arms, rs)
+    k = _gen(rs)
+    x = moreau_impulse(W, g0, mu, k)
+    if x is None:
+        raise JumpFailed(
+            "both contacts at an impact: no active set fits and Newton's iteration found no "
+            f"solution of the velocity-level impact law (theta = {math.acos(f.e[2]):.9g} rad, "
+            f"contact-point velocities {np.array2string(g0, precision=6)} m/s): the run ends "
+            "there"
+        )
+    g = g0 + W @ x
+    vs = float(np.max(np.abs(g0)))
+    closed = tuple(bool(g[i * k + 2] <= MOREAU_CHECK * vs) for i in range(2))
+    P = np.array([x[0:3], x[k : k + 3]])
+    Q = rs * np.array([x[3], x[7]]) if k == 4 else np.zeros(2)
+    if all(closed):
+        state = _apply2(yl, p, f.L, arms, x)
+    else:  # one contact closes: the other's impulse is 0 (complementarity, to rounding)
+        i = 0 if closed[0] else 1
+        P[1 - i], Q[1 - i] = 0.0, 0.0
+        fi = impact_frame(yl, _viscous(p), ("ball", "stem")[i], float(f.V[2]))
+        state = apply_impulse(yl, fi, m, P[i], ("ball", "stem")[i], float(Q[i]))
+    return stem.TwoContactImpact(closed, P, Q, g[[2, k + 2]], state)
 
 
 def land_both(
