@@ -966,6 +966,7 @@ def contact_path(
         _, q, dP = rates(z, active, tuple(want))
         t = dP[ta if i == 0 else tb]
         normal = 1.0 if i == 0 else q
+        assert mu is not None  # a contact stops under the dry laws only
         if not slide and normal >= 0.0 and float(np.linalg.norm(t)) <= mu * normal:
             stick[i] = True
             return kick(z, i, np.zeros(len(tl)))

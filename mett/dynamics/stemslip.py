@@ -1600,7 +1600,7 @@ def _moreau_two_contact(
         )
     g = g0 + W @ x
     vs = float(np.max(np.abs(g0)))
-    closed = tuple(bool(g[i * k + 2] <= MOREAU_CHECK * vs) for i in range(2))
+    closed = (bool(g[2] <= MOREAU_CHECK * vs), bool(g[k + 2] <= MOREAU_CHECK * vs))
     P = np.array([x[0:3], x[k : k + 3]])
     Q = rs * np.array([x[3], x[7]]) if k == 4 else np.zeros(2)
     if all(closed):
