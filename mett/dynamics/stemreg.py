@@ -36,6 +36,7 @@ runs it on the Taylor backend, as the ball top's "coulomb-regularised".
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -63,9 +64,11 @@ __all__ = [
     "LAW",
     "MODEL",
     "both_core",
+    "closure",
     "impact",
     "normal_forces",
     "slip_coefficient",
+    "two_contact",
 ]
 
 _VISCOUS_LEN = 9
@@ -238,6 +241,166 @@ def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
     return apply_impulse(y, f, p[ix.M], P, to), P
 
 
+def _skew(a: np.ndarray) -> np.ndarray:
+    """[a×], the matrix of a × x."""
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+# --- the impact at both contacts ----------------------------------------------------------------
+
+_PATH_METHOD = ("LSODA", 1e-10, 1e-14)
+"""The two-contact path's integration (:func:`mett.dynamics.stem.viscous_path`): that of the
+single impact (:func:`mett.dynamics.flight.regularised_impulse`), whose stiffness, μ|W|/ε per
+unit normal impulse where |v_t| ≲ ε, LSODA follows with its BDF steps."""
+
+
+def _tangential(mu: float, eps: float) -> Any:
+    """The law's tangential impulse per unit normal impulse, (v_x, v_y) → −c(|v_t|) v_t."""
+
+    def law(vx: float, vy: float) -> tuple[float, float]:
+        k = -mu / math.sqrt(vx * vx + vy * vy + eps * eps)
+        return k * vx, k * vy
+
+    return law
+
+
+def _moreau(frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.ndarray) -> tuple:
+    """For normal impulses ``w`` (N s, ≥ 0) as the weights of the law: the velocity u⁺ = (V, ω)
+    after the impact and the normal impulses λ (N s) that bring both normal velocities to 0
+    with the tangential impulses P_t,i = −w_i c(|v⁺_t,i|) v⁺_t,i (:func:`closure`).
+
+    u⁺ minimises ½ (u − u⁻)ᵀ M (u − u⁻) + Σ_i w_i μ √(|v_t,i(u)|² + ε²) over the u with
+    v_n,1 = v_n,2 = 0 (M = diag(m 𝟙, I), v_i = V + ω × a_i): stationarity is
+    M(u⁺ − u⁻) = Σ_i (λ_i ẑ + P_t,i) at a_i with λ the constraints' multipliers. The function is
+    smooth and strictly convex, so the minimum is unique: Newton's method on its KKT system with
+    a backtracking line search, started from ``u`` (feasible) with ε replaced by
+    δ = 10^k ε ≥ ε decreasing to ε (each minimum the next start: the law's curvature
+    μ/δ grows gradually). Returns (u⁺, λ, P_t (2, 2))."""
+    f0 = frames[0]
+    I = np.linalg.inv(f0.Iinv)
+    M = np.zeros((6, 6))
+    M[:3, :3], M[3:, 3:] = m * np.eye(3), I
+    u0 = np.concatenate((f0.V, f0.w))
+    J = [np.hstack((np.eye(3), -_skew(f.a))) for f in frames]  # v_i = J_i u
+    C = np.array([Ji[2] for Ji in J])
+    Jt = [Ji[:2] for Ji in J]
+    scale = float(u0 @ M @ u0)
+
+    def parts(u: np.ndarray, d: float) -> tuple:
+        F = 0.5 * (u - u0) @ M @ (u - u0)
+        g, H = M @ (u - u0), M.copy()
+        for wi, Ji in zip(w, Jt, strict=True):
+            if wi <= 0.0:
+                continue
+            v = Ji @ u
+            s = math.sqrt(v @ v + d * d)
+            F += wi * mu * s
+            g = g + wi * mu * (Ji.T @ v) / s
+            H = H + wi * mu * Ji.T @ ((np.eye(2) - np.outer(v, v) / (s * s)) / s) @ Ji
+        return F, g, H
+
+    vmax = max(float(np.max(np.abs(f.v))) for f in frames)
+    d = max(eps, vmax)
+    lam = np.zeros(2)
+    while True:
+        for _ in range(60):
+            F, g, H = parts(u, d)
+            K = np.zeros((8, 8))
+            K[:6, :6], K[:6, 6:], K[6:, :6] = H, -C.T, C
+            sol = np.linalg.solve(K, np.concatenate((-g, -C @ u)))
+            du, lam = sol[:6], sol[6:]
+            dec = float(du @ H @ du)
+            if dec <= 1e-28 * scale:
+                break
+            t = 1.0
+            while t > 1e-12 and parts(u + t * du, d)[0] > F - 0.25 * t * dec:
+                t *= 0.5
+            u = u + t * du
+        if d == eps:
+            break
+        d = max(eps, 0.1 * d)
+    Pt = np.array([-wi * mu * (Ji @ u) / math.sqrt((Ji @ u) @ (Ji @ u) + eps * eps)
+                   if wi > 0.0 else np.zeros(2) for wi, Ji in zip(w, Jt, strict=True)])  # fmt: skip
+    return u, lam, Pt
+
+
+def closure(frames: Any, m: float, mu: float, eps: float) -> np.ndarray | None:
+    """The impulses (2, 3) (N s) that bring both normal velocities to 0 under the regularised
+    law, or None if no solution is found: the two-contact impact with both contacts closed
+    (:func:`mett.dynamics.stem.two_contact_impact`).
+
+    Moreau's velocity-level form, as :func:`mett.dynamics.stem.viscous_closure`, with the
+    coefficient at the post-impact slip: v⁺ = v⁻ + W P, v⁺_n,1 = v⁺_n,2 = 0,
+
+        P_t,i = −P_n,i c(|v⁺_t,i|) v⁺_t,i,   c(|v|) = μ/√(|v|² + ε²).
+
+    For given normal impulses the tangential ones are unique: they are those of the minimum of
+    a strictly convex function (:func:`_moreau`), whose multipliers λ(P_n) are the normal
+    impulses that close both contacts with them. The closure is the fixed point P_n = λ(P_n),
+    solved by Powell's hybrid method from the frictionless P_n (the solution at μ = 0). It
+    exists wherever k = μ ‖W_nn⁻¹ W_nt‖ < 1: the law's impulse lies inside the Coulomb cone,
+    |P_t,i| < μ P_n,i, so |λ(P_n) − λ(0)| ≤ k |P_n| and λ maps the ball |P_n| ≤ |λ(0)|/(1 − k)
+    into itself (Brouwer); it is unique where λ is a contraction (small k, large ε: the
+    viscous limit), which is not proven in general — the result is checked against the law.
+    The kinetic energy changes by ΔT = −Σ P_n,i c_i |v⁺_t,i|² − ½ PᵀWP ≤ 0 when P_n ≥ 0.
+    """
+    from scipy.optimize import root
+
+    f0 = frames[0]
+    M = np.zeros((6, 6))
+    M[:3, :3], M[3:, 3:] = m * np.eye(3), np.linalg.inv(f0.Iinv)
+    C = np.array([np.hstack((np.eye(3), -_skew(f.a)))[2] for f in frames])
+    u0 = np.concatenate((f0.V, f0.w))
+    # the frictionless closure: the projection of u⁻ onto v_n = 0 in the metric M
+    MinvCt = np.linalg.solve(M, C.T)
+    lam0 = -np.linalg.solve(C @ MinvCt, C @ u0)
+    start = [u0 + MinvCt @ lam0]  # the last minimum: the next evaluation's start
+    if mu == 0.0:
+        return np.array([[0.0, 0.0, lam0[0]], [0.0, 0.0, lam0[1]]])
+
+    def fixed(w: np.ndarray) -> np.ndarray:
+        u, lam, _ = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0])
+        start[0] = u
+        return lam - w
+
+    sol = root(fixed, lam0, method="hybr", options={"xtol": 1e-13})
+    Pn_scale = float(np.max(np.abs(lam0)))
+    w = sol.x
+    if not np.all(np.isfinite(w)) or np.max(np.abs(fixed(w))) > 1e-10 * Pn_scale:
+        return None
+    _, lam, Pt = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0])
+    return np.column_stack((Pt, lam))
+
+
+def two_contact(
+    y: np.ndarray, p: tuple, first: int, vz: float | None = None
+) -> stem.TwoContactImpact:
+    """The impact at both contacts (:func:`mett.dynamics.stem.two_contact_impact`) of state
+    ``y`` under the regularised law, the sphere ``first`` (0 ball, 1 stem) arriving, ``vz`` the
+    vertical CM velocity (m/s; None: that of the contact of its flag): one contact by the
+    Darboux–Keller impact of :func:`impact`; the other closed before and pushed by the
+    two-contact path of :func:`mett.dynamics.stem.viscous_path` with the coefficient
+    c(|v_t|) of each contact's slip; both by :func:`closure`."""
+    from .flight import regularised_impulse  # flight imports the stem modules
+
+    m, mu, eps = p[ix.M], p[ix.MU], p[ix.STEM_EPS]
+    q = _viscous(p)
+    law = _tangential(mu, eps)
+
+    def single(f: stem.ImpactFrame) -> tuple:
+        return regularised_impulse(f.v, f.W, mu, eps), 0.0
+
+    def both(frames: Any) -> tuple | None:
+        P = closure(frames, m, mu, eps)
+        return None if P is None else (stem.closed_on_both(y, frames, m, P, q), P, np.zeros(2))
+
+    def path(frames: Any, a: int) -> tuple | None:
+        # c ≤ μ/ε sets the stiffness; LSODA integrates it wherever it is stiff
+        return stem.viscous_path(frames, m, mu / eps, a, law, _PATH_METHOD)
+
+    return stem.two_contact_impact(y, q, first, single, both, vz, path)
+
+
 def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
     d = both_core(np.asarray(y, dtype=float), p)
     return float(d[1]), float(d[2])
@@ -258,7 +421,7 @@ def normal_forces(Y: np.ndarray, p: tuple) -> tuple[np.ndarray, np.ndarray]:
     return ball, stem_
 
 
-LAW = StemLaw(impact, _both_forces, normal_forces)
+LAW = StemLaw(impact, _both_forces, normal_forces, two_contact)
 """The regularised law's :class:`mett.dynamics.stem.StemLaw` (impacts and forces)."""
 
 
