@@ -264,7 +264,9 @@ def _tangential(mu: float, eps: float) -> Any:
     return law
 
 
-def _moreau(frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.ndarray) -> tuple:
+def _moreau(
+    frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.ndarray, d: float
+) -> tuple:
     """For normal impulses ``w`` (N s, ≥ 0) as the weights of the law: the velocity u⁺ = (V, ω)
     after the impact and the normal impulses λ (N s) that bring both normal velocities to 0
     with the tangential impulses P_t,i = −w_i c(|v⁺_t,i|) v⁺_t,i (:func:`closure`).
@@ -273,9 +275,9 @@ def _moreau(frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.n
     v_n,1 = v_n,2 = 0 (M = diag(m 𝟙, I), v_i = V + ω × a_i): stationarity is
     M(u⁺ − u⁻) = Σ_i (λ_i ẑ + P_t,i) at a_i with λ the constraints' multipliers. The function is
     smooth and strictly convex, so the minimum is unique: Newton's method on its KKT system with
-    a backtracking line search, started from ``u`` (feasible) with ε replaced by
-    δ = 10^k ε ≥ ε decreasing to ε (each minimum the next start: the law's curvature
-    μ/δ grows gradually). Returns (u⁺, λ, P_t (2, 2))."""
+    a backtracking line search, started from ``u`` (feasible) with ε replaced by δ = ``d``,
+    then d/10, … down to ε (each minimum the next start: the law's curvature μ/δ grows
+    gradually). Returns (u⁺, λ, P_t (2, 2))."""
     f0 = frames[0]
     I = np.linalg.inv(f0.Iinv)
     M = np.zeros((6, 6))
@@ -299,8 +301,7 @@ def _moreau(frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.n
             H = H + wi * mu * Ji.T @ ((np.eye(2) - np.outer(v, v) / (s * s)) / s) @ Ji
         return F, g, H
 
-    vmax = max(float(np.max(np.abs(f.v))) for f in frames)
-    d = max(eps, vmax)
+    d = max(eps, d)
     lam = np.zeros(2)
     while True:
         for _ in range(60):
@@ -309,11 +310,15 @@ def _moreau(frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.n
             K[:6, :6], K[:6, 6:], K[6:, :6] = H, -C.T, C
             sol = np.linalg.solve(K, np.concatenate((-g, -C @ u)))
             du, lam = sol[:6], sol[6:]
-            dec = float(du @ H @ du)
-            if dec <= 1e-28 * scale:
+            dec = float(du @ H @ du)  # twice the decrease of the quadratic model
+            if dec <= 1e-28 * scale:  # |du| ~ 1e-14 of |u| in the energy norm
                 break
             t = 1.0
-            while t > 1e-12 and parts(u + t * du, d)[0] > F - 0.25 * t * dec:
+            # far from the minimum: a backtracking line search (Armijo); near it, where F's
+            # decrease ~ dec would drown in its rounding (1e-16 F), Newton's full step
+            while (
+                dec > 1e-14 * scale and t > 1e-12 and parts(u + t * du, d)[0] > F - 0.25 * t * dec
+            ):
                 t *= 0.5
             u = u + t * du
         if d == eps:
@@ -358,9 +363,11 @@ def closure(frames: Any, m: float, mu: float, eps: float) -> np.ndarray | None:
     if mu == 0.0:
         return np.array([[0.0, 0.0, lam0[0]], [0.0, 0.0, lam0[1]]])
 
+    d = [max(float(np.max(np.abs(f.v))) for f in frames)]  # the first continuation's start
+
     def fixed(w: np.ndarray) -> np.ndarray:
-        u, lam, _ = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0])
-        start[0] = u
+        u, lam, _ = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0], d[0])
+        start[0], d[0] = u, eps  # the next from this minimum, at ε
         return lam - w
 
     sol = root(fixed, lam0, method="hybr", options={"xtol": 1e-13})
@@ -368,7 +375,7 @@ def closure(frames: Any, m: float, mu: float, eps: float) -> np.ndarray | None:
     w = sol.x
     if not np.all(np.isfinite(w)) or np.max(np.abs(fixed(w))) > 1e-10 * Pn_scale:
         return None
-    _, lam, Pt = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0])
+    _, lam, Pt = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0], d[0])
     return np.column_stack((Pt, lam))
 
 
