@@ -38,7 +38,8 @@ docs/theory/stem.md#two-contact-impact): normal impulses ≥ 0, normal velocitie
 complementary, solved by its active sets — one contact by the impact above; with the other
 contact closed before, the two-contact Darboux–Keller path (:func:`viscous_path`); both by
 :func:`viscous_closure` — unique without friction (the 2×2 normal Delassus block is positive
-definite).
+definite). The regularised Coulomb law's (:func:`mett.dynamics.stemreg.two_contact`) is the
+same with its coefficient c(|v_t|) (:class:`StemLaw`'s ``two_contact``).
 
 Under dry friction (``friction=Coulomb(...)``) the model "stemmed-coulomb" of :mod:`.stemslip`
 runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the

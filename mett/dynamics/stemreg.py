@@ -27,6 +27,15 @@ impact of the stem page with this law in impulse form,
 ∫ (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp is ≤ 0 during compression. Flights and landings are those
 of :mod:`.flight` with the same landing law.
 
+With both spheres on the table when one arrives (a change of contact whose old contact is
+closed, a flight landing at the touchdown angle: "double touchdown") the impact acts at both
+contacts (:func:`two_contact`, docs/theory/stem.md#two-contact-impact): the active sets of
+:func:`mett.dynamics.stem.two_contact_impact` with this law's single impact, the two-contact
+Darboux–Keller path of :func:`mett.dynamics.stem.viscous_path` with c(|v_t|) at each contact,
+and the closure of both normal velocities with c at the post-impact slip (:func:`closure`,
+Moreau's velocity-level form). A state where no set is consistent ends the run with status
+"failed" at the impact, the trajectory kept.
+
 Limits (tests/test_stem_regularised.py): for |ν| ≪ ε the law is the viscous one with
 μ_visc = μ/ε (s/m); as ε → 0 it tends to Coulomb's sliding force −μ g_n ν̂ while the contact
 slips. Stiffness: where |ν| ≲ ε the slip relaxes at a rate ~ μ g |W| m/ε, so a small ε makes
@@ -343,10 +352,13 @@ def closure(frames: Any, m: float, mu: float, eps: float) -> np.ndarray | None:
     a strictly convex function (:func:`_moreau`), whose multipliers λ(P_n) are the normal
     impulses that close both contacts with them. The closure is the fixed point P_n = λ(P_n),
     solved by Powell's hybrid method from the frictionless P_n (the solution at μ = 0). It
-    exists wherever k = μ ‖W_nn⁻¹ W_nt‖ < 1: the law's impulse lies inside the Coulomb cone,
-    |P_t,i| < μ P_n,i, so |λ(P_n) − λ(0)| ≤ k |P_n| and λ maps the ball |P_n| ≤ |λ(0)|/(1 − k)
-    into itself (Brouwer); it is unique where λ is a contraction (small k, large ε: the
-    viscous limit), which is not proven in general — the result is checked against the law.
+    exists wherever k = μ max_j Σ_i ‖(W_nn⁻¹ W_nt)_j,i‖ < 1 (row j, the 1×2 block of contact
+    i): the law's impulse lies inside the Coulomb cone, |P_t,i| < μ P_n,i, so
+    ‖λ(P_n) − λ(0)‖_∞ ≤ k ‖P_n‖_∞ and λ maps the box ‖P_n‖_∞ ≤ ‖λ(0)‖_∞/(1 − k) into itself
+    (Brouwer; k = 0.69 for the thesis body with a stem at μ = 0.3, 1.25 for friedl1997, where
+    the bound does not decide). It is unique where λ is a contraction (small k, large ε: the
+    viscous limit), which is not proven in general — the result is checked against the law,
+    and None (the set inconsistent: JumpFailed, status "failed") if the solve fails.
     The kinetic energy changes by ΔT = −Σ P_n,i c_i |v⁺_t,i|² − ½ PᵀWP ≤ 0 when P_n ≥ 0.
     """
     from scipy.optimize import root
