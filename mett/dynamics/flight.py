@@ -70,6 +70,7 @@ from .dense import SegmentedSolution
 from .gliding import gliding_core
 from .hybrid import geometric_tail, solve_hybrid
 from .registry import JumpFailed
+from .stemreg import regularised_impulse  # the regularised law's impulse, re-exported
 from .stickslip import Switch
 from .trajectory import Trajectory
 
@@ -560,25 +561,6 @@ def viscous_impulse(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
         raise JumpFailed("impact: the impulse equations could not be solved (no end of "
                          "compression)")  # fmt: skip
     return P
-
-
-def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) -> np.ndarray:
-    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact under the
-    regularised Coulomb law, dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp, dv = W dP, from the contact
-    velocity ``v0`` (v0_z < 0) until v_z = 0: :func:`mett.dynamics.stem.darboux_keller` with
-    this law's tangential force per unit normal impulse. Stiff where |v_t| ≲ ε only if the
-    impulse is large (its stiffness is μ|W|/ε per unit p, over p ≲ m|v_z|): LSODA, which switches
-    between Adams and BDF steps, takes ~10 steps where Radau took ~140 at the same tolerance
-    (a thesis body's landing: 3 ms instead of 0.1 s).
-
-    Energy: dE = v·dP = (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp ≤ 0 during compression.
-    """
-
-    def tangential(vx: float, vy: float) -> tuple[float, float]:
-        k = -mu / math.sqrt(vx * vx + vy * vy + eps * eps)
-        return k * vx, k * vy
-
-    return stem.compression_impulse(v0, W, tangential, "LSODA", 1e-10, 1e-14 * (1.0 + abs(v0[2])))
 
 
 # --- the driver ----------------------------------------------------------------------------
