@@ -583,3 +583,30 @@ def test_a_regularised_flight_that_lands_at_the_touchdown_angle_lands_on_both_sp
     T_b = 0.5 * B.m * Vb @ Vb + 0.5 * w @ yb[4:7]
     T_a = 0.5 * B.m * Va @ Va + 0.5 * w_a @ ya[4:7]
     assert T_a <= T_b * (1.0 + ROUND)
+
+
+def test_a_regularised_impact_with_no_consistent_set_ends_the_run_failed(monkeypatch):
+    """No silent fallback: where no active set satisfies the regularised law (forced here: every
+    single impact fails to end its compression, the closure finds no solution, the path is not
+    available) the impact raises JumpFailed — no frictionless projection any more — and a run
+    whose flight lands on both spheres then ends with status "failed" at that landing, the
+    trajectory before it kept."""
+    from mett.dynamics import stemreg
+    from mett.friction import RegularisedCoulomb
+
+    def no_end(*args):
+        raise JumpFailed("impact: the impulse equations could not be solved (forced)")
+
+    monkeypatch.setattr(stemreg, "regularised_impulse", no_end)
+    monkeypatch.setattr(stemreg, "closure", lambda *args: None)
+    monkeypatch.setattr(stem, "viscous_path", lambda *args, **kw: None)
+    p = _regularised(0.3, 1e-2)
+    y, _ = _pressing(np.random.default_rng(23))
+    with pytest.raises(JumpFailed, match="Painlevé"):
+        stem.transition(y, p, "ball", law=stemreg.LAW)
+    state = mett.State(theta=TOP.touchdown_angle, thetadot=300.0)
+    traj = mett.simulate(TOP, state, t_end=0.005, friction=RegularisedCoulomb(0.3, 1e-2))
+    assert traj.status == "failed" and "landing at t = 0 s" in traj.message, traj.message
+    assert "Painlevé" in traj.message
+    assert [sw.reason for sw in traj.switches] == ["lift-off"]
+    assert traj.t.size >= 1 and np.all(np.isfinite(traj.theta))
