@@ -592,6 +592,31 @@ def test_velocity_level_solver_without_friction_is_the_lcp():
 
 def _change_of_contact(rng, rs):
     """A state on the stem (flag 1, L_z form) whose ball arrives (θ̇ < 0), slips up to 3 m/s."""
+
+
+# --- the regularised Coulomb law, c(|v|) = μ/√(|v|² + ε²) (mett.dynamics.stemreg) ---------------
+
+
+def _regularised(mu, eps):
+    from mett.dynamics import MODELS
+    from mett.friction import RegularisedCoulomb
+
+    return MODELS["stemmed-coulomb-regularised"].parameters(
+        B, friction=RegularisedCoulomb(mu, eps), stem_radius=TOP.radius, stem_distance=TOP.distance
+    )
+
+
+def _delassus(I, arms):
+    """W_ij = 𝟙/m − [a_i×] I⁻¹ [a_j×] (6×6), from the rigid-body definitions."""
+    Iinv = np.linalg.inv(I)
+    return np.block([[np.eye(3) / B.m - _skew(ai) @ Iinv @ _skew(aj) for aj in arms]
+                     for ai in arms])  # fmt: skip
+
+
+def _pressing(rng):
+    """A state on the stem (flag 1) at the touchdown angle whose ball comes down (θ̇ < 0), with
+    fast slips (up to 3 m/s), and its CM velocity (the stem's constraint): the ball's landing
+    while the stem's contact is closed, where the ball's friction can press the stem down."""
     g, _ = _state(rng, rock=0.0)
     g[2:4] *= 10.0
     e, I, w, _, arms = _body(g, 0.0)
@@ -668,3 +693,248 @@ def test_dry_path_of_a_contact_arriving_without_slip_is_the_plastic_impact():
             np.testing.assert_allclose(Pi[:3], want, rtol=0.0, atol=1e-9 * np.abs(want).max())
             np.testing.assert_allclose(Pi[3:], 0.0, rtol=0.0, atol=1e-9 * np.abs(want).max())
             assert (g0 + W @ Pi)[5] > 0.0
+
+    y = np.concatenate((g[:4], I @ w, g[7:10], [1.0]))
+    return y, np.array([y[2], y[3], -np.cross(w, arms[1])[2]])
+
+
+def _impacts(kind, n, seed):
+    """``n`` impacts at both contacts: (state, CM velocity before, first sphere, vz or None):
+    flights that land with both gaps 0 (``kind`` "flight") or the ball landing while the
+    stem's contact is closed ("closed")."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for k in range(n):
+        if kind == "flight":
+            g, vz = _state(rng, vz=(-0.1, 0.05))
+            out.append((np.append(g, float(k % 2)), np.array([g[2], g[3], vz]), k % 2, vz))
+        else:
+            y, V = _pressing(rng)
+            out.append((y, V, 0, None))
+    return out
+
+
+@pytest.mark.parametrize("eps", [1e-2, 1e-5])
+def test_regularised_impact_obeys_complementarity_the_balances_and_its_law(eps):
+    """Regularised law (μ = 0.3): at random flights landing on both spheres and at the ball
+    landing while the stem's contact is closed: P_1,z, P_2,z ≥ 0; normal velocities after ≥ 0
+    and complementary; Δ(m V) = P_1 + P_2 and ΔL = a_1 × P_1 + a_2 × P_2; the kinetic energy
+    (from its definition) never rises; every impulse inside the Coulomb cone, |P_t,i| < μ P_n,i
+    (the law's |c(|v|) v| < μ); with both closed, the law at the post-impact slip,
+    P_t,i = −μ P_n,i v⁺_t,i/√(|v⁺_t,i|² + ε²) (Moreau's form). Its tolerance: the closure's
+    fixed point is solved to 1e-10 of P_n and its velocities to ~1e-14 of |v|, which the law's
+    slope μ P_n/ε turns into ~1e-14 |v|/ε of μ P_n. Every impact has a consistent set here."""
+    from mett.dynamics import stemreg
+
+    mu = 0.3
+    p = _regularised(mu, eps)
+    seen = set()
+    for kind, n, seed in (("flight", 40, 17), ("closed", 30, 23)):
+        for y, V, first, vz in _impacts(kind, n, seed):
+            e, I, w, _, arms = _body(y, 0.0)
+            if min(V[2] + np.cross(w, a)[2] for a in arms) >= 0.0:
+                continue  # no contact approaches the table: no impact
+            imp = stemreg.LAW.two_contact(y, p, first, vz)
+            seen.add((kind, imp.closed))
+            P = imp.P
+            Pscale = np.abs(P).max()
+            V1 = V + P.sum(axis=0) / B.m
+            L1 = I @ w + np.cross(arms[0], P[0]) + np.cross(arms[1], P[1])
+            np.testing.assert_allclose(imp.state[4:7], L1, rtol=0.0,
+                                       atol=ROUND * np.abs(L1).max())  # fmt: skip
+            np.testing.assert_allclose(imp.state[2:4], V1[:2], rtol=0.0,
+                                       atol=ROUND * np.abs(V1).max())  # fmt: skip
+            w1 = np.linalg.solve(I, L1)
+            v1 = [V1 + np.cross(w1, a) for a in arms]
+            vscale = max(np.abs(V + np.cross(w, a)).max() for a in arms)
+            for i in range(2):
+                assert P[i, 2] >= -ROUND * Pscale
+                assert v1[i][2] >= -1e-9 * vscale  # the impulse ODEs' ends located to ~1e-10
+                if imp.closed[i]:
+                    assert abs(v1[i][2]) <= 1e-9 * vscale
+                else:
+                    assert np.all(P[i] == 0.0)
+                assert math.hypot(*P[i, :2]) <= mu * P[i, 2] * (1.0 + ROUND)
+            if all(imp.closed) and kind == "flight":  # the closure (not the path's end)
+                tol = (1e-10 + 1e-13 * vscale / eps) * mu * Pscale
+                for i in range(2):
+                    vt = v1[i][:2]
+                    want = -mu * P[i, 2] * vt / math.sqrt(vt @ vt + eps * eps)
+                    np.testing.assert_allclose(P[i, :2], want, rtol=0.0, atol=tol)
+            T0, T1 = _kinetic(I, w, V), _kinetic(I, w1, V1)
+            assert T1 <= T0 * (1.0 + ROUND)
+    assert {("flight", (True, True)), ("flight", (True, False)), ("flight", (False, True)),
+            ("closed", (True, False))} <= seen, seen  # fmt: skip
+
+
+def _order(errors, ratio):
+    return [math.log(a / b) / math.log(ratio) for a, b in itertools.pairwise(errors)]
+
+
+def test_regularised_impact_tends_to_the_viscous_impact_as_eps_grows():
+    """For |v_t| ≪ ε, c = μ/√(|v_t|² + ε²) = (μ/ε)(1 − |v_t|²/(2ε²) + …): with μ = 0.3 ε the
+    regularised impact at both contacts tends to the viscous one of μ = 0.3 s/m, same active
+    set, at the rate (|v_t|/ε)²: single impacts and closures of flights landing on both
+    spheres (|v_t| ≲ 1 m/s; ε = 10, 20, 40 m/s) and the two-contact path of the ball landing
+    while the stem is closed and pushed (slips up to 3 m/s; ε = 40, 80, 160). Measured orders of
+    the largest relative error of the impulses over the states: 1.981, 1.995 and 1.988, 1.997
+    (the next term shifts them by O((|v_t|/ε)²) ≤ 0.01-0.02); the viscous and regularised
+    integrations (rtol 1e-13, 1e-10) agree far below the smallest error (3e-4, asserted
+    > 1e-5): |order − 2| ≤ 0.05."""
+    from mett.dynamics import stemreg
+
+    cases = [("flight", 40, 17, (10.0, 20.0, 40.0)), ("closed", 100, 29, (40.0, 80.0, 160.0))]
+    for kind, n, seed, epss in cases:
+        impacts = []
+        for y, _, first, vz in _impacts(kind, n, seed):
+            ref = stem.VISCOUS_LAW.two_contact(y, _viscous(0.3), first, vz)
+            if not np.any(ref.P) or (kind == "closed" and ref.P[1, 2] == 0.0):
+                continue  # no impact; or the stem not pushed: not the path
+            impacts.append((y, first, vz, ref))
+        assert len(impacts) >= 5
+        errors = []
+        for eps in epss:
+            p = _regularised(0.3 * eps, eps)
+            err = 0.0
+            for y, first, vz, ref in impacts:
+                imp = stemreg.LAW.two_contact(y, p, first, vz)
+                assert imp.closed == ref.closed
+                err = max(err, np.abs(imp.P - ref.P).max() / np.abs(ref.P).max())
+            errors.append(err)
+        assert errors[-1] > 1e-5, errors
+        for order in _order(errors, 2.0):
+            assert abs(order - 2.0) <= 0.05, (kind, errors)
+
+
+def _coulomb_moreau(W, v, P0, mu):
+    """The impact with both contacts closed and sliding under Coulomb's law at the velocity
+    level (Moreau): v⁺ = v + W P, v⁺_n,i = 0, P_t,i = −μ P_n,i v⁺_t,i/|v⁺_t,i|, solved by
+    scipy's fsolve from ``P0``; returns P (6,) and the slips |v⁺_t,i|."""
+    from scipy.optimize import fsolve
+
+    def F(P):
+        vp = v + W @ P
+        out = [vp[2], vp[5]]
+        for i in range(2):
+            vt = vp[3 * i : 3 * i + 2]
+            out += list(P[3 * i : 3 * i + 2] + mu * P[3 * i + 2] * vt / np.linalg.norm(vt))
+        return out
+
+    P = fsolve(F, P0, xtol=1e-13)
+    vp = v + W @ P
+    assert np.abs(F(P)).max() <= 1e-12 * np.abs(v).max()
+    return P, [np.linalg.norm(vp[3 * i : 3 * i + 2]) for i in range(2)]
+
+
+def test_regularised_impact_tends_to_the_coulomb_impact_as_eps_falls():
+    """While the contacts slip (|v_t| ≫ ε), c(|v_t|) v_t = μ v̂_t (1 − ε²/(2|v_t|²) + …): the
+    regularised impact at both contacts of flights landing on both spheres tends, as ε → 0, to
+    Coulomb's. Where one contact impacts alone, to the dry model's impact
+    (stemslip.land_both, same active set); where both close, to Coulomb's law at the velocity
+    level with the slip after the impact (Moreau), solved here (the ε → 0 limit of the
+    regularised closure; the dry model's closure first tries the slip before). Measured orders
+    of the largest relative error over the states: 2.00, 2.00 (ε = 1e-3, 1e-4, 1e-5 m/s;
+    errors 4e-4 … 4e-8, the integrations' floor ~1e-9): |order − 2| ≤ 0.05."""
+    from mett.dynamics import stemreg
+
+    mu = 0.3
+    pd = _dry(Coulomb(mu))
+    impacts = []
+    for y, V, first, vz in _impacts("flight", 60, 17):
+        e, I, w, _, arms = _body(y, 0.0)
+        v = np.concatenate([V + np.cross(w, a) for a in arms])
+        if min(v[2], v[5]) >= 0.0:
+            continue
+        imp0 = stemreg.LAW.two_contact(y, _regularised(mu, 1e-3), first, vz)
+        if all(imp0.closed):
+            P, slips = _coulomb_moreau(_delassus(I, arms), v, imp0.P.ravel(), mu)
+            assert min(slips) > 100 * 1e-3 and min(P[2], P[5]) > 0.0  # sliding, consistent
+            impacts.append((y, first, vz, P.reshape(2, 3), imp0.closed))
+        else:
+            _, ref = stemslip.land_both(y[:10], vz, pd, first)
+            impacts.append((y, first, vz, ref.P, ref.closed))
+    kinds = {all(c) for *_, c in impacts}
+    assert kinds == {True, False}, kinds
+    for both in (False, True):
+        errors = []
+        for eps in (1e-3, 1e-4, 1e-5):
+            p = _regularised(mu, eps)
+            err = 0.0
+            for y, first, vz, P_ref, closed in impacts:
+                if all(closed) != both:
+                    continue
+                imp = stemreg.LAW.two_contact(y, p, first, vz)
+                assert imp.closed == closed
+                err = max(err, np.abs(imp.P - P_ref).max() / np.abs(P_ref).max())
+            errors.append(err)
+        for order in _order(errors, 10.0):
+            assert abs(order - 2.0) <= 0.05, (both, errors)
+
+
+def test_a_regularised_flight_that_lands_at_the_touchdown_angle_lands_on_both_spheres():
+    """friedl1997 under RegularisedCoulomb(0.3, 1e-2) started exactly at the touchdown angle with
+    θ̇ = 300 rad/s flies at once and lands on both spheres at the same instant (as the other
+    laws above): "double touchdown", the jump checked with the rigid-body balances written
+    here — one impulse per closed contact explains Δ(m V) and ΔL, its normal part ≥ 0, the
+    closed contacts' normal velocities 0 and the open one's ≥ 0, the energy not raised."""
+    from mett.friction import RegularisedCoulomb
+
+    state = mett.State(theta=TOP.touchdown_angle, thetadot=300.0)
+    traj = mett.simulate(TOP, state, t_end=0.005, friction=RegularisedCoulomb(0.3, 1e-2))
+    assert traj.model == "stemmed-coulomb-regularised" and traj.status == "completed"
+    sw = traj.records["switches"]
+    assert sw[0].reason == "lift-off" and sw[0].t == 0.0
+    td = sw[1]
+    assert td.reason == "double touchdown" and td.before == "flight" and td.t == 0.0
+    yb, ya = (np.array(y, dtype=float) for y in traj.records["jumps"][1])
+    on = round(yb[10])
+    e, I, w, _, arms = _body(yb, 0.0)
+    Vb = np.array([yb[2], yb[3], -np.cross(w, arms[on])[2]])
+    w_a = np.linalg.solve(I, ya[4:7])
+    flag = round(ya[10])
+    closed = {0: (0,), 1: (1,)}.get(flag, (0, 1))
+    Va = np.array([ya[2], ya[3], -np.cross(w_a, arms[closed[0]])[2]])
+    vn = [Va[2] + np.cross(w_a, a)[2] for a in arms]
+    vscale = np.abs(Vb).max() + np.abs(w).max() * arms[1].max()
+    for i in range(2):
+        assert vn[i] >= -1e-9 * vscale and (i not in closed or abs(vn[i]) <= 1e-9 * vscale)
+    dP, dL = B.m * (Va - Vb), ya[4:7] - yb[4:7]
+    A = np.vstack([np.hstack([np.eye(3)] * len(closed)),
+                   np.hstack([_skew(arms[i]) for i in closed])])  # fmt: skip
+    x, *_ = np.linalg.lstsq(A, np.concatenate([dP, dL]), rcond=None)
+    resid = A @ x - np.concatenate([dP, dL])
+    assert np.abs(resid[:3]).max() <= 1e-9 * np.abs(dP).max()
+    assert np.abs(resid[3:]).max() <= 1e-9 * np.abs(dL).max()
+    for j in range(len(closed)):
+        assert x[3 * j + 2] >= -1e-9 * np.abs(dP).max()
+    assert td.after.split("-")[0] == ("both" if flag >= 2 else ("ball", "stem")[flag])
+    T_b = 0.5 * B.m * Vb @ Vb + 0.5 * w @ yb[4:7]
+    T_a = 0.5 * B.m * Va @ Va + 0.5 * w_a @ ya[4:7]
+    assert T_a <= T_b * (1.0 + ROUND)
+
+
+def test_a_regularised_impact_with_no_consistent_set_ends_the_run_failed(monkeypatch):
+    """No silent fallback: where no active set satisfies the regularised law (forced here: every
+    single impact fails to end its compression, the closure finds no solution, the path is not
+    available) the impact raises JumpFailed — no frictionless projection any more — and a run
+    whose flight lands on both spheres then ends with status "failed" at that landing, the
+    trajectory before it kept."""
+    from mett.dynamics import stemreg
+    from mett.friction import RegularisedCoulomb
+
+    def no_end(*args):
+        raise JumpFailed("impact: the impulse equations could not be solved (forced)")
+
+    monkeypatch.setattr(stemreg, "regularised_impulse", no_end)
+    monkeypatch.setattr(stemreg, "closure", lambda *args: None)
+    monkeypatch.setattr(stem, "viscous_path", lambda *args, **kw: None)
+    p = _regularised(0.3, 1e-2)
+    y, _ = _pressing(np.random.default_rng(23))
+    with pytest.raises(JumpFailed, match="Painlevé"):
+        stem.transition(y, p, "ball", law=stemreg.LAW)
+    state = mett.State(theta=TOP.touchdown_angle, thetadot=300.0)
+    traj = mett.simulate(TOP, state, t_end=0.005, friction=RegularisedCoulomb(0.3, 1e-2))
+    assert traj.status == "failed" and "landing at t = 0 s" in traj.message, traj.message
+    assert "Painlevé" in traj.message
+    assert [sw.reason for sw in traj.switches] == ["lift-off"]
+    assert traj.t.size >= 1 and np.all(np.isfinite(traj.theta))

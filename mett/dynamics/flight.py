@@ -36,8 +36,9 @@ the same way from the sphere in contact, (R, l) or (r_s, l + l_s): the other sph
 z_G + l_o 3̂_z − R_o is the same formula with its own (h, ḣ) at the lift-off (:func:`_other_hop`)
 and the touchdown is the earlier of the two first roots; the landing impact is that sphere's
 (docs/theory/flight.md#the-stemmed-top), or, if the other sphere's gap is then within the
-switches' event tolerance, the impact at both contacts (:func:`mett.dynamics.stem.land_both`,
-:func:`mett.dynamics.stemslip.land_both`; reason "double touchdown").
+switches' event tolerance, the impact at both contacts (:func:`mett.dynamics.stem.land_both`:
+viscous and regularised laws; :func:`mett.dynamics.stemslip.land_both`; reason
+"double touchdown").
 
 A flight piece is stored in the contact model's own state layout (``traj.states`` keeps its
 shape) with a dense output made of exact Taylor polynomials of the closed form (degree
@@ -62,13 +63,14 @@ import numpy as np
 
 from .. import _validate
 from . import _params as ix
-from . import backends, contact, stem, stemslip
+from . import backends, contact, stem, stemreg, stemslip
 from ._run import PreparedRun, Run, completed_message
 from ._series import SERIES
 from .dense import SegmentedSolution
 from .gliding import gliding_core
 from .hybrid import geometric_tail, solve_hybrid
 from .registry import JumpFailed
+from .stemreg import regularised_impulse  # the regularised law's impulse, re-exported
 from .stickslip import Switch
 from .trajectory import Trajectory
 
@@ -561,25 +563,6 @@ def viscous_impulse(v0: np.ndarray, W: np.ndarray, mu: float) -> np.ndarray:
     return P
 
 
-def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) -> np.ndarray:
-    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact under the
-    regularised Coulomb law, dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp, dv = W dP, from the contact
-    velocity ``v0`` (v0_z < 0) until v_z = 0: :func:`mett.dynamics.stem.darboux_keller` with
-    this law's tangential force per unit normal impulse. Stiff where |v_t| ≲ ε only if the
-    impulse is large (its stiffness is μ|W|/ε per unit p, over p ≲ m|v_z|): LSODA, which switches
-    between Adams and BDF steps, takes ~10 steps where Radau took ~140 at the same tolerance
-    (a thesis body's landing: 3 ms instead of 0.1 s).
-
-    Energy: dE = v·dP = (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp ≤ 0 during compression.
-    """
-
-    def tangential(vx: float, vy: float) -> tuple[float, float]:
-        k = -mu / math.sqrt(vx * vx + vy * vy + eps * eps)
-        return k * vx, k * vy
-
-    return stem.compression_impulse(v0, W, tangential, "LSODA", 1e-10, 1e-14 * (1.0 + abs(v0[2])))
-
-
 # --- the driver ----------------------------------------------------------------------------
 
 
@@ -775,14 +758,16 @@ def run_with_flight(prep: PreparedRun) -> Trajectory:
         on_both = None  # a landing on both spheres: (the state after it, its impact)
         landed: tuple[np.ndarray, np.ndarray, float, float] | None
         try:
-            # a landing on both spheres at once: the two-contact impact (viscous and dry laws;
-            # the regularised law, which has no two-contact impact yet, lands on the first sphere)
-            if (tau is not None and flier.stemmed and flier.eps is None
-                    and _both_land(hop, other, tau, on, lands_on, p)):  # fmt: skip
+            # a landing on both spheres at once: the two-contact impact of the law
+            if tau is not None and flier.stemmed and _both_land(hop, other, tau, on, lands_on, p):
                 landed = None
                 vz_td = float(hop.vz(tau))
-                on_both = (stemslip.land_both(g_td, vz_td, p, lands_on) if flier.dry
-                           else stem.land_both(g_td, vz_td, p, lands_on, viscous_impulse))  # fmt: skip
+                if flier.dry:
+                    on_both = stemslip.land_both(g_td, vz_td, p, lands_on)
+                elif flier.eps is not None:  # the regularised law
+                    on_both = stem.land_both(g_td, vz_td, p, lands_on, law=stemreg.LAW)
+                else:
+                    on_both = stem.land_both(g_td, vz_td, p, lands_on, viscous_impulse)
             else:
                 landed = (None if tau is None
                           else land(g_td, float(hop.vz(tau)), p, flier.dry, sphere,

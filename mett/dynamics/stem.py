@@ -38,7 +38,8 @@ docs/theory/stem.md#two-contact-impact): normal impulses ≥ 0, normal velocitie
 complementary, solved by its active sets — one contact by the impact above; with the other
 contact closed before, the two-contact Darboux–Keller path (:func:`viscous_path`); both by
 :func:`viscous_closure` — unique without friction (the 2×2 normal Delassus block is positive
-definite).
+definite). The regularised Coulomb law's (:func:`mett.dynamics.stemreg.two_contact`) is the
+same with its coefficient c(|v_t|) (:class:`StemLaw`'s ``two_contact``).
 
 Under dry friction (``friction=Coulomb(...)``) the model "stemmed-coulomb" of :mod:`.stemslip`
 runs instead: the same geometry, clearances and impact frame, with stick–slip phases and the
@@ -795,7 +796,12 @@ def viscous_closure(frames: Any, m: float, mu: float) -> np.ndarray | None:
 
 
 def viscous_path(
-    frames: Any, m: float, mu: float, first: int, tangential: Any = None
+    frames: Any,
+    m: float,
+    mu: float,
+    first: int,
+    tangential: Any = None,
+    method: tuple[str, float, float] | None = None,
 ) -> tuple[np.ndarray, bool] | None:
     """The two-contact Darboux–Keller impact of the viscous law when the contact ``first``
     arrives and the other is closed (normal velocity 0): the impulses (2, 3) (N s) and whether
@@ -812,17 +818,21 @@ def viscous_path(
     friction is stiff (μ |W| p ≫ 1, :func:`darboux_keller`'s stiff case): the caller then tries
     the velocity-level closure. ``tangential(v_x, v_y)``: another law's tangential impulse per
     unit normal impulse in place of the viscous (−μ v_x, −μ v_y) (as
-    :func:`compression_impulse` takes it; ``mu`` then only sets the stiffness test).
+    :func:`compression_impulse` takes it; ``mu`` then only sets the stiffness test), e.g. the
+    regularised law's −c(|v_t|) v_t (:func:`mett.dynamics.stemreg.two_contact`).
+    ``method``: (solve_ivp method, rtol, atol per unit speed) for a law whose impulse equations
+    may be stiff, integrated with it wherever they are (an implicit or switching method, as
+    LSODA: never None); None: DOP853 at rtol 1e-13, None where stiff (the viscous law).
     """
     W = two_contact_delassus(frames, m)
     v0 = np.concatenate([f.v for f in frames])
     p1 = 10.0 * -v0[3 * first + 2] / W[3 * first + 2, 3 * first + 2]
-    if mu * np.linalg.norm(W, 2) * p1 > 1e3:
+    if method is None and mu * np.linalg.norm(W, 2) * p1 > 1e3:
         # the slips relax over an impulse ~ 1/(μ|W|) far below the impact's (darboux_keller's
         # stiff case): an explicit method would need ~ μ|W| p1 steps; not this path
         return None
     law = (lambda vx, vy: (-mu * vx, -mu * vy)) if tangential is None else tangential
-    res = contact_path(W, v0, first, law)
+    res = contact_path(W, v0, first, law, method=method)
     return None if res is None else (res[0].reshape(2, 3), res[1])
 
 
@@ -833,7 +843,13 @@ its slip restarts at twice this (as :func:`mett.dynamics.stemslip.dry_impulse`).
 
 
 def contact_path(
-    W: np.ndarray, v0: np.ndarray, first: int, law: Any, k: int = 3, mu: float | None = None
+    W: np.ndarray,
+    v0: np.ndarray,
+    first: int,
+    law: Any,
+    k: int = 3,
+    mu: float | None = None,
+    method: tuple[str, float, float] | None = None,
 ) -> tuple[np.ndarray, bool] | None:
     """The two-contact Darboux–Keller impact when the contact ``first`` arrives and the other is
     closed: the generalised impulses Π (2k,) (N s per component) and whether the other contact
@@ -942,7 +958,10 @@ def contact_path(
     z[nb] = 0.0  # closed: its constraint's velocity (rounding removed)
     active = bool(rates(z, False)[0][nb] < 0.0)  # pushed down from the start: joins
     p0, p1 = 0.0, 10.0 * -v0[na] / W[na, na]
-    atol = 1e-15 * (1.0 + float(np.max(np.abs(v0))))
+    # method: (solve_ivp method, rtol, atol per unit speed) of a law whose impulse equations may
+    # be stiff (:func:`viscous_path`); DOP853 at rtol 1e-13 otherwise
+    solver, rtol, atol1 = ("DOP853", 1e-13, 1e-15) if method is None else method
+    atol = atol1 * (1.0 + float(np.max(np.abs(v0))))
     eta = PATH_SLIP * float(np.max(np.abs(v0)))
     stick = [False, False]
 
@@ -1020,7 +1039,7 @@ def contact_path(
             slip_a.direction = slip_b.direction = jammed.direction = -1.0  # type: ignore[attr-defined]
             events += [slip_a, slip_b, jammed]
         sol = solve_ivp(lambda _, z, act=active, mode=mode: rates(z, act, mode)[0], (p0, p1), z,
-                        method="DOP853", events=events, rtol=1e-13, atol=atol)  # fmt: skip
+                        method=solver, events=events, rtol=rtol, atol=atol)  # fmt: skip
         if sol.status == -1:
             raise JumpFailed(f"impact: the impulse equations could not be solved ({sol.message})")
         if sol.t_events[0].size:
@@ -1070,27 +1089,42 @@ def _impulses_applied(y: np.ndarray, frames: Any, m: float, P: Any, flag: float)
 
 
 def land_both(
-    g: np.ndarray, vz: float, p: tuple, first: int, single: Any = None
-) -> tuple[np.ndarray, TwoContactImpact]:
+    g: np.ndarray, vz: float, p: tuple, first: int, single: Any = None,
+    law: StemLaw | None = None,
+) -> tuple[np.ndarray, TwoContactImpact]:  # fmt: skip
     """The landing from a flight of both spheres at once (the other sphere's gap within the
     event tolerance when the sphere ``first`` touches): the two-contact impact
     (:func:`two_contact_impact`) of the gliding-layout state ``g`` with the vertical CM velocity
     ``vz`` (m/s), viscous law. Returns the state to continue from (the contact(s) closed, a
     double contact entered only if both normal forces are positive, :func:`_settle_both`) and
     the impact. ``single``: the single-contact impulse P(v, W, μ) (default
-    :func:`darboux_keller`)."""
+    :func:`darboux_keller`). ``law``: another law's :class:`StemLaw` (its ``two_contact``;
+    ``p`` that model's parameters, ``single`` unused), e.g. the regularised law's
+    (:data:`mett.dynamics.stemreg.LAW`)."""
+    y = np.append(np.asarray(g, dtype=float)[:10], float(first))
+    if law is None:
+        imp = _viscous_two_contact(y, p, first, vz, single)
+    else:
+        imp = law.two_contact(y, p, first, vz)
+    out = _settle_both(imp.state, p, law) if all(imp.closed) else imp.state
+    return out, imp
+
+
+def _viscous_two_contact(
+    y: np.ndarray, p: tuple, first: int, vz: float | None = None, single: Any = None
+) -> TwoContactImpact:
+    """The impact at both contacts (:func:`two_contact_impact`) of state ``y`` under the viscous
+    law: one contact by ``single`` (the impulse P(v, W, μ); default :func:`darboux_keller`),
+    the other closed and pushed by :func:`viscous_path`, both by :func:`viscous_closure`."""
     m, mu = p[ix.M], p[ix.MU]
     law = darboux_keller if single is None else single
-    y = np.append(np.asarray(g, dtype=float)[:10], float(first))
 
     def both(frames: Any) -> tuple | None:
         P = viscous_closure(frames, m, mu)
         return None if P is None else (closed_on_both(y, frames, m, P, p), P, np.zeros(2))
 
-    imp = two_contact_impact(y, p, first, lambda f: (law(f.v, f.W, mu), 0.0), both, vz,
-                             lambda frames, a: viscous_path(frames, m, mu, a))  # fmt: skip
-    out = _settle_both(imp.state, p) if all(imp.closed) else imp.state
-    return out, imp
+    return two_contact_impact(y, p, first, lambda f: (law(f.v, f.W, mu), 0.0), both, vz,
+                              lambda frames, a: viscous_path(frames, m, mu, a))  # fmt: skip
 
 
 def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
@@ -1109,6 +1143,11 @@ class StemLaw(NamedTuple):
     """``both_forces(y, p)``: (λ_1, λ_2) (N) of a state of the double contact."""
     normal_forces: Callable[[np.ndarray, tuple], tuple[np.ndarray, np.ndarray]]
     """``normal_forces(Y, p)``: the ball's and the stem's normal forces of states ``Y`` (N)."""
+    two_contact: Callable[[np.ndarray, tuple, int, float | None], TwoContactImpact]
+    """``two_contact(y, p, first, vz)``: the impact at both contacts of state ``y`` whose
+    sphere ``first`` (0 ball, 1 stem) arrives, ``vz`` its vertical CM velocity (m/s; None:
+    that of its contact) (:func:`two_contact_impact` with this law's single impact, path and
+    closure)."""
 
 
 def _settle_both(y: np.ndarray, p: tuple, law: StemLaw | None = None) -> np.ndarray:
@@ -1130,14 +1169,12 @@ def transition(
     """The state after the contact ``to`` ("ball" or "stem") closes on state ``y`` (on the other
     contact), the reason and the accumulation point (s; NaN if none).
 
-    * the impacts do not accumulate, viscous law: the impact at both contacts
-      (:func:`two_contact_impact`, the old contact closed with zero normal velocity): the single
-      impact of :func:`impact` at the new contact if the old contact then separates, reason
-      "touchdown"/"landing"; else both closed with the viscous law at each
-      (:func:`viscous_closure`), reason "closure";
-    * the impacts do not accumulate, another law (``law``, the regularised law): its single
-      impact if the old contact then separates (its normal velocity > 0), else both closed by
-      the projection of :func:`close_both`, reason "closure";
+    * the impacts do not accumulate: the impact at both contacts under the law
+      (``law.two_contact``: :func:`two_contact_impact`, the old contact closed with zero normal
+      velocity): the single impact at the new contact if the old contact then separates, or
+      the two-contact path that ends with it open, reason "touchdown"/"landing"; else both
+      closed with the law at each (viscous: :func:`viscous_path`, :func:`viscous_closure`;
+      regularised: :func:`mett.dynamics.stemreg.closure`), reason "closure";
     * the impact times of ``switches``, the run's (time, from, to) so far, form a geometric
       sequence (:func:`accumulation`): both contacts closed by the projection of
       :func:`close_both`, reason "accumulation".
@@ -1149,24 +1186,8 @@ def transition(
     law = VISCOUS_LAW if law is None else law
     old = "ball" if to == "stem" else "stem"
     acc = accumulation(_impact_times(switches)) if len(switches) else None
-    if acc is None and law is not VISCOUS_LAW:
-        # no two-contact path for this law: its single impact if the old contact then opens
-        after, _ = law.impact(y, p, to)
-        if float(impact_frame(after, p, old).v[2]) > 0.0:
-            return after, "touchdown" if to == "stem" else "landing", math.nan
-        closed, _ = close_both(y, p, old)
-        return _settle_both(closed, p, law), "closure", math.nan
     if acc is None:
-        m, mu = p[ix.M], p[ix.MU]
-
-        def both(frames: Any) -> tuple | None:
-            P = viscous_closure(frames, m, mu)
-            return None if P is None else (closed_on_both(y, frames, m, P, p), P, np.zeros(2))
-
-        imp = two_contact_impact(
-            y, p, PHASE_NAMES.index(to), lambda f: (darboux_keller(f.v, f.W, mu), 0.0), both,
-            path=lambda frames, first: viscous_path(frames, m, mu, first),
-        )  # fmt: skip
+        imp = law.two_contact(y, p, PHASE_NAMES.index(to), None)
         if not all(imp.closed):
             return imp.state, "touchdown" if to == "stem" else "landing", math.nan
         return _settle_both(imp.state, p, law), "closure", math.nan
@@ -1254,8 +1275,10 @@ def _normal_force(y: np.ndarray, p: tuple) -> Any:
     return ball + stem
 
 
-VISCOUS_LAW = StemLaw(impact, _both_forces, normal_forces)
-"""The viscous law's :class:`StemLaw`: :func:`impact`, the forces of :func:`both_core`."""
+VISCOUS_LAW = StemLaw(impact, _both_forces, normal_forces, _viscous_two_contact)
+"""The viscous law's :class:`StemLaw`: :func:`impact`, the forces of :func:`both_core`, the
+impact at both contacts of :func:`two_contact_impact` with :func:`darboux_keller`,
+:func:`viscous_path` and :func:`viscous_closure`."""
 
 
 def _derive(Y: np.ndarray, p: tuple) -> dict[str, np.ndarray]:

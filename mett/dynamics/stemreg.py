@@ -23,9 +23,18 @@ impact of the stem page with this law in impulse form,
 
     dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp,   dv = W dP,   until v_z = 0,
 
-(:func:`impact`; :func:`mett.dynamics.flight.regularised_impulse`), whose energy change
+(:func:`impact`; :func:`regularised_impulse`), whose energy change
 ∫ (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp is ≤ 0 during compression. Flights and landings are those
 of :mod:`.flight` with the same landing law.
+
+With both spheres on the table when one arrives (a change of contact whose old contact is
+closed, a flight landing at the touchdown angle: "double touchdown") the impact acts at both
+contacts (:func:`two_contact`, docs/theory/stem.md#two-contact-impact): the active sets of
+:func:`mett.dynamics.stem.two_contact_impact` with this law's single impact, the two-contact
+Darboux–Keller path of :func:`mett.dynamics.stem.viscous_path` with c(|v_t|) at each contact,
+and the closure of both normal velocities with c at the post-impact slip (:func:`closure`,
+Moreau's velocity-level form). A state where no set is consistent ends the run with status
+"failed" at the impact, the trajectory kept.
 
 Limits (tests/test_stem_regularised.py): for |ν| ≪ ε the law is the viscous one with
 μ_visc = μ/ε (s/m); as ε → 0 it tends to Coulomb's sliding force −μ g_n ν̂ while the contact
@@ -36,6 +45,7 @@ runs it on the Taylor backend, as the ball top's "coulomb-regularised".
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -63,9 +73,12 @@ __all__ = [
     "LAW",
     "MODEL",
     "both_core",
+    "closure",
     "impact",
     "normal_forces",
+    "regularised_impulse",
     "slip_coefficient",
+    "two_contact",
 ]
 
 _VISCOUS_LEN = 9
@@ -223,19 +236,205 @@ def _stem_lift(t: float, y: Any, p: Any) -> Any:
 # --- the impact, the forces and the jumps (plain Python, between phases) ------------------------
 
 
+def regularised_impulse(v0: np.ndarray, W: np.ndarray, mu: float, eps: float) -> np.ndarray:
+    """The impulse P (N s) of the perfectly inelastic Darboux–Keller impact under the
+    regularised Coulomb law, dP = (ẑ − μ v_t/√(|v_t|² + ε²)) dp, dv = W dP, from the contact
+    velocity ``v0`` (v0_z < 0) until v_z = 0: :func:`mett.dynamics.stem.darboux_keller` with
+    this law's tangential force per unit normal impulse
+    (:func:`mett.dynamics.stem.compression_impulse`). Every single-contact impact under this
+    law uses it: the landings of the ball top and the stemmed top
+    (:func:`mett.dynamics.flight.land`; :mod:`.flight` re-exports it) and this model's changes
+    of contact. Stiff where |v_t| ≲ ε only if the impulse is large (its stiffness is μ|W|/ε per
+    unit p, over p ≲ m|v_z|): LSODA, which switches
+    between Adams and BDF steps, takes ~10 steps where Radau took ~140 at the same tolerance
+    (a thesis body's landing: 3 ms instead of 0.1 s).
+
+    Energy: dE = v·dP = (v_z − μ|v_t|²/√(|v_t|² + ε²)) dp ≤ 0 during compression.
+    """
+    return stem.compression_impulse(
+        v0, W, _tangential(mu, eps), "LSODA", 1e-10, 1e-14 * (1.0 + abs(v0[2]))
+    )
+
+
 def impact(y: np.ndarray, p: tuple, to: str) -> tuple[np.ndarray, np.ndarray]:
     """State after the impact of the contact ``to`` ("ball" or "stem") and the impulse P (N s):
     the perfectly inelastic Darboux–Keller impact with the regularised law in impulse form
-    (module docstring; :func:`mett.dynamics.flight.regularised_impulse`), the new contact's
-    normal velocity 0 afterwards."""
-    from .flight import regularised_impulse  # flight imports the stem modules
-
+    (module docstring; :func:`regularised_impulse`), the new contact's normal velocity 0
+    afterwards."""
     f = impact_frame(y, _viscous(p), to)
     if f.v[2] < 0.0:
         P = regularised_impulse(f.v, f.W, p[ix.MU], p[ix.STEM_EPS])
     else:
         P = np.zeros(3)
     return apply_impulse(y, f, p[ix.M], P, to), P
+
+
+def _skew(a: np.ndarray) -> np.ndarray:
+    """[a×], the matrix of a × x."""
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+# --- the impact at both contacts ----------------------------------------------------------------
+
+_PATH_METHOD = ("LSODA", 1e-10, 1e-14)
+"""The two-contact path's integration (:func:`mett.dynamics.stem.viscous_path`): that of the
+single impact (:func:`regularised_impulse`), whose stiffness, μ|W|/ε per unit normal impulse
+where |v_t| ≲ ε, LSODA follows with its BDF steps."""
+
+
+def _tangential(mu: float, eps: float) -> Any:
+    """The law's tangential impulse per unit normal impulse, (v_x, v_y) → −c(|v_t|) v_t."""
+
+    def law(vx: float, vy: float) -> tuple[float, float]:
+        k = -mu / math.sqrt(vx * vx + vy * vy + eps * eps)
+        return k * vx, k * vy
+
+    return law
+
+
+def _moreau(
+    frames: Any, m: float, mu: float, w: np.ndarray, eps: float, u: np.ndarray, d: float
+) -> tuple:
+    """For normal impulses ``w`` (N s, ≥ 0) as the weights of the law: the velocity u⁺ = (V, ω)
+    after the impact and the normal impulses λ (N s) that bring both normal velocities to 0
+    with the tangential impulses P_t,i = −w_i c(|v⁺_t,i|) v⁺_t,i (:func:`closure`).
+
+    u⁺ minimises ½ (u − u⁻)ᵀ M (u − u⁻) + Σ_i w_i μ √(|v_t,i(u)|² + ε²) over the u with
+    v_n,1 = v_n,2 = 0 (M = diag(m 𝟙, I), v_i = V + ω × a_i): stationarity is
+    M(u⁺ − u⁻) = Σ_i (λ_i ẑ + P_t,i) at a_i with λ the constraints' multipliers. The function is
+    smooth and strictly convex, so the minimum is unique: Newton's method on its KKT system with
+    a backtracking line search, started from ``u`` (feasible) with ε replaced by δ = ``d``,
+    then d/10, … down to ε (each minimum the next start: the law's curvature μ/δ grows
+    gradually). Returns (u⁺, λ, P_t (2, 2))."""
+    f0 = frames[0]
+    I = np.linalg.inv(f0.Iinv)
+    M = np.zeros((6, 6))
+    M[:3, :3], M[3:, 3:] = m * np.eye(3), I
+    u0 = np.concatenate((f0.V, f0.w))
+    J = [np.hstack((np.eye(3), -_skew(f.a))) for f in frames]  # v_i = J_i u
+    C = np.array([Ji[2] for Ji in J])
+    Jt = [Ji[:2] for Ji in J]
+    scale = float(u0 @ M @ u0)
+
+    def parts(u: np.ndarray, d: float) -> tuple:
+        F = 0.5 * (u - u0) @ M @ (u - u0)
+        g, H = M @ (u - u0), M.copy()
+        for wi, Ji in zip(w, Jt, strict=True):
+            if wi <= 0.0:
+                continue
+            v = Ji @ u
+            s = math.sqrt(v @ v + d * d)
+            F += wi * mu * s
+            g = g + wi * mu * (Ji.T @ v) / s
+            H = H + wi * mu * Ji.T @ ((np.eye(2) - np.outer(v, v) / (s * s)) / s) @ Ji
+        return F, g, H
+
+    d = max(eps, d)
+    lam = np.zeros(2)
+    while True:
+        for _ in range(60):
+            F, g, H = parts(u, d)
+            K = np.zeros((8, 8))
+            K[:6, :6], K[:6, 6:], K[6:, :6] = H, -C.T, C
+            sol = np.linalg.solve(K, np.concatenate((-g, -C @ u)))
+            du, lam = sol[:6], sol[6:]
+            dec = float(du @ H @ du)  # twice the decrease of the quadratic model
+            if dec <= 1e-28 * scale:  # |du| ~ 1e-14 of |u| in the energy norm
+                break
+            t = 1.0
+            # far from the minimum: a backtracking line search (Armijo); near it, where F's
+            # decrease ~ dec would drown in its rounding (1e-16 F), Newton's full step
+            while (
+                dec > 1e-14 * scale and t > 1e-12 and parts(u + t * du, d)[0] > F - 0.25 * t * dec
+            ):
+                t *= 0.5
+            u = u + t * du
+        if d == eps:
+            break
+        d = max(eps, 0.1 * d)
+    Pt = np.array([-wi * mu * (Ji @ u) / math.sqrt((Ji @ u) @ (Ji @ u) + eps * eps)
+                   if wi > 0.0 else np.zeros(2) for wi, Ji in zip(w, Jt, strict=True)])  # fmt: skip
+    return u, lam, Pt
+
+
+def closure(frames: Any, m: float, mu: float, eps: float) -> np.ndarray | None:
+    """The impulses (2, 3) (N s) that bring both normal velocities to 0 under the regularised
+    law, or None if no solution is found: the two-contact impact with both contacts closed
+    (:func:`mett.dynamics.stem.two_contact_impact`).
+
+    Moreau's velocity-level form, as :func:`mett.dynamics.stem.viscous_closure`, with the
+    coefficient at the post-impact slip: v⁺ = v⁻ + W P, v⁺_n,1 = v⁺_n,2 = 0,
+
+        P_t,i = −P_n,i c(|v⁺_t,i|) v⁺_t,i,   c(|v|) = μ/√(|v|² + ε²).
+
+    For given normal impulses the tangential ones are unique: they are those of the minimum of
+    a strictly convex function (:func:`_moreau`), whose multipliers λ(P_n) are the normal
+    impulses that close both contacts with them. The closure is the fixed point P_n = λ(P_n),
+    solved by Powell's hybrid method from the frictionless P_n (the solution at μ = 0). It
+    exists wherever k = μ max_j Σ_i ‖(W_nn⁻¹ W_nt)_j,i‖ < 1 (row j, the 1×2 block of contact
+    i): the law's impulse lies inside the Coulomb cone, |P_t,i| < μ P_n,i, so
+    ‖λ(P_n) − λ(0)‖_∞ ≤ k ‖P_n‖_∞ and λ maps the box ‖P_n‖_∞ ≤ ‖λ(0)‖_∞/(1 − k) into itself
+    (Brouwer; k = 0.69 for the thesis body with a stem at μ = 0.3, 1.25 for friedl1997, where
+    the bound does not decide). It is unique where λ is a contraction (small k, large ε: the
+    viscous limit), which is not proven in general — the result is checked against the law,
+    and None (the set inconsistent: JumpFailed, status "failed") if the solve fails.
+    The kinetic energy changes by ΔT = −Σ P_n,i c_i |v⁺_t,i|² − ½ PᵀWP ≤ 0 when P_n ≥ 0.
+    """
+    from scipy.optimize import root
+
+    f0 = frames[0]
+    M = np.zeros((6, 6))
+    M[:3, :3], M[3:, 3:] = m * np.eye(3), np.linalg.inv(f0.Iinv)
+    C = np.array([np.hstack((np.eye(3), -_skew(f.a)))[2] for f in frames])
+    u0 = np.concatenate((f0.V, f0.w))
+    # the frictionless closure: the projection of u⁻ onto v_n = 0 in the metric M
+    MinvCt = np.linalg.solve(M, C.T)
+    lam0 = -np.linalg.solve(C @ MinvCt, C @ u0)
+    start = [u0 + MinvCt @ lam0]  # the last minimum: the next evaluation's start
+    if mu == 0.0:
+        return np.array([[0.0, 0.0, lam0[0]], [0.0, 0.0, lam0[1]]])
+
+    d = [max(float(np.max(np.abs(f.v))) for f in frames)]  # the first continuation's start
+
+    def fixed(w: np.ndarray) -> np.ndarray:
+        u, lam, _ = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0], d[0])
+        start[0], d[0] = u, eps  # the next from this minimum, at ε
+        return lam - w
+
+    sol = root(fixed, lam0, method="hybr", options={"xtol": 1e-13})
+    Pn_scale = float(np.max(np.abs(lam0)))
+    w = sol.x
+    if not np.all(np.isfinite(w)) or np.max(np.abs(fixed(w))) > 1e-10 * Pn_scale:
+        return None
+    _, lam, Pt = _moreau(frames, m, mu, np.maximum(w, 0.0), eps, start[0], d[0])
+    return np.column_stack((Pt, lam))
+
+
+def two_contact(
+    y: np.ndarray, p: tuple, first: int, vz: float | None = None
+) -> stem.TwoContactImpact:
+    """The impact at both contacts (:func:`mett.dynamics.stem.two_contact_impact`) of state
+    ``y`` under the regularised law, the sphere ``first`` (0 ball, 1 stem) arriving, ``vz`` the
+    vertical CM velocity (m/s; None: that of the contact of its flag): one contact by the
+    Darboux–Keller impact of :func:`impact`; the other closed before and pushed by the
+    two-contact path of :func:`mett.dynamics.stem.viscous_path` with the coefficient
+    c(|v_t|) of each contact's slip; both by :func:`closure`."""
+    m, mu, eps = p[ix.M], p[ix.MU], p[ix.STEM_EPS]
+    q = _viscous(p)
+    law = _tangential(mu, eps)
+
+    def single(f: stem.ImpactFrame) -> tuple:
+        return regularised_impulse(f.v, f.W, mu, eps), 0.0
+
+    def both(frames: Any) -> tuple | None:
+        P = closure(frames, m, mu, eps)
+        return None if P is None else (stem.closed_on_both(y, frames, m, P, q), P, np.zeros(2))
+
+    def path(frames: Any, a: int) -> tuple | None:
+        # c ≤ μ/ε sets the stiffness; LSODA integrates it wherever it is stiff
+        return stem.viscous_path(frames, m, mu / eps, a, law, _PATH_METHOD)
+
+    return stem.two_contact_impact(y, q, first, single, both, vz, path)
 
 
 def _both_forces(y: np.ndarray, p: tuple) -> tuple[float, float]:
@@ -258,7 +457,7 @@ def normal_forces(Y: np.ndarray, p: tuple) -> tuple[np.ndarray, np.ndarray]:
     return ball, stem_
 
 
-LAW = StemLaw(impact, _both_forces, normal_forces)
+LAW = StemLaw(impact, _both_forces, normal_forces, two_contact)
 """The regularised law's :class:`mett.dynamics.stem.StemLaw` (impacts and forces)."""
 
 
