@@ -79,7 +79,7 @@ class _Verified(TypedDict):
 
 
 VERIFIED: _Verified = {
-    "laws": ("viscous",),
+    "laws": ("viscous", "regularised-coulomb"),
     "theta0": (0.01, 0.25),
     "theta0_moving_cm": 0.03,
     "spin_ratio": (1.5, 20.0),
@@ -90,12 +90,12 @@ VERIFIED: _Verified = {
 
 # Below this initial tilt (rad) the linear split of the start is kept: its second-order error is
 # O(θ0²) relative, under 0.5 % of t_half on the thesis top at θ0 = 0.03 (docs/theory/inversion.md#the-initial-tilt).
+SMALL_TILT = 0.03
+
 SATURATED_CAP = 0.05
 """Inversion-mode amplitude (rad) at which a Coulomb–Contensou start still saturated hands over to
 the balance flow (docs/theory/inversion.md#a-start-beyond-the-laws-linear-range): small enough
 for the mode to be linear, large against the slow tilt's rounding."""
-
-SMALL_TILT = 0.03
 
 
 # Coulomb–Contensou: where the balance flow reaches π − tol with λ below this many λ_thres the
