@@ -27,6 +27,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from . import _params as ix
+from .registry import kernel_call
 
 __all__ = [
     "LAW_COULOMB",
@@ -217,6 +218,7 @@ def _solve_GM(y: Any, p: tuple, b: tuple, bz: Any, kin: tuple) -> tuple:
     return (F0[0] - M * q[0], F0[1] - M * q[1], F0[2] - M * q[2]), M
 
 
+@kernel_call
 def stick(y: Any, p: tuple) -> tuple:
     """Rolling: the contact force from G F = −h. Returns like :func:`slide`.
 
@@ -276,6 +278,7 @@ def slide_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     return np.array(slide_law(y, p)[0])
 
 
+@kernel_call
 def slide_law(y: Any, p: Any) -> tuple:
     kin = kinematics(y, p)
     f = _law(y, p, kin)
