@@ -182,6 +182,7 @@ def _spin_rate(F: tuple, e: tuple, a: tuple, I1: Any, c: Any) -> Any:
     return tz / I1 + c * (tx * e[0] + ty * e[1] + tz * e[2]) * e[2]
 
 
+@kernel_call
 def _solve_G(y: Any, p: tuple, b: tuple, kin: tuple | None = None) -> tuple:
     """The force F with G F = b at state(s) ``y`` (3×3, Cramer's rule), and the kinematics."""
     m, I1 = p[ix.M], p[ix.I1]
