@@ -308,6 +308,7 @@ def test_a_kernel_call_is_compiled_once_and_called_not_inlined():
     env = caller.py_func.__globals__
     assert isinstance(env["stick"], numba.core.dispatcher.Dispatcher)
     assert env["stick"].targetoptions.get("inline", "never") == "never"
+    assert env["stick"].targetoptions.get("_nrt") is False  # no atomic refcounts per call
     assert env["_write"].targetoptions.get("inline") == "always"  # unmarked: inlined
     assert contact.__file__ in _kernels._DEPS[caller]
     inner = env["stick"].py_func.__globals__

@@ -56,6 +56,10 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     cost far more than the arithmetic: the gliding right-hand side took 115 ns per call when it
     called ``_core`` (passing the state and parameter arrays into a compiled call, and the 13-tuple
     back) and 29 ns with ``_core`` inlined (measured on the thesis run's machine, 1e6 calls).
+    A large function that many events of a phase call (a dry contact force, marked with
+    :func:`mett.dynamics.registry.kernel_call`) is compiled once, without the numba runtime, and
+    called instead: inlined into every event it was compiled once per call site, tens of
+    seconds of CPU per phase.
 
     numba's cache is stamped with the source file of ``fn`` only; the code inlined from other
     files, and the modules of mett whose constants it reads (``ix.MU``), are covered by a hash of
@@ -80,8 +84,14 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     clone.__module__, clone.__doc__ = fn.__module__, fn.__doc__
     # the cache files are named after the qualname; the version tag keeps machine code compiled
     # with other options (numba's cache key ignores them) from being loaded
-    clone.__qualname__ = f"{fn.__qualname__}__{_CACHE_TAG}{_foreign_tag(deps, fn)}"
+    called = getattr(fn, "kernel_call", False) and not inline
+    # a kernel_call runs without the numba runtime (its own tag: other options, other code): with
+    # it every call increfs and decrefs the state array atomically, ~5-10 % of a dry run's time
+    tag = _CACHE_TAG + ("c" if called else "")
+    clone.__qualname__ = f"{fn.__qualname__}__{tag}{_foreign_tag(deps, fn)}"
     options: dict[str, Any] = {"inline": "always"} if inline else {}
+    if called:
+        options["_nrt"] = False
     _JITTED[key] = out = numba.njit(cache=True, error_model="numpy", **options)(clone)
     _DEPS[out] = frozenset(deps)
     return out

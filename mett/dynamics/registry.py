@@ -108,7 +108,9 @@ def kernel_call(fn: Callable) -> Callable:
     or an event calls. A large one (a contact force solved from a 3×3 or 4×4 system) that many
     events of one phase call was then compiled once per call site: the dry-friction event
     kernels took tens of seconds of CPU each. A marked function is compiled once and called;
-    the arithmetic, and so the result, is the same. Returns ``fn`` itself (only an attribute set).
+    the arithmetic, and so the result, is the same. It is compiled without numba's runtime, so
+    it must not create arrays (plain float arithmetic on its arguments, returning floats and
+    tuples). Returns ``fn`` itself (only an attribute set).
     """
     fn.kernel_call = True  # type: ignore[attr-defined]
     return fn
