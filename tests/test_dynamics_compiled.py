@@ -295,3 +295,36 @@ def test_a_kernel_reading_the_parameter_positions_names_their_file_in_its_cache(
     compiled = _kernels._jit(fn)
     assert _params.__file__ in _kernels._DEPS[compiled]
     assert compiled.py_func.__qualname__.split("__")[-1] != _kernels._CACHE_TAG  # a hash follows
+
+
+def test_a_kernel_call_is_compiled_once_and_called_not_inlined():
+    # registry.kernel_call: the dry contact force is one compiled function that every event of a
+    # phase calls (inlined, it was compiled once per event: tens of seconds of CPU per phase);
+    # the caller's cache name still covers the callee's file, whose code it links in
+    from mett.dynamics import contact, stemslip
+
+    assert getattr(contact.stick, "kernel_call", False)
+    caller = _kernels._jit(stemslip._ball_rolling_into)
+    env = caller.py_func.__globals__
+    assert isinstance(env["stick"], numba.core.dispatcher.Dispatcher)
+    assert env["stick"].targetoptions.get("inline", "never") == "never"
+    assert env["stick"].targetoptions.get("_nrt") is False  # no atomic refcounts per call
+    assert env["_write"].targetoptions.get("inline") == "always"  # unmarked: inlined
+    assert contact.__file__ in _kernels._DEPS[caller]
+    inner = env["stick"].py_func.__globals__
+    assert inner["kinematics"].targetoptions.get("inline") == "always"
+
+
+@pytest.mark.parametrize(
+    ("name", "owner"),
+    [("coulomb-contensou", "coulomb"), ("stemmed-coulomb-contensou", "stemmed-coulomb")],
+)
+def test_models_that_differ_in_parameters_alone_share_their_event_kernels(name, owner):
+    # the same phase functions: one events kernel on disk, named the same whichever model a
+    # process compiles first (else each was compiled again in every process that ran the other)
+    for model in (MODELS[name], MODELS[owner]):
+        for ph in model.phase_table():
+            if ph.events:
+                assert _kernels._kernel_owner(model, ph, _kernels._phase_key(ph)) == owner
+    assert _kernels._kernel_owner(MODELS["gliding"], MODELS["gliding"].phase_table()[0],
+                                  _kernels._phase_key(MODELS["gliding"].phase_table()[0])) == "gliding"  # fmt: skip

@@ -33,7 +33,7 @@ from numba.core.dispatcher import Dispatcher
 
 from .._numba_cache import install as _check_numba_cache
 from .dop853 import FUNCTION_SIGNATURE
-from .registry import Model, lookup
+from .registry import MODELS, Model, Phase, lookup
 
 _check_numba_cache()  # a damaged numba cache file of mett is a miss, not an error
 
@@ -56,6 +56,10 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     cost far more than the arithmetic: the gliding right-hand side took 115 ns per call when it
     called ``_core`` (passing the state and parameter arrays into a compiled call, and the 13-tuple
     back) and 29 ns with ``_core`` inlined (measured on the thesis run's machine, 1e6 calls).
+    A large function that many events of a phase call (a dry contact force, marked with
+    :func:`mett.dynamics.registry.kernel_call`) is compiled once, without the numba runtime, and
+    called instead: inlined into every event it was compiled once per call site, tens of
+    seconds of CPU per phase.
 
     numba's cache is stamped with the source file of ``fn`` only; the code inlined from other
     files, and the modules of mett whose constants it reads (``ix.MU``), are covered by a hash of
@@ -69,7 +73,8 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     for name in fn.__code__.co_names:
         callee = env.get(name)
         if isinstance(callee, types.FunctionType) and _inlinable(callee, fn):
-            env[name] = _jit(callee, inline=True)
+            # marked by registry.kernel_call: compiled once and called, not inlined
+            env[name] = _jit(callee, inline=not getattr(callee, "kernel_call", False))
             deps |= _DEPS[env[name]] | {callee.__code__.co_filename}
         elif isinstance(callee, types.ModuleType) and _own_module(callee):
             # a module of mett read for its constants (e.g. the parameter positions ``ix.MU``):
@@ -79,8 +84,14 @@ def _jit(fn: types.FunctionType, inline: bool = False) -> Callable:
     clone.__module__, clone.__doc__ = fn.__module__, fn.__doc__
     # the cache files are named after the qualname; the version tag keeps machine code compiled
     # with other options (numba's cache key ignores them) from being loaded
-    clone.__qualname__ = f"{fn.__qualname__}__{_CACHE_TAG}{_foreign_tag(deps, fn)}"
+    called = getattr(fn, "kernel_call", False) and not inline
+    # a kernel_call runs without the numba runtime (its own tag: other options, other code): with
+    # it every call increfs and decrefs the state array atomically, ~5-10 % of a dry run's time
+    tag = _CACHE_TAG + ("c" if called else "")
+    clone.__qualname__ = f"{fn.__qualname__}__{tag}{_foreign_tag(deps, fn)}"
     options: dict[str, Any] = {"inline": "always"} if inline else {}
+    if called:
+        options["_nrt"] = False
     _JITTED[key] = out = numba.njit(cache=True, error_model="numpy", **options)(clone)
     _DEPS[out] = frozenset(deps)
     return out
@@ -145,6 +156,25 @@ def _events_kernel(model_name: str, events: tuple) -> Callable:
 _COMPILED: dict[tuple, tuple[Callable, Callable]] = {}
 
 
+def _phase_key(ph: Phase) -> tuple:
+    return (ph.rhs_into, tuple(ev.fn for ev in ph.events))
+
+
+def _kernel_owner(model: Model, ph: Phase, key: tuple) -> str:
+    """The model name in the cache name of a phase's events kernel: the first, alphabetically, of
+    the registered models with the same phase (same functions). Models that differ in their
+    parameters alone ("coulomb" and "coulomb-contensou", "stemmed-coulomb" and
+    "stemmed-coulomb-contensou") then share one kernel on disk, whichever a process runs first;
+    named after the model that compiled it first, each was compiled again (tens of seconds of
+    CPU per phase of the dry laws) in every process that ran the other first."""
+    names = [model.name]
+    for other in MODELS.values():
+        for q in other.phase_table():
+            if q.name == ph.name and q.events and _phase_key(q) == key:
+                names.append(other.name)
+    return min(names)
+
+
 def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable]:
     """The compiled (rhs, events) pair of a model (of one of its phases; default the first).
 
@@ -160,7 +190,7 @@ def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable
         raise ValueError(
             f"model {model.name!r} has no compiled right-hand side; use backend='scipy'"
         )
-    key = (ph.rhs_into, tuple(ev.fn for ev in ph.events))
+    key = _phase_key(ph)
     if key not in _COMPILED:
         rhs = ph.rhs_into
         if not isinstance(rhs, Dispatcher):
@@ -170,7 +200,8 @@ def compiled(model: Model, phase: str | None = None) -> tuple[Callable, Callable
                     f"function; got {type(rhs).__name__}"
                 )
             rhs = _jit(rhs)
-        name = model.name if not ph.name else f"{model.name}_{ph.name}"
+        base = _kernel_owner(model, ph, key)
+        name = base if not ph.name else f"{base}_{ph.name}"
         events = _events_kernel(name, ph.events)
         # Compiled (or loaded) here under the driver's signature, the key of numba's disk cache.
         # The driver passes the kernels as first-class functions of FUNCTION_SIGNATURE, a call

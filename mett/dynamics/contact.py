@@ -27,6 +27,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from . import _params as ix
+from .registry import kernel_call
 
 __all__ = [
     "LAW_COULOMB",
@@ -181,6 +182,7 @@ def _spin_rate(F: tuple, e: tuple, a: tuple, I1: Any, c: Any) -> Any:
     return tz / I1 + c * (tx * e[0] + ty * e[1] + tz * e[2]) * e[2]
 
 
+@kernel_call
 def _solve_G(y: Any, p: tuple, b: tuple, kin: tuple | None = None) -> tuple:
     """The force F with G F = b at state(s) ``y`` (3×3, Cramer's rule), and the kinematics."""
     m, I1 = p[ix.M], p[ix.I1]
@@ -217,6 +219,7 @@ def _solve_GM(y: Any, p: tuple, b: tuple, bz: Any, kin: tuple) -> tuple:
     return (F0[0] - M * q[0], F0[1] - M * q[1], F0[2] - M * q[2]), M
 
 
+@kernel_call
 def stick(y: Any, p: tuple) -> tuple:
     """Rolling: the contact force from G F = −h. Returns like :func:`slide`.
 
@@ -276,6 +279,7 @@ def slide_rhs(t: float, y: np.ndarray, p: tuple) -> np.ndarray:
     return np.array(slide_law(y, p)[0])
 
 
+@kernel_call
 def slide_law(y: Any, p: Any) -> tuple:
     kin = kinematics(y, p)
     f = _law(y, p, kin)

@@ -91,6 +91,7 @@ __all__ = [
     "boolean",
     "check_friction",
     "friction_law",
+    "kernel_call",
     "lookup",
     "positive_length",
     "register",
@@ -98,6 +99,22 @@ __all__ = [
 ]
 
 Params = tuple[float, ...]
+
+
+def kernel_call(fn: Callable) -> Callable:
+    """Mark a plain-arithmetic function that the compiled kernels call instead of inlining.
+
+    The compiled backend (:mod:`mett.dynamics._kernels`) inlines the functions a right-hand side
+    or an event calls. A large one (a contact force solved from a 3×3 or 4×4 system) that many
+    events of one phase call was then compiled once per call site: the dry-friction event
+    kernels took tens of seconds of CPU each. A marked function is compiled once and called;
+    the arithmetic, and so the result, is the same. It is compiled without numba's runtime, so
+    it must not create arrays (plain float arithmetic on its arguments, returning floats and
+    tuples). Returns ``fn`` itself (only an attribute set).
+    """
+    fn.kernel_call = True  # type: ignore[attr-defined]
+    return fn
+
 
 ACTIONS = ("contact_lost", "fail", "switch")
 """What a model event does when the integrator locates it (see the module docstring)."""

@@ -80,6 +80,7 @@ from .registry import (
     Option,
     Phase,
     friction_law,
+    kernel_call,
     positive_length,
     register,
 )
@@ -239,6 +240,7 @@ def _landing(t: float, y: Any, p: Any) -> Any:
 # the dry law enters through the force per unit normal force of each contact (both_solve).
 
 
+@kernel_call
 def _slide_both(y: Any, p: Any) -> tuple:
     """(rates[0:10], λ_1, λ_2, |γ_1|, |γ_2|) of the double contact with both contacts sliding:
     F_i = λ_i (ẑ − μ ν_i/|γ_i|) and the drilling torque −μ λ_i r*² ω_z/|γ_i| ẑ at each contact,
@@ -380,6 +382,7 @@ def _solve3(A: tuple, b: tuple) -> tuple:
     )
 
 
+@kernel_call
 def _stick_both(y: Any, p: Any, s: Any) -> tuple:
     """(rates[0:10], λ_1, λ_2, F_s (3), |γ_k|) of the double contact with contact ``s`` sticking
     (0 ball, 1 stem; Coulomb, r* = 0) and the other, k, sliding: the contact accelerations are
@@ -526,6 +529,7 @@ def _ss_stop(t: float, y: Any, p: Any) -> Any:
     return _stick_both(y, p, 1.0)[4] - p[ix.BAND]
 
 
+@kernel_call
 def _roll_both(y: Any, p: Any) -> tuple:
     """(rates[0:10], λ_1, λ_2, P_1, P_2, T) of the double contact with both contacts sticking
     (Coulomb, flag 5, "both-rolling"): both contact points at rest, so ω × d = 0 with
@@ -708,6 +712,7 @@ def _weighted_split(q: Any, T: Any, Pt: Any, K: Any, h1: Any, h2: Any, rs: Any) 
     )
 
 
+@kernel_call
 def _roll_split(y: Any, p: Any) -> tuple:
     """(λ_1, λ_2, t_1, P_1, m_1, t_2, P_2, m_2, s, w_0, w_1, w_2) of the both-rolling state ``y`` under
     Coulomb–Contensou: the motion and the normal forces of :func:`_roll_both` (the Coulomb
