@@ -592,31 +592,6 @@ def test_velocity_level_solver_without_friction_is_the_lcp():
 
 def _change_of_contact(rng, rs):
     """A state on the stem (flag 1, L_z form) whose ball arrives (θ̇ < 0), slips up to 3 m/s."""
-
-
-# --- the regularised Coulomb law, c(|v|) = μ/√(|v|² + ε²) (mett.dynamics.stemreg) ---------------
-
-
-def _regularised(mu, eps):
-    from mett.dynamics import MODELS
-    from mett.friction import RegularisedCoulomb
-
-    return MODELS["stemmed-coulomb-regularised"].parameters(
-        B, friction=RegularisedCoulomb(mu, eps), stem_radius=TOP.radius, stem_distance=TOP.distance
-    )
-
-
-def _delassus(I, arms):
-    """W_ij = 𝟙/m − [a_i×] I⁻¹ [a_j×] (6×6), from the rigid-body definitions."""
-    Iinv = np.linalg.inv(I)
-    return np.block([[np.eye(3) / B.m - _skew(ai) @ Iinv @ _skew(aj) for aj in arms]
-                     for ai in arms])  # fmt: skip
-
-
-def _pressing(rng):
-    """A state on the stem (flag 1) at the touchdown angle whose ball comes down (θ̇ < 0), with
-    fast slips (up to 3 m/s), and its CM velocity (the stem's constraint): the ball's landing
-    while the stem's contact is closed, where the ball's friction can press the stem down."""
     g, _ = _state(rng, rock=0.0)
     g[2:4] *= 10.0
     e, I, w, _, arms = _body(g, 0.0)
@@ -694,6 +669,35 @@ def test_dry_path_of_a_contact_arriving_without_slip_is_the_plastic_impact():
             np.testing.assert_allclose(Pi[3:], 0.0, rtol=0.0, atol=1e-9 * np.abs(want).max())
             assert (g0 + W @ Pi)[5] > 0.0
 
+
+# --- the regularised Coulomb law, c(|v|) = μ/√(|v|² + ε²) (mett.dynamics.stemreg) ---------------
+
+
+def _regularised(mu, eps):
+    from mett.dynamics import MODELS
+    from mett.friction import RegularisedCoulomb
+
+    return MODELS["stemmed-coulomb-regularised"].parameters(
+        B, friction=RegularisedCoulomb(mu, eps), stem_radius=TOP.radius, stem_distance=TOP.distance
+    )
+
+
+def _delassus(I, arms):
+    """W_ij = 𝟙/m − [a_i×] I⁻¹ [a_j×] (6×6), from the rigid-body definitions."""
+    Iinv = np.linalg.inv(I)
+    return np.block([[np.eye(3) / B.m - _skew(ai) @ Iinv @ _skew(aj) for aj in arms]
+                     for ai in arms])  # fmt: skip
+
+
+def _pressing(rng):
+    """A state on the stem (flag 1) at the touchdown angle whose ball comes down (θ̇ < 0), with
+    fast slips (up to 3 m/s), and its CM velocity (the stem's constraint): the ball's landing
+    while the stem's contact is closed, where the ball's friction can press the stem down."""
+    g, _ = _state(rng, rock=0.0)
+    g[2:4] *= 10.0
+    e, I, w, _, arms = _body(g, 0.0)
+    nodal = np.cross(Z, e) / np.linalg.norm(np.cross(Z, e))
+    w = w - rng.uniform(0.5, 20.0) * nodal
     y = np.concatenate((g[:4], I @ w, g[7:10], [1.0]))
     return y, np.array([y[2], y[3], -np.cross(w, arms[1])[2]])
 
