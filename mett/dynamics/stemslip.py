@@ -1093,6 +1093,19 @@ def _gvel(V: np.ndarray, w: np.ndarray, arms: list, rs: float) -> np.ndarray:
     return np.array(out)
 
 
+def _both_frame(y: np.ndarray, p: tuple, on: str, vz: float | None) -> tuple:
+    """(state in L_z form, the :class:`ImpactFrame` of the contact other than ``on``, the arms,
+    the generalised Delassus matrix W of both contacts, their generalised velocities g⁻, k) of a
+    state ``y`` on the contact ``on`` with the vertical CM velocity ``vz``: what every impact at
+    both contacts starts from."""
+    rs = p[ix.RSTAR]
+    yl = _lz(y, p)
+    f = impact_frame(yl, _viscous(p), "stem" if on == "ball" else "ball", vz)
+    arms = _arms(f.e, p)
+    W = _delassus2(f.e, f.Iinv, p[ix.M], arms, rs)
+    return yl, f, arms, W, _gvel(f.V, f.w, arms, rs), _gen(rs)
+
+
 def _apply2(y: np.ndarray, p: tuple, L: np.ndarray, arms: list, Pi: np.ndarray) -> np.ndarray:
     """State ``y`` (L_z form) with angular momentum ``L`` after the impulses Π of both contacts,
     on the double-contact manifold (flag 2)."""
@@ -1147,14 +1160,8 @@ def close_both(
     :class:`JumpFailed` when no mode is consistent (a Painlevé-type inconsistency of the dry
     impulse law).
     """
-    m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
-    pv = _viscous(p)
-    yl = _lz(y, p)
-    f = impact_frame(yl, pv, "stem" if on == "ball" else "ball", vz)
-    arms = _arms(f.e, p)
-    W = _delassus2(f.e, f.Iinv, m, arms, rs)
-    g0 = _gvel(f.V, f.w, arms, rs)
-    k = _gen(rs)
+    mu = p[ix.MU]
+    yl, f, arms, W, g0, k = _both_frame(y, p, on, vz)
     t = np.array([0, 1, 3] if k == 4 else [0, 1])
     E0 = _kinetic(yl, p, float(f.V[2]))
     tol = 1e-9 * max(float(np.max(np.abs(g0))), 1e-300)
@@ -1364,13 +1371,8 @@ def _moreau_closure(
     no mode is consistent."""
     from scipy.optimize import root
 
-    m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
-    yl = _lz(y, p)
-    f = impact_frame(yl, _viscous(p), "stem" if on == "ball" else "ball", vz)
-    arms = _arms(f.e, p)
-    W = _delassus2(f.e, f.Iinv, m, arms, rs)
-    g0 = _gvel(f.V, f.w, arms, rs)
-    k = _gen(rs)
+    mu = p[ix.MU]
+    yl, f, arms, W, g0, k = _both_frame(y, p, on, vz)
     t = [0, 1, 3] if k == 4 else [0, 1]
     nr = [2, k + 2]
     E0 = _kinetic(yl, p, float(f.V[2]))
@@ -1589,12 +1591,7 @@ def _moreau_two_contact(
     :class:`JumpFailed` naming the state if Newton's iteration finds no solution."""
     m, mu, rs = p[ix.M], p[ix.MU], p[ix.RSTAR]
     on = ("ball", "stem")[round(float(y[10]))]
-    yl = _lz(y, p)
-    f = impact_frame(yl, _viscous(p), "stem" if on == "ball" else "ball", vz)
-    arms = _arms(f.e, p)
-    W = _delassus2(f.e, f.Iinv, m, arms, rs)
-    g0 = _gvel(f.V, f.w, arms, rs)
-    k = _gen(rs)
+    yl, f, arms, W, g0, k = _both_frame(y, p, on, vz)
     x = moreau_impulse(W, g0, mu, k)
     if x is None:
         raise JumpFailed(
