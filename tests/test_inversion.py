@@ -128,11 +128,18 @@ def test_exact_coulomb_cohen_top_sticks():
     assert t_pred == pytest.approx(t_stick, rel=0.3)
 
 
-def test_regularised_coulomb_is_flagged_unverified(thesis):
+def test_the_verified_box_names_its_laws(thesis):
+    # The box of the verification table holds the viscous and the regularised Coulomb laws
+    # (docs/theory/inversion.md#verification); Coulomb–Contensou is flagged by its law, and a
+    # regularised top predicted to hop by its lift-off, not by its law.
     state = mett.State.with_cm_at_rest(thesis, theta=0.1, omega3=155.0)
-    p = predict_inversion(thesis, state, RegularisedCoulomb(0.3, 0.05))
+    p = predict_inversion(thesis, state, Coulomb(0.3, contensou_radius=1e-3))
     assert p.validity.outside_verified_range
-    assert any("regularised" in n for n in p.validity.notes)
+    assert any("coulomb-contensou outside" in n for n in p.validity.notes)
+    p = predict_inversion(thesis, state, RegularisedCoulomb(0.3, 0.05))
+    assert p.validity.outside_verified_range and p.t_lift < p.t_half
+    assert not any("law" in n for n in p.validity.notes)
+    assert any("hop" in n for n in p.validity.notes)
 
 
 def test_bad_input_is_refused(thesis):
