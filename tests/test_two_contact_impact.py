@@ -192,6 +192,43 @@ RUN_LAWS = {
 }
 
 
+def _assert_landing_jump(yb, ya, td, drilling=False):
+    """The jump of a landing from flight, from the rigid-body definitions: the normal velocities
+    after it ≥ 0 and 0 at the contact(s) closed; impulses at the closed contacts (and a drilling
+    impulse Q ẑ where ``drilling``) that give both momentum balances, with vertical parts ≥ 0; the
+    phase after it that of the contact(s) closed; the kinetic energy not raised. ``yb``, ``ya``:
+    the states (L_z form) before and after; ``td``: its switch."""
+    on = round(yb[10])  # the sphere the flight left
+    e, I, w, _, arms = _body(yb, 0.0)
+    Vb = np.array([yb[2], yb[3], -np.cross(w, arms[on])[2]])  # the lift-off: its contact's
+    w_a = np.linalg.solve(I, ya[4:7])
+    flag = round(ya[10])
+    closed = {0: (0,), 1: (1,)}.get(flag, (0, 1))
+    Va = np.array([ya[2], ya[3], -np.cross(w_a, arms[closed[0]])[2]])
+    vn = [Va[2] + np.cross(w_a, a)[2] for a in arms]
+    vscale = np.abs(Vb).max() + np.abs(w).max() * arms[1].max()
+    for i in range(2):
+        assert vn[i] >= -1e-9 * vscale and (i not in closed or abs(vn[i]) <= 1e-9 * vscale)
+    # the impulses: Σ P_i = m ΔV and Σ a_i × P_i + Q ẑ = ΔL (Q only under Contensou)
+    dP, dL = B.m * (Va - Vb), ya[4:7] - yb[4:7]
+    rows = [np.hstack([np.eye(3)] * len(closed)),
+            np.hstack([_skew(arms[i]) for i in closed])]  # fmt: skip
+    A = np.vstack(rows)
+    if drilling:
+        A = np.hstack([A, np.concatenate([np.zeros(5), [1.0]])[:, None]])
+    x, *_ = np.linalg.lstsq(A, np.concatenate([dP, dL]), rcond=None)
+    resid = A @ x - np.concatenate([dP, dL])
+    assert np.abs(resid[:3]).max() <= 1e-9 * np.abs(dP).max()
+    assert np.abs(resid[3:]).max() <= 1e-9 * np.abs(dL).max()
+    for j in range(len(closed)):  # the vertical parts are determined (the null space is ⊥ ẑ)
+        assert x[3 * j + 2] >= -1e-9 * np.abs(dP).max()
+    # the phase after it is that of the contact(s) closed (which may fly again at once)
+    assert td.after.split("-")[0] == ("both" if flag >= 2 else ("ball", "stem")[flag])
+    T_b = 0.5 * B.m * Vb @ Vb + 0.5 * w @ yb[4:7]
+    T_a = 0.5 * B.m * Va @ Va + 0.5 * w_a @ ya[4:7]
+    assert T_a <= T_b * (1.0 + ROUND)  # no configuration change: the kinetic energy
+
+
 @pytest.mark.parametrize("law", list(RUN_LAWS))
 def test_a_flight_that_lands_at_the_touchdown_angle_lands_on_both_spheres(law):
     """friedl1997 started exactly at the touchdown angle with θ̇ = 300 rad/s: the ball's contact
@@ -221,35 +258,7 @@ def test_a_flight_that_lands_at_the_touchdown_angle_lands_on_both_spheres(law):
         return y
 
     yb, ya = lz(before), lz(after)
-    on = round(yb[10])  # the sphere the flight left
-    e, I, w, _, arms = _body(yb, 0.0)
-    Vb = np.array([yb[2], yb[3], -np.cross(w, arms[on])[2]])  # the lift-off: its contact's
-    w_a = np.linalg.solve(I, ya[4:7])
-    flag = round(ya[10])
-    closed = {0: (0,), 1: (1,)}.get(flag, (0, 1))
-    Va = np.array([ya[2], ya[3], -np.cross(w_a, arms[closed[0]])[2]])
-    vn = [Va[2] + np.cross(w_a, a)[2] for a in arms]
-    vscale = np.abs(Vb).max() + np.abs(w).max() * arms[1].max()
-    for i in range(2):
-        assert vn[i] >= -1e-9 * vscale and (i not in closed or abs(vn[i]) <= 1e-9 * vscale)
-    # the impulses: Σ P_i = m ΔV and Σ a_i × P_i + Q ẑ = ΔL (Q only under Contensou)
-    dP, dL = B.m * (Va - Vb), ya[4:7] - yb[4:7]
-    rows = [np.hstack([np.eye(3)] * len(closed)),
-            np.hstack([_skew(arms[i]) for i in closed])]  # fmt: skip
-    A = np.vstack(rows)
-    if law == "contensou":
-        A = np.hstack([A, np.concatenate([np.zeros(5), [1.0]])[:, None]])
-    x, *_ = np.linalg.lstsq(A, np.concatenate([dP, dL]), rcond=None)
-    resid = A @ x - np.concatenate([dP, dL])
-    assert np.abs(resid[:3]).max() <= 1e-9 * np.abs(dP).max()
-    assert np.abs(resid[3:]).max() <= 1e-9 * np.abs(dL).max()
-    for j in range(len(closed)):  # the vertical parts are determined (the null space is ⊥ ẑ)
-        assert x[3 * j + 2] >= -1e-9 * np.abs(dP).max()
-    # the phase after it is that of the contact(s) closed (which may fly again at once)
-    assert td.after.split("-")[0] == ("both" if flag >= 2 else ("ball", "stem")[flag])
-    T_b = 0.5 * B.m * Vb @ Vb + 0.5 * w @ yb[4:7]
-    T_a = 0.5 * B.m * Va @ Va + 0.5 * w_a @ ya[4:7]
-    assert T_a <= T_b * (1.0 + ROUND)  # no configuration change: the kinetic energy
+    _assert_landing_jump(yb, ya, td, drilling=law == "contensou")
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.3])
@@ -891,30 +900,7 @@ def test_a_regularised_flight_that_lands_at_the_touchdown_angle_lands_on_both_sp
     td = sw[1]
     assert td.reason == "double touchdown" and td.before == "flight" and td.t == 0.0
     yb, ya = (np.array(y, dtype=float) for y in traj.records["jumps"][1])
-    on = round(yb[10])
-    e, I, w, _, arms = _body(yb, 0.0)
-    Vb = np.array([yb[2], yb[3], -np.cross(w, arms[on])[2]])
-    w_a = np.linalg.solve(I, ya[4:7])
-    flag = round(ya[10])
-    closed = {0: (0,), 1: (1,)}.get(flag, (0, 1))
-    Va = np.array([ya[2], ya[3], -np.cross(w_a, arms[closed[0]])[2]])
-    vn = [Va[2] + np.cross(w_a, a)[2] for a in arms]
-    vscale = np.abs(Vb).max() + np.abs(w).max() * arms[1].max()
-    for i in range(2):
-        assert vn[i] >= -1e-9 * vscale and (i not in closed or abs(vn[i]) <= 1e-9 * vscale)
-    dP, dL = B.m * (Va - Vb), ya[4:7] - yb[4:7]
-    A = np.vstack([np.hstack([np.eye(3)] * len(closed)),
-                   np.hstack([_skew(arms[i]) for i in closed])])  # fmt: skip
-    x, *_ = np.linalg.lstsq(A, np.concatenate([dP, dL]), rcond=None)
-    resid = A @ x - np.concatenate([dP, dL])
-    assert np.abs(resid[:3]).max() <= 1e-9 * np.abs(dP).max()
-    assert np.abs(resid[3:]).max() <= 1e-9 * np.abs(dL).max()
-    for j in range(len(closed)):
-        assert x[3 * j + 2] >= -1e-9 * np.abs(dP).max()
-    assert td.after.split("-")[0] == ("both" if flag >= 2 else ("ball", "stem")[flag])
-    T_b = 0.5 * B.m * Vb @ Vb + 0.5 * w @ yb[4:7]
-    T_a = 0.5 * B.m * Va @ Va + 0.5 * w_a @ ya[4:7]
-    assert T_a <= T_b * (1.0 + ROUND)
+    _assert_landing_jump(yb, ya, td)
 
 
 def test_a_regularised_impact_with_no_consistent_set_ends_the_run_failed(monkeypatch):

@@ -98,6 +98,7 @@ from .stem import (
 __all__ = [
     "CONTENSOU",
     "MODEL",
+    "NO_DRY_CLOSURE",
     "both_forces",
     "both_stick_forces",
     "close_both",
@@ -1093,6 +1094,13 @@ def _gvel(V: np.ndarray, w: np.ndarray, arms: list, rs: float) -> np.ndarray:
     return np.array(out)
 
 
+NO_DRY_CLOSURE = (
+    "both contacts close, but no impulse satisfies the dry law at both (a Painlevé-type "
+    "inconsistency of the impulse law): the run ends there"
+)
+"""The message of a dry closure of both contacts where no mode is consistent."""
+
+
 def _both_frame(y: np.ndarray, p: tuple, on: str, vz: float | None) -> tuple:
     """(state in L_z form, the :class:`ImpactFrame` of the contact other than ``on``, the arms,
     the generalised Delassus matrix W of both contacts, their generalised velocities g⁻, k) of a
@@ -1208,16 +1216,10 @@ def close_both(
                 ok &= Pi[i * k + 2] >= 0.0
                 if mu > 0.0:
                     ok &= float(gp[sl] @ g0[sl]) >= 0.0
-        if not ok:
-            continue
-        after = _apply2(yl, p, f.L, arms, Pi)
-        if _kinetic(after, p) > E0 * (1.0 + 1e-12):
-            continue
-        return after, Pi, mode
-    raise JumpFailed(
-        "both contacts close, but no impulse satisfies the dry law at both (a Painlevé-type "
-        "inconsistency of the impulse law): the run ends there"
-    )
+        after = _apply2(yl, p, f.L, arms, Pi) if ok else None
+        if after is not None and _kinetic(after, p) <= E0 * (1.0 + 1e-12):
+            return after, Pi, mode  # consistent, and the energy not raised (to rounding)
+    raise JumpFailed(NO_DRY_CLOSURE)
 
 
 def _enter_both(y2: np.ndarray, p: tuple) -> np.ndarray:
@@ -1408,16 +1410,10 @@ def _moreau_closure(
                 ok &= slip > 1e-9 * scale
                 want = -mu * Pn[i] * gp[ti] / max(slip, 1e-300)
                 ok &= float(np.max(np.abs(Pi[ti] - want))) <= 1e-9 * np.max(np.abs(Pi))
-        if not ok:
-            continue
-        after = _apply2(yl, p, f.L, arms, Pi)
-        if _kinetic(after, p) > E0 * (1.0 + 1e-12):
-            continue
-        return after, Pi, mode
-    raise JumpFailed(
-        "both contacts close, but no impulse satisfies the dry law at both (a Painlevé-type "
-        "inconsistency of the impulse law): the run ends there"
-    )
+        after = _apply2(yl, p, f.L, arms, Pi) if ok else None
+        if after is not None and _kinetic(after, p) <= E0 * (1.0 + 1e-12):
+            return after, Pi, mode  # consistent, and the energy not raised (to rounding)
+    raise JumpFailed(NO_DRY_CLOSURE)
 
 
 # --- the velocity-level impact law at both contacts (Moreau), solved where no active set fits -
